@@ -1,0 +1,142 @@
+# depthpose — GNU Make build. Everything lands under $(BUILD) (default build/).
+#   make            build the CLI (build/bin/depthpose) and the runtime library
+#   make run        run the main job (see README)
+#   make test       unit tests, normal build and ASan+UBSan build; ends with "N passed, N failed"
+#   make bench      benchmarks (tests/bench/*_bench.cc, one binary each)
+#   make fuzz-smoke libFuzzer on the blob loader (~60 s)
+#   make check-runtime  proves the runtime references no heap / exception symbols
+#   make deps       installs the Debian packages the project needs
+# Components add rules in mk/*.mk; sources are found by directory, so adding a file needs no edit here.
+
+BUILD    ?= build
+SAN      ?=
+CXX      ?= g++
+OPT      ?= -O2
+CXXSTD   := -std=c++20
+BASE_ISA := -msse4.1
+WARN     := -Wall -Wextra -Wno-missing-field-initializers
+INCLUDES := -I. -I/usr/include/openni2
+DEPFLAGS  = -MMD -MP
+
+ifeq ($(SAN),1)
+  SANFLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+else
+  SANFLAGS :=
+endif
+
+CXXFLAGS_COMMON := $(CXXSTD) $(OPT) -g $(BASE_ISA) $(WARN) $(INCLUDES) $(SANFLAGS) $(EXTRA_CXXFLAGS)
+RUNTIME_CXXFLAGS := $(CXXFLAGS_COMMON) -fno-exceptions -fno-rtti -fno-threadsafe-statics
+TOOLS_CXXFLAGS   := $(CXXFLAGS_COMMON) -pthread
+LDLIBS_TOOLS     := -lpng -lz -lbz2 -lusb-1.0 -lOpenNI2 -pthread
+
+# Per-ISA kernel folders: same file names as runtime/kernels/ref, compiled for their ISA.
+ISA_FLAGS_avx2   := -mavx2 -mfma -mbmi -mbmi2 -mpopcnt
+ISA_FLAGS_avx512 := -mavx2 -mfma -mbmi -mbmi2 -mpopcnt -mavx512f -mavx512bw -mavx512vl -mavx512dq
+
+RUNTIME_SRCS := $(sort $(shell find runtime -name '*.cc' -not -name '*_test.cc') \
+                       $(wildcard forest_blob/blob_loader.cc forest_blob/crc32.cc))
+# Files under platform/openni_driver/ build into an OpenNI2 driver (mk/openni.mk), not the CLI.
+TOOLS_SRCS   := $(sort $(shell find tools platform forest_blob -name '*.cc' \
+                   -not -path 'platform/openni_driver/*' -not -path 'tools/cli/main.cc') )
+TOOLS_SRCS   := $(filter-out $(RUNTIME_SRCS),$(TOOLS_SRCS))
+TEST_SRCS    := $(sort $(shell find tests -name '*.cc' -not -path 'tests/bench/*' -not -path 'tests/fuzz/*'))
+BENCH_SRCS   := $(sort $(wildcard tests/bench/*_bench.cc))
+
+RUNTIME_OBJS := $(RUNTIME_SRCS:%.cc=$(BUILD)/obj/%.o)
+TOOLS_OBJS   := $(TOOLS_SRCS:%.cc=$(BUILD)/obj/%.o)
+TEST_OBJS    := $(TEST_SRCS:%.cc=$(BUILD)/obj/%.o)
+BENCH_BINS   := $(patsubst tests/bench/%_bench.cc,$(BUILD)/bin/bench_%,$(BENCH_SRCS))
+
+RUNTIME_LIB  := $(BUILD)/libdepthpose_runtime.a
+TOOLS_LIB    := $(BUILD)/libdepthpose_tools.a
+CLI          := $(BUILD)/bin/depthpose
+TEST_BIN     := $(BUILD)/bin/depthpose_tests
+# Tools register subcommands through static objects: link the whole archive.
+LINK_TOOLS   := -Wl,--whole-archive $(TOOLS_LIB) -Wl,--no-whole-archive $(RUNTIME_LIB)
+EXTRA_LINK_DEPS :=
+
+.PHONY: all run test test-unit test-asan bench fuzz-smoke check-runtime deps clean model
+.DEFAULT_GOAL := all
+all: $(CLI) $(RUNTIME_LIB) $(EXTRA_LINK_DEPS)
+
+$(BUILD)/obj/runtime/kernels/avx2/%.o: runtime/kernels/avx2/%.cc
+	@mkdir -p $(@D)
+	$(CXX) $(RUNTIME_CXXFLAGS) $(ISA_FLAGS_avx2) $(DEPFLAGS) -c $< -o $@
+$(BUILD)/obj/runtime/kernels/avx512/%.o: runtime/kernels/avx512/%.cc
+	@mkdir -p $(@D)
+	$(CXX) $(RUNTIME_CXXFLAGS) $(ISA_FLAGS_avx512) $(DEPFLAGS) -c $< -o $@
+$(BUILD)/obj/runtime/%.o: runtime/%.cc
+	@mkdir -p $(@D)
+	$(CXX) $(RUNTIME_CXXFLAGS) $(DEPFLAGS) -c $< -o $@
+$(BUILD)/obj/forest_blob/blob_loader.o $(BUILD)/obj/forest_blob/crc32.o: $(BUILD)/obj/forest_blob/%.o: forest_blob/%.cc
+	@mkdir -p $(@D)
+	$(CXX) $(RUNTIME_CXXFLAGS) $(DEPFLAGS) -c $< -o $@
+$(BUILD)/obj/%.o: %.cc
+	@mkdir -p $(@D)
+	$(CXX) $(TOOLS_CXXFLAGS) $(DEPFLAGS) -c $< -o $@
+
+$(RUNTIME_LIB): $(RUNTIME_OBJS)
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+$(TOOLS_LIB): $(TOOLS_OBJS)
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(CLI): $(BUILD)/obj/tools/cli/main.o $(TOOLS_LIB) $(RUNTIME_LIB)
+	@mkdir -p $(@D)
+	$(CXX) $(TOOLS_CXXFLAGS) -o $@ $< $(LINK_TOOLS) $(LDLIBS_TOOLS) -Wl,-rpath,'$$ORIGIN/../openni'
+
+$(TEST_BIN): $(TEST_OBJS) $(TOOLS_LIB) $(RUNTIME_LIB)
+	@mkdir -p $(@D)
+	$(CXX) $(TOOLS_CXXFLAGS) -o $@ $(TEST_OBJS) $(LINK_TOOLS) $(LDLIBS_TOOLS) -lgtest -lgtest_main -Wl,-rpath,'$$ORIGIN/../openni'
+
+$(BUILD)/bin/bench_%: $(BUILD)/obj/tests/bench/%_bench.o $(TOOLS_LIB) $(RUNTIME_LIB)
+	@mkdir -p $(@D)
+	$(CXX) $(TOOLS_CXXFLAGS) -o $@ $< $(LINK_TOOLS) $(LDLIBS_TOOLS) -lbenchmark -Wl,-rpath,'$$ORIGIN/../openni'
+
+# ---- checks -------------------------------------------------------------------------------
+FORBIDDEN_RUNTIME_SYMS := malloc calloc realloc free aligned_alloc posix_memalign _Znwm _Znam _ZdlPv _ZdaPv \
+  _ZdlPvm _ZdaPvm _ZnwmSt11align_val_t _ZnamSt11align_val_t _ZdlPvSt11align_val_t __cxa_throw \
+  __cxa_allocate_exception __cxa_begin_catch __gxx_personality_v0
+check-runtime: $(RUNTIME_LIB)
+	@bad=$$(nm -u $(RUNTIME_LIB) | awk '{print $$2}' | sort -u | grep -x -F $(addprefix -e ,$(FORBIDDEN_RUNTIME_SYMS)) || true); \
+	if [ -n "$$bad" ]; then echo "check-runtime: FAILED: runtime references: $$bad"; exit 1; fi; \
+	echo "check-runtime: OK ($(RUNTIME_LIB) references no heap or exception symbols)"
+
+test-unit: $(TEST_BIN) $(EXTRA_LINK_DEPS)
+	@mkdir -p $(BUILD)/test-logs
+	@cd $(CURDIR) && $(TEST_BIN) $(GTEST_ARGS) 2>&1 | tee $(BUILD)/test-logs/unit.log; exit $${PIPESTATUS[0]}
+
+SHELL := /bin/bash
+test:
+	@rc=0; \
+	$(MAKE) --no-print-directory test-unit BUILD=build || rc=1; \
+	$(MAKE) --no-print-directory test-unit BUILD=build/asan SAN=1 OPT=-O1 || rc=1; \
+	$(MAKE) --no-print-directory check-runtime BUILD=build || rc=1; \
+	mk/test_summary.sh build/test-logs/unit.log build/asan/test-logs/unit.log; s=$$?; \
+	[ $$rc -eq 0 ] && [ $$s -eq 0 ]
+
+bench: $(BENCH_BINS) $(CLI) $(EXTRA_LINK_DEPS)
+	@mkdir -p $(BUILD)/bench
+	@for b in $(BENCH_BINS); do echo "== $$b"; $$b || exit 1; done
+
+# ---- fuzz (clang + libFuzzer) --------------------------------------------------------------
+FUZZ_CXX := clang++-14
+fuzz-smoke:
+	@mkdir -p $(BUILD)/fuzz/corpus
+	$(FUZZ_CXX) $(CXXSTD) -O1 -g -I. -fsanitize=fuzzer,address,undefined -fno-exceptions -fno-rtti \
+	  tests/fuzz/blob_loader_fuzz.cc $(wildcard forest_blob/blob_loader.cc forest_blob/crc32.cc) -o $(BUILD)/fuzz/blob_loader_fuzz
+	$(BUILD)/fuzz/blob_loader_fuzz -max_total_time=$${FUZZ_SECONDS:-60} -max_len=65536 $(BUILD)/fuzz/corpus
+
+deps:
+	apt-get update -qq
+	DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+	  g++ make clang-14 libclang-rt-14-dev libfuzzer-14-dev libgtest-dev libbenchmark-dev \
+	  libpng-dev zlib1g-dev libbz2-dev nlohmann-json3-dev libeigen3-dev \
+	  libopenni2-dev libusb-1.0-0-dev assimp-testmodels
+
+clean:
+	rm -rf build
+
+-include $(sort $(wildcard mk/*.mk))
+-include $(RUNTIME_OBJS:.o=.d) $(TOOLS_OBJS:.o=.d) $(TEST_OBJS:.o=.d) $(BUILD)/obj/tools/cli/main.d

@@ -1,0 +1,179 @@
+#include "tools/common/dataset.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "tools/common/error.h"
+
+namespace dp::tools {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+std::string slurp(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) fail("cannot open " + path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+}  // namespace
+
+Dataset open_dataset(const std::string& dir) {
+  Dataset ds;
+  ds.dir = dir;
+  const std::string meta_path = dir + "/meta.json";
+  if (!fs::is_directory(dir)) fail("dataset directory " + dir + " does not exist");
+  json m;
+  try {
+    m = json::parse(slurp(meta_path));
+  } catch (const json::exception& e) {
+    fail(meta_path + ": malformed JSON: " + e.what());
+  }
+  try {
+    if (m.value("format", "") != "depthpose-dataset")
+      fail(meta_path + ": \"format\" is not \"depthpose-dataset\"");
+    int version = m.value("version", 0);
+    if (version != 1) fail(meta_path + ": unsupported dataset version " + std::to_string(version) + " (this build reads 1)");
+    ds.meta.width = m.at("width").get<int>();
+    ds.meta.height = m.at("height").get<int>();
+    ds.meta.fx = m.at("fx").get<double>();
+    ds.meta.fy = m.at("fy").get<double>();
+    ds.meta.cx = m.at("cx").get<double>();
+    ds.meta.cy = m.at("cy").get<double>();
+    ds.meta.parts = m.value("parts", std::vector<std::string>{});
+    ds.meta.joints = m.value("joints", std::vector<std::string>{});
+    json extra = json::object();
+    for (auto it = m.begin(); it != m.end(); ++it) {
+      static const char* known[] = {"format", "version", "width", "height", "fx", "fy", "cx", "cy", "parts", "joints"};
+      bool k = false;
+      for (const char* n : known) k = k || it.key() == n;
+      if (!k) extra[it.key()] = it.value();
+    }
+    ds.meta.extra_json = extra.dump();
+  } catch (const json::exception& e) {
+    fail(meta_path + ": missing or mistyped field: " + e.what());
+  }
+  if (ds.meta.width <= 0 || ds.meta.height <= 0 || ds.meta.width > 8192 || ds.meta.height > 8192)
+    fail(meta_path + ": implausible image size " + std::to_string(ds.meta.width) + "x" + std::to_string(ds.meta.height));
+  if (!(ds.meta.fx > 0) || !(ds.meta.fy > 0)) fail(meta_path + ": focal lengths must be positive");
+  ds.has_parts = fs::is_directory(dir + "/parts");
+
+  const std::string frames_path = dir + "/frames.jsonl";
+  std::ifstream f(frames_path);
+  if (!f) fail("cannot open " + frames_path);
+  std::string line;
+  size_t line_no = 0;
+  while (std::getline(f, line)) {
+    ++line_no;
+    if (line.empty()) continue;
+    const std::string where = frames_path + " line " + std::to_string(line_no);
+    json j;
+    try {
+      j = json::parse(line);
+    } catch (const json::exception& e) {
+      fail(where + ": malformed JSON: " + e.what());
+    }
+    FrameRecord r;
+    try {
+      r.id = j.at("id").get<std::string>();
+      if (r.id.empty() || r.id.find('/') != std::string::npos || r.id.find("..") != std::string::npos)
+        fail(where + ": bad frame id '" + r.id + "'");
+      if (j.contains("joints")) {
+        const json& js = j.at("joints");
+        if (js.size() != ds.meta.joints.size())
+          fail(where + ": has " + std::to_string(js.size()) + " joints, meta.json names " +
+               std::to_string(ds.meta.joints.size()));
+        for (const json& e : js) {
+          if (!e.is_array() || e.size() != 4) fail(where + ": a joint must be [x,y,z,visible]");
+          JointTruth t;
+          t.x = e[0].get<float>();
+          t.y = e[1].get<float>();
+          t.z = e[2].get<float>();
+          t.visible = e[3].is_boolean() ? e[3].get<bool>() : e[3].get<double>() != 0;
+          r.joints.push_back(t);
+        }
+      }
+      json extra = j;
+      extra.erase("id");
+      extra.erase("joints");
+      r.extra_json = extra.dump();
+    } catch (const json::exception& e) {
+      fail(where + ": missing or mistyped field: " + e.what());
+    }
+    ds.frames.push_back(std::move(r));
+  }
+  return ds;
+}
+
+ImageU16 Dataset::load_depth(size_t i) const {
+  const std::string p = depth_path(i);
+  if (!fs::exists(p)) fail("frame " + frames[i].id + ": missing depth image " + p);
+  ImageU16 img = read_png_u16(p);
+  if (img.width != meta.width || img.height != meta.height)
+    fail("frame " + frames[i].id + ": " + p + " is " + std::to_string(img.width) + "x" +
+         std::to_string(img.height) + ", meta.json says " + std::to_string(meta.width) + "x" +
+         std::to_string(meta.height));
+  return img;
+}
+
+ImageU8 Dataset::load_parts(size_t i) const {
+  const std::string p = parts_path(i);
+  if (!fs::exists(p)) fail("frame " + frames[i].id + ": missing part label image " + p);
+  ImageU8 img = read_png_u8(p);
+  if (img.width != meta.width || img.height != meta.height)
+    fail("frame " + frames[i].id + ": " + p + " is " + std::to_string(img.width) + "x" +
+         std::to_string(img.height) + ", meta.json says " + std::to_string(meta.width) + "x" +
+         std::to_string(meta.height));
+  return img;
+}
+
+void create_dataset(const std::string& dir, const DatasetMeta& meta, bool with_parts) {
+  std::error_code ec;
+  fs::create_directories(dir + "/depth", ec);
+  if (ec) fail("cannot create " + dir + "/depth: " + ec.message());
+  if (with_parts) {
+    fs::create_directories(dir + "/parts", ec);
+    if (ec) fail("cannot create " + dir + "/parts: " + ec.message());
+  }
+  json m = json::parse(meta.extra_json.empty() ? "{}" : meta.extra_json);
+  m["format"] = "depthpose-dataset";
+  m["version"] = 1;
+  m["width"] = meta.width;
+  m["height"] = meta.height;
+  m["fx"] = meta.fx;
+  m["fy"] = meta.fy;
+  m["cx"] = meta.cx;
+  m["cy"] = meta.cy;
+  m["parts"] = meta.parts;
+  m["joints"] = meta.joints;
+  std::ofstream f(dir + "/meta.json");
+  f << m.dump(1) << "\n";
+  if (!f) fail("cannot write " + dir + "/meta.json");
+}
+
+std::string frame_id(size_t index) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%06zu", index);
+  return buf;
+}
+
+std::string frame_record_to_json_line(const FrameRecord& record) {
+  json j = json::parse(record.extra_json.empty() ? "{}" : record.extra_json);
+  j["id"] = record.id;
+  json js = json::array();
+  for (const JointTruth& t : record.joints) js.push_back({t.x, t.y, t.z, t.visible ? 1 : 0});
+  j["joints"] = js;
+  return j.dump();
+}
+
+void write_frames_jsonl(const std::string& dir, const std::vector<FrameRecord>& records) {
+  std::ofstream f(dir + "/frames.jsonl");
+  for (const FrameRecord& r : records) f << frame_record_to_json_line(r) << "\n";
+  if (!f) fail("cannot write " + dir + "/frames.jsonl");
+}
+
+}  // namespace dp::tools
