@@ -8,6 +8,7 @@
 
 #include "runtime/fixed_point.h"
 #include "tests/train_toy_data.h"
+#include "tools/cli/command.h"
 #include "tools/common/error.h"
 #include "tools/train/forest_file.h"
 
@@ -186,6 +187,26 @@ TEST(TrainForestFile, ReferenceEvaluatorAndPaddedSlots) {
   EXPECT_EQ(heap_level(0), 0);
   EXPECT_EQ(heap_level(6), 2);
   EXPECT_EQ(heap_level(7), 3);
+}
+
+}  // namespace
+}  // namespace dp::train
+
+namespace dp::train {
+namespace {
+
+TEST(TrainForestFile, InfoCommandDescribesForestFiles) {
+  const cli::Command* info = cli::find_command("info");
+  ASSERT_NE(info, nullptr);
+  testing_toy::TempDir tmp;
+  write_forest(tmp.path + "/f.forest", small_forest());
+  std::string name = "info", path = tmp.path + "/f.forest";
+  char* argv[] = {name.data(), path.data()};
+  ::testing::internal::CaptureStdout();
+  const int rc = info->run(2, argv);
+  const std::string out = ::testing::internal::GetCapturedStdout();
+  EXPECT_EQ(rc, 0);
+  EXPECT_NE(out.find("trained forest: method ojr"), std::string::npos) << out;
 }
 
 }  // namespace
