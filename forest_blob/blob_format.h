@@ -1,0 +1,159 @@
+// forest_blob v1 — the on-disk (and in-memory) model of depthpose. This header is the single
+// definition of the format; docs/blob_format.md mirrors it with a revision history.
+//
+// Layout (all integers little endian, all floats IEEE-754 binary32 little endian):
+//
+//   offset 0   BlobHeader (64 bytes)
+//   offset 64  SectionEntry[section_count] (24 bytes each)
+//   ...        sections, each starting at a multiple of kSectionAlignment (64) bytes, not
+//              overlapping each other or the header, inside total_bytes; gaps are zero.
+//
+//   header_crc32  = CRC-32 (IEEE 802.3, reflected, poly 0xEDB88320) of bytes [0, header_bytes)
+//                   computed with the header_crc32 field itself set to zero.
+//   payload_crc32 = CRC-32 of bytes [header_bytes, total_bytes).
+//
+// Sections (each kind exactly once):
+//   kMeta      ForestMeta: method, tree count, depth, part/joint counts and names, reference focal
+//              length, leaf table shape, the maximum frame and arena size computed by the converter.
+//   kConfig    RuntimeConfig: per-joint aggregation parameters and the per-frame budget.
+//   kNodes     tree_count × (2^depth − 1) TreeNode, tree after tree; node n of a tree has children
+//              2n+1 (left) and 2n+2 (right) — complete trees in implicit heap order. A subtree the
+//              training data never reached is padded (threshold kPadThreshold: always left) so every
+//              traversal is exactly `depth` steps.
+//   kLeafIndex tree_count × 2^depth uint32: for heap slot s = node − (2^depth − 1) reached by a
+//              traversal, the index of its record in kLeaves (shared by all trees).
+//   kLeaves    leaf_count records of leaf_stride_bytes each:
+//                BPC: uint16 probability_q15[part_count] (Σ ≤ 32768), zero padded to the stride.
+//                OJR: for each joint, votes_per_joint × OjrVote (weight 0 = no vote).
+//
+// Semantics of a node (runtime/fixed_point.h has the exact integer rule): feature =
+// depth(probe 1) − depth(probe 2) with probe offsets du/dv in pixel·metres at
+// ForestMeta::reference_focal_px; go right iff feature > threshold_mm.
+#pragma once
+#include <stddef.h>
+#include <stdint.h>
+
+namespace dp::blob {
+
+constexpr uint32_t kMagic = 0x42465044u;      // "DPFB" read as little-endian bytes 'D''P''F''B'
+constexpr uint32_t kEndianTag = 0x01020304u;  // reads 0x04030201 on a big-endian host
+constexpr uint16_t kVersionMajor = 1;         // readers refuse any other major version
+constexpr uint16_t kVersionMinor = 0;         // readers accept older and newer minors of their major
+constexpr uint32_t kSectionAlignment = 64;
+
+// Compile-time maxima; the loader refuses blobs beyond them, so the runtime can size arrays.
+constexpr int kMaxTrees = 8;
+constexpr int kMaxDepth = 20;
+constexpr int kMaxParts = 32;
+constexpr int kMaxJoints = 16;
+constexpr int kMaxVotesPerLeafJoint = 4;      // K
+constexpr int kMaxProbeOffsetPxm = 4096;      // |du|,|dv| bound (pixel·metres)
+constexpr int kNameBytes = 24;                // NUL-padded ASCII names
+constexpr int kMaxSections = 16;
+constexpr int kMaxFrameDimension = 4096;
+
+constexpr int16_t kPadThreshold = 32767;      // feature > 32767 is impossible: always left
+
+enum class Method : uint8_t { kBpc = 1, kOjr = 2 };
+
+enum class SectionKind : uint32_t {
+  kMeta = 1,
+  kConfig = 2,
+  kNodes = 3,
+  kLeafIndex = 4,
+  kLeaves = 5,
+};
+
+struct BlobHeader {
+  uint32_t magic;            // kMagic
+  uint32_t endian_tag;       // kEndianTag
+  uint16_t version_major;    // kVersionMajor
+  uint16_t version_minor;    // kVersionMinor
+  uint32_t header_bytes;     // 64 + 24 · section_count
+  uint64_t total_bytes;      // whole blob
+  uint32_t section_count;    // 1..kMaxSections
+  uint32_t header_crc32;
+  uint32_t payload_crc32;
+  uint32_t flags;            // 0 in v1.0
+  uint8_t reserved[24];      // zero
+};
+static_assert(sizeof(BlobHeader) == 64, "BlobHeader is 64 bytes on disk");
+
+struct SectionEntry {
+  uint32_t kind;             // SectionKind
+  uint32_t reserved;         // zero
+  uint64_t offset;           // from the start of the blob, multiple of kSectionAlignment
+  uint64_t size;             // bytes
+};
+static_assert(sizeof(SectionEntry) == 24, "SectionEntry is 24 bytes on disk");
+
+struct ForestMeta {
+  uint8_t method;            // Method
+  uint8_t tree_count;        // 1..kMaxTrees
+  uint8_t depth;             // 1..kMaxDepth (number of split levels; leaves at level `depth`)
+  uint8_t part_count;        // BPC: 1..kMaxParts; OJR: 0..kMaxParts (names only)
+  uint8_t joint_count;       // 0..kMaxJoints (BPC ≥ 1 to produce proposals)
+  uint8_t votes_per_joint;   // OJR: 1..kMaxVotesPerLeafJoint; BPC: 0
+  uint16_t reserved0;
+  float reference_focal_px;  // focal length the offsets are expressed for, > 0
+  uint32_t leaf_count;       // records in kLeaves, ≥ 1
+  uint32_t leaf_stride_bytes;// BPC: ≥ 2·part_count, multiple of 4; OJR: joint_count·K·8
+  uint32_t max_width;        // frame size the converter sized arena_bytes for
+  uint32_t max_height;
+  uint32_t max_abs_offset_pxm;  // largest |du|,|dv| in kNodes (≤ kMaxProbeOffsetPxm)
+  uint64_t arena_bytes;      // required_arena_bytes(blob, max_width, max_height) at conversion
+  uint32_t reserved1;        // zero
+  uint32_t reserved2;        // zero
+  char part_names[kMaxParts][kNameBytes];
+  char joint_names[kMaxJoints][kNameBytes];
+};
+static_assert(sizeof(ForestMeta) == 48 + kMaxParts * kNameBytes + kMaxJoints * kNameBytes,
+              "ForestMeta layout");
+
+struct TreeNode {
+  int16_t du1, dv1, du2, dv2;  // probe offsets, pixel·metres at reference_focal_px
+  int16_t threshold_mm;        // go right iff feature > threshold_mm
+};
+static_assert(sizeof(TreeNode) == 10, "TreeNode is 10 bytes on disk");
+
+struct OjrVote {
+  int16_t dx_mm, dy_mm, dz_mm;  // offset from the pixel's 3D point to the joint, camera frame
+  uint16_t weight;              // relative vote weight (cluster size); 0 = no vote
+};
+static_assert(sizeof(OjrVote) == 8, "OjrVote is 8 bytes on disk");
+
+struct JointConfig {
+  uint32_t part_mask;           // BPC: bit c set ⇒ p(c|u) counts towards this joint
+  uint16_t prob_threshold_q15;  // BPC λc: votes with p > λc are mean-shift starting points
+  int16_t push_back_mm;         // BPC ζj: added to z of the pixel's 3D point
+  uint16_t bandwidth_mm;        // mean-shift bandwidth b_j, > 0
+  uint16_t vote_length_mm;      // OJR λj: votes with |offset| > λj are dropped (0 = no limit)
+  uint32_t reserved;
+};
+static_assert(sizeof(JointConfig) == 16, "JointConfig layout");
+
+struct RuntimeConfig {
+  JointConfig joints[kMaxJoints];
+  uint16_t near_mm;                // foreground band when no mask is given: near ≤ z ≤ far
+  uint16_t far_mm;
+  uint16_t max_votes_per_joint;    // Nsub: top-weighted votes kept per joint, 1..kMaxVotesCap
+  uint16_t max_starts_per_joint;   // mean-shift starting points per joint, 1..kMaxStartsCap
+  uint16_t mean_shift_iterations;  // per start, 1..kMaxMeanShiftIterations
+  uint16_t max_proposals_per_joint;// 1..kMaxProposalsCap
+  uint16_t merge_tolerance_mm;     // converged points closer than this form one proposal
+  uint16_t reserved0;
+  uint32_t max_evaluated_pixels;   // budget: above this, foreground pixels are strided
+  uint32_t reserved1;
+  uint64_t cycle_budget;           // per-frame budget in TSC cycles (0 = none); overruns are flagged
+};
+static_assert(sizeof(RuntimeConfig) == 16 * kMaxJoints + 32, "RuntimeConfig layout");
+
+constexpr int kMaxVotesCap = 1024;
+constexpr int kMaxStartsCap = 256;
+constexpr int kMaxMeanShiftIterations = 64;
+constexpr int kMaxProposalsCap = 8;
+
+inline constexpr size_t nodes_per_tree(int depth) { return (size_t(1) << depth) - 1; }
+inline constexpr size_t leaves_per_tree(int depth) { return size_t(1) << depth; }
+
+}  // namespace dp::blob

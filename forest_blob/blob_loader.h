@@ -1,0 +1,91 @@
+// Validating, zero-copy blob loader (runtime side: no heap, no exceptions).
+// load_blob() checks every field before forming any pointer into the bytes; after it returns
+// BlobStatus::kOk the LoadedBlob views may be used without further checks. The caller owns the
+// bytes and must keep them alive and unchanged while the LoadedBlob is used. Bytes must be at
+// least 8-byte aligned (kBadAlignment otherwise).
+#pragma once
+#include <stddef.h>
+#include <stdint.h>
+
+#include "forest_blob/blob_format.h"
+
+namespace dp::blob {
+
+enum class BlobStatus : int32_t {
+  kOk = 0,
+  kNullInput,
+  kBadAlignment,        // data pointer not 8-byte aligned
+  kTooSmall,            // fewer bytes than a header
+  kBadMagic,
+  kWrongEndianness,     // endian tag byte-swapped: written on a big-endian host
+  kBadEndianTag,        // neither order of the tag
+  kVersionTooOld,       // major version below ours
+  kVersionTooNew,       // major version above ours
+  kBadHeaderSize,
+  kTruncated,           // total_bytes larger than the bytes given
+  kTrailingBytes,       // total_bytes smaller than the bytes given
+  kHeaderChecksum,
+  kPayloadChecksum,
+  kBadSectionCount,
+  kSectionMisaligned,
+  kSectionOutOfBounds,
+  kSectionOverlap,
+  kSectionMissing,
+  kSectionDuplicate,
+  kUnknownSection,
+  kBadSectionSize,      // a section's size disagrees with the counts in ForestMeta
+  kBadMethod,
+  kBadTreeCount,
+  kBadDepth,
+  kBadPartCount,
+  kBadJointCount,
+  kBadVotesPerJoint,
+  kBadFocalLength,
+  kBadLeafCount,
+  kBadLeafStride,
+  kBadFrameSize,
+  kBadName,             // a name not NUL terminated / not printable
+  kOffsetTooLarge,      // |du|,|dv| beyond kMaxProbeOffsetPxm or max_abs_offset_pxm
+  kBadLeafIndex,        // a leaf-index entry ≥ leaf_count
+  kBadLeafDistribution, // BPC probabilities summing above 32768
+  kBadVote,             // OJR vote component outside ±kMaxVoteOffsetMm
+  kBadPartMask,         // joint part mask names a part ≥ part_count
+  kBadConfig,           // a runtime config value outside its documented range
+  kReservedNotZero,
+};
+
+// One line naming the problem, for messages ("payload checksum mismatch").
+const char* blob_status_message(BlobStatus status);
+
+constexpr int kMaxVoteOffsetMm = 2000;
+
+struct LoadedBlob {
+  const BlobHeader* header = nullptr;
+  const ForestMeta* meta = nullptr;
+  const RuntimeConfig* config = nullptr;
+  const TreeNode* nodes = nullptr;       // tree t starts at nodes + t · nodes_per_tree(depth)
+  const uint32_t* leaf_index = nullptr;  // tree t starts at leaf_index + t · leaves_per_tree(depth)
+  const uint8_t* leaves = nullptr;       // leaf_count · leaf_stride_bytes
+
+  Method method() const { return static_cast<Method>(meta->method); }
+  int tree_count() const { return meta->tree_count; }
+  int depth() const { return meta->depth; }
+  const TreeNode* tree_nodes(int t) const { return nodes + size_t(t) * nodes_per_tree(meta->depth); }
+  const uint32_t* tree_leaf_index(int t) const { return leaf_index + size_t(t) * leaves_per_tree(meta->depth); }
+  const uint16_t* bpc_leaf(uint32_t leaf) const {
+    return reinterpret_cast<const uint16_t*>(leaves + size_t(leaf) * meta->leaf_stride_bytes);
+  }
+  const OjrVote* ojr_leaf(uint32_t leaf) const {
+    return reinterpret_cast<const OjrVote*>(leaves + size_t(leaf) * meta->leaf_stride_bytes);
+  }
+};
+
+// Validates `size` bytes at `data` and fills `out` (untouched unless kOk).
+BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out);
+
+// Validates a RuntimeConfig against the meta (used by load_blob and by tools that edit configs).
+BlobStatus validate_config(const ForestMeta& meta, const RuntimeConfig& config);
+
+uint32_t crc32(const void* data, size_t size, uint32_t crc = 0);
+
+}  // namespace dp::blob

@@ -1,0 +1,40 @@
+// Blob writer (tools side: may allocate, throws dp::tools::ToolError on invalid contents).
+// Produces byte-identical output for identical input: fixed section order, zeroed padding and
+// reserved fields, no timestamps. The result always passes dp::blob::load_blob().
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "forest_blob/blob_format.h"
+
+namespace dp::blob {
+
+struct BlobContents {
+  Method method = Method::kBpc;
+  int depth = 1;
+  float reference_focal_px = 525.0f;
+  std::vector<std::string> part_names;   // ≤ kMaxParts, each < kNameBytes
+  std::vector<std::string> joint_names;  // ≤ kMaxJoints
+  int votes_per_joint = 0;               // OJR K
+  // Per tree: nodes_per_tree(depth) nodes, leaves_per_tree(depth) leaf indices.
+  std::vector<std::vector<TreeNode>> tree_nodes;
+  std::vector<std::vector<uint32_t>> tree_leaf_index;
+  // Leaf table: BPC: leaf_count × part_count Q15 probabilities; OJR: leaf_count × joints × K votes.
+  std::vector<uint16_t> bpc_leaves;
+  std::vector<OjrVote> ojr_leaves;
+  RuntimeConfig config{};
+  uint32_t max_width = 640, max_height = 480;  // arena_bytes is computed for this frame size
+};
+
+// Serializes, computing header, CRCs, max_abs_offset_pxm and arena_bytes.
+std::vector<uint8_t> write_blob(const BlobContents& contents);
+
+// A RuntimeConfig with the documented defaults (docs/blob_format.md) for `joint_count` joints.
+RuntimeConfig default_runtime_config(int joint_count);
+
+// File helpers. save writes to a temporary file then renames (never leaves a half-written blob).
+void save_blob_file(const std::string& path, const std::vector<uint8_t>& bytes);
+std::vector<uint8_t> read_blob_file(const std::string& path);  // ToolError when unreadable
+
+}  // namespace dp::blob

@@ -1,0 +1,160 @@
+// depthpose runtime: one depth frame in, confidence-weighted 3D joint proposals out.
+//
+// Contract (firmware style):
+//   - The caller owns all memory. required_arena_bytes() says how much; init() takes it.
+//     Persistent state lives at the arena's tail, per-frame scratch at its head and is reset
+//     at the start of every process() call. Nothing allocates or throws after (or during) init.
+//   - The blob must have been accepted by dp::blob::load_blob(); its bytes must outlive the
+//     Pipeline. After init() every loop is bounded by values validated at load time.
+//   - process() is deterministic: the same blob, config, kernel and frame give the same result
+//     bit for bit, whichever kernel (scalar reference, AVX2, AVX-512) evaluates the forest.
+// Units: depth uint16 millimetres (0 = no reading); 3D points in metres in the camera frame
+// (OpenNI convention: x right, y up, z forward): x = (u − cx)·z/fx, y = −(v − cy)·z/fy.
+#pragma once
+#include <stddef.h>
+#include <stdint.h>
+
+#include "forest_blob/blob_format.h"
+#include "forest_blob/blob_loader.h"
+
+namespace dp {
+
+enum class Status : int32_t {
+  kOk = 0,
+  kBadArgument,        // null pointer, non-positive size, stride < width, bad intrinsics
+  kArenaTooSmall,      // init: arena smaller than required_arena_bytes()
+  kArenaMisaligned,    // init: arena not 64-byte aligned
+  kFrameTooLarge,      // process: frame larger than the max size given to init
+  kNotInitialized,     // process before a successful init
+  kBadConfig,          // set_config: values outside the documented ranges
+  kKernelUnavailable,  // set_kernel: this CPU lacks the instruction set
+};
+const char* status_message(Status status);
+
+constexpr int kMaxJoints = blob::kMaxJoints;
+constexpr int kMaxProposals = blob::kMaxProposalsCap;
+
+struct CameraIntrinsics {
+  float fx, fy;  // focal lengths in pixels, > 0
+  float cx, cy;  // principal point in pixels
+};
+
+struct DepthFrame {
+  const uint16_t* depth_mm;    // row-major, `stride_px` elements per row
+  int32_t width, height;       // pixels, ≥ 1
+  int32_t stride_px;           // ≥ width
+  CameraIntrinsics intrinsics;
+  // Optional foreground mask (nonzero = person), same geometry as depth (stride_px). When null,
+  // foreground = pixels with config.near_mm ≤ depth ≤ config.far_mm.
+  const uint8_t* foreground_mask;
+};
+
+struct JointProposal {
+  float x_m, y_m, z_m;  // camera frame, metres
+  float confidence;     // Σ vote weights (p·z² for BPC, w·z² for OJR; z in metres)
+};
+
+enum Stage : int32_t {
+  kStageForeground = 0,  // mask/band → pixel list + probe image
+  kStageForest,          // tree traversal for every evaluated pixel
+  kStageVotes,           // vote casting and bounded top-N selection
+  kStageMeanShift,       // aggregation into proposals
+  kStageCount
+};
+const char* stage_name(int32_t stage);
+
+// Budget flags: set when the pipeline degraded to stay within its bounds (docs/budget.md).
+enum FrameFlag : uint32_t {
+  kFlagNoForeground = 1u << 0,       // no foreground pixel: no proposals
+  kFlagPixelsStrided = 1u << 1,      // foreground > max_evaluated_pixels: pixels were strided
+  kFlagVotesTruncated = 1u << 2,     // a joint had more votes than max_votes_per_joint
+  kFlagStartsTruncated = 1u << 3,    // a joint had more starting points than max_starts_per_joint
+  kFlagProposalsTruncated = 1u << 4, // a joint had more modes than max_proposals_per_joint
+  kFlagOverCycleBudget = 1u << 5,    // the frame took more cycles than config.cycle_budget
+};
+
+struct FrameResult {
+  int32_t joint_count;                         // = blob joint_count
+  int32_t proposal_count[kMaxJoints];          // per joint, ≤ config.max_proposals_per_joint
+  JointProposal proposals[kMaxJoints][kMaxProposals];  // per joint, by decreasing confidence
+  uint64_t stage_cycles[kStageCount];          // TSC cycles per stage
+  uint64_t total_cycles;
+  uint32_t flags;                              // FrameFlag bits
+  int32_t foreground_pixels;                   // before striding
+  int32_t evaluated_pixels;                    // pixels the forest ran on
+  int32_t pixel_stride;                        // 1 unless kFlagPixelsStrided
+};
+
+enum class KernelIsa : int32_t { kScalar = 0, kAvx2 = 1, kAvx512 = 2, kBest = 3 };
+const char* kernel_isa_name(KernelIsa isa);
+bool kernel_isa_supported(KernelIsa isa);
+
+// A pixel the forest evaluated (for tools: segmentation output, overlays).
+struct EvaluatedPixel {
+  uint16_t u, v;   // image coordinates
+  uint16_t z_mm;   // depth
+  uint16_t reserved;
+};
+
+// Bytes init() needs for frames up to max_width × max_height (0 when the arguments are invalid).
+size_t required_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height);
+
+class Pipeline {
+ public:
+  // Carves state out of `arena` (64-byte aligned, ≥ required_arena_bytes). Copies the blob's
+  // RuntimeConfig into the arena (set_config may change it later). Selects KernelIsa::kBest.
+  // Returns kOk, kBadArgument, kArenaTooSmall or kArenaMisaligned.
+  Status init(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height, uint8_t* arena,
+              size_t arena_bytes);
+
+  // Runs the whole chain on one frame. Returns kOk, kNotInitialized, kBadArgument or
+  // kFrameTooLarge; on error `result` is zeroed and no proposals are reported.
+  Status process(const DepthFrame& frame, FrameResult* result);
+
+  // Chooses the forest kernel (tests and benchmarks compare them). kKernelUnavailable if the CPU
+  // lacks it. kBest picks the widest available.
+  Status set_kernel(KernelIsa isa);
+  KernelIsa kernel() const { return kernel_; }
+
+  const blob::RuntimeConfig& config() const { return *config_; }
+  // Validates then replaces the runtime config (tune uses this). kBadConfig on invalid values.
+  Status set_config(const blob::RuntimeConfig& config);
+
+  // Views of the last processed frame, valid until the next process() call.
+  int32_t evaluated_pixel_count() const { return evaluated_count_; }
+  const EvaluatedPixel* evaluated_pixels() const { return pixels_; }
+  // Leaf record index (into the blob's leaf table) reached by evaluated pixel i in tree t.
+  uint32_t leaf_of(int32_t pixel_index, int32_t tree) const {
+    return leaves_[size_t(tree) * size_t(max_pixels_) + size_t(pixel_index)];
+  }
+  // BPC: p(c|u) for evaluated pixel i averaged over trees (Eq. 5), Q15, part_count entries.
+  void part_distribution(int32_t pixel_index, uint16_t* probability_q15) const;
+
+  size_t arena_used_bytes() const { return arena_used_; }
+  const blob::LoadedBlob& blob() const { return blob_; }
+
+ private:
+  blob::LoadedBlob blob_{};
+  blob::RuntimeConfig* config_ = nullptr;
+  KernelIsa kernel_ = KernelIsa::kScalar;
+  int32_t max_width_ = 0, max_height_ = 0, max_pixels_ = 0;
+  uint8_t* arena_ = nullptr;
+  size_t arena_bytes_ = 0, arena_used_ = 0;
+  // per-frame scratch (arena head)
+  uint16_t* probe_image_ = nullptr;
+  EvaluatedPixel* pixels_ = nullptr;
+  uint32_t* leaves_ = nullptr;          // tree-major: [tree][pixel]
+  uint32_t* slots_ = nullptr;           // kernel output: heap slot per pixel (one tree)
+  struct Vote* votes_ = nullptr;        // [joint][max_votes]
+  int32_t* vote_counts_ = nullptr;
+  struct Vote* starts_ = nullptr;       // [max_starts] for the joint being aggregated
+  float* modes_ = nullptr;              // scratch for mean-shift modes
+  int32_t evaluated_count_ = 0;
+  bool initialized_ = false;
+
+  void cast_bpc_votes(const DepthFrame& frame, FrameResult* result);
+  void cast_ojr_votes(const DepthFrame& frame, FrameResult* result);
+  void aggregate(FrameResult* result);
+};
+
+}  // namespace dp
