@@ -136,26 +136,34 @@ struct Block {
   alignas(16) int16_t bin[kBlock];
 };
 
-// Features of one candidate for a whole block. A separate loop without dependent work lets many
-// probe loads be in flight at once. Unary candidates (δ2 = 0) read the pixel's own depth.
+// probe_depth() without branches: off-image probes load element 0 and then select the background
+// constant, so a mispredicted bounds check never flushes the many probe loads in flight.
+inline int32_t probe_depth_select(const uint16_t* image, int32_t width, int32_t height, int32_t u, int32_t v) {
+  const bool inside = (static_cast<uint32_t>(u) < static_cast<uint32_t>(width)) &
+                      (static_cast<uint32_t>(v) < static_cast<uint32_t>(height));
+  const int32_t value = image[inside ? v * width + u : 0];
+  return inside ? value : kBackgroundDepthMm;
+}
+
+// Features of one candidate for a whole block (same values as dp::depth_feature). A separate loop
+// without dependent work lets many probe loads be in flight at once. Unary candidates (δ2 = 0)
+// read the pixel's own depth.
 void block_features(Block& b, const Candidate& c) {
   if (c.du2 == 0 && c.dv2 == 0) {
     for (int i = 0; i < b.count; ++i) {
       const int32_t s = b.scale[i];
-      b.feature[i] = static_cast<int16_t>(probe_depth(b.image[i], b.width[i], b.height[i],
-                                                      b.u[i] + probe_offset_px(c.du1, s),
-                                                      b.v[i] + probe_offset_px(c.dv1, s)) -
-                                          b.depth[i]);
+      const int32_t d1 = probe_depth_select(b.image[i], b.width[i], b.height[i], b.u[i] + probe_offset_px(c.du1, s),
+                                            b.v[i] + probe_offset_px(c.dv1, s));
+      b.feature[i] = static_cast<int16_t>(d1 - b.depth[i]);
     }
   } else {
     for (int i = 0; i < b.count; ++i) {
       const int32_t s = b.scale[i];
-      b.feature[i] = static_cast<int16_t>(probe_depth(b.image[i], b.width[i], b.height[i],
-                                                      b.u[i] + probe_offset_px(c.du1, s),
-                                                      b.v[i] + probe_offset_px(c.dv1, s)) -
-                                          probe_depth(b.image[i], b.width[i], b.height[i],
-                                                      b.u[i] + probe_offset_px(c.du2, s),
-                                                      b.v[i] + probe_offset_px(c.dv2, s)));
+      const int32_t d1 = probe_depth_select(b.image[i], b.width[i], b.height[i], b.u[i] + probe_offset_px(c.du1, s),
+                                            b.v[i] + probe_offset_px(c.dv1, s));
+      const int32_t d2 = probe_depth_select(b.image[i], b.width[i], b.height[i], b.u[i] + probe_offset_px(c.du2, s),
+                                            b.v[i] + probe_offset_px(c.dv2, s));
+      b.feature[i] = static_cast<int16_t>(d1 - d2);
     }
   }
 }
@@ -348,22 +356,37 @@ class Grower {
     Best best;
     if (p_.objective == Objective::kClassification) {
       const int k = node.classes;
-      s.counts.assign(size_t(nc) * bins * k, 0);
+      // Four interleaved copies of each histogram, so that runs of pixels falling in the same
+      // cell do not serialize on store-to-load forwarding; summed before scoring.
+      const size_t stride = size_t(bins) * k;
+      s.counts.assign(size_t(nc) * 4 * stride, 0);
       for (uint32_t b0 = node.begin; b0 < node.end; b0 += kBlock) {
         decode_block(node, b0, std::min<uint32_t>(node.end, b0 + kBlock), s.block);
         Block& b = s.block;
+        const int count = b.count;
         for (int c = 0; c < nc; ++c) {
           const Candidate& cand = s.candidates[c];
-          uint32_t* h = s.counts.data() + size_t(c) * bins * k;
+          uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
           block_features(b, cand);
           block_bins(b, cand);
-          for (int i = 0; i < b.count; ++i) ++h[b.bin[i] * k + b.label[i]];
+          int i = 0;
+          for (; i + 4 <= count; i += 4) {
+            ++h[b.bin[i] * k + b.label[i]];
+            ++h[stride + b.bin[i + 1] * k + b.label[i + 1]];
+            ++h[2 * stride + b.bin[i + 2] * k + b.label[i + 2]];
+            ++h[3 * stride + b.bin[i + 3] * k + b.label[i + 3]];
+          }
+          for (; i < count; ++i) ++h[b.bin[i] * k + b.label[i]];
         }
+      }
+      for (int c = 0; c < nc; ++c) {
+        uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
+        for (size_t j = 0; j < stride; ++j) h[j] += h[stride + j] + h[2 * stride + j] + h[3 * stride + j];
       }
       s.cum.resize(k);
       for (int c = 0; c < nc; ++c) {
         const Candidate& cand = s.candidates[c];
-        const uint32_t* h = s.counts.data() + size_t(c) * bins * k;
+        const uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
         std::fill(s.cum.begin(), s.cum.end(), 0u);
         uint32_t left = 0;
         for (int t = 0; t < cand.thresholds; ++t) {
