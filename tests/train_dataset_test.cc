@@ -190,8 +190,8 @@ TEST(TrainCommand, TrainsBpcAndOjrForestFiles) {
   EXPECT_EQ(bpc.reference_focal_px, 60.0f);
   EXPECT_TRUE(bpc.has_part_distributions);
   EXPECT_NE(bpc.datasets_json.find(tmp.path + "/b"), std::string::npos);
-  // Default max offset: round(129·60/575) = 13.
-  EXPECT_NE(bpc.training_json.find("\"max_offset_pxm\":13"), std::string::npos) << bpc.training_json;
+  // Default max offset: round(129·60/525) = 15.
+  EXPECT_NE(bpc.training_json.find("\"max_offset_pxm\":15"), std::string::npos) << bpc.training_json;
 
   ASSERT_EQ(0, run_cli({"train", "--data", data, "--method", "ojr", "--trees", "1", "--depth", "5", "--offsets", "30",
                         "--thresholds", "10", "--pixels-per-image", "200", "--nres", "20", "--votes-per-leaf", "1",
@@ -200,6 +200,10 @@ TEST(TrainCommand, TrainsBpcAndOjrForestFiles) {
   EXPECT_TRUE(ojr.has_votes);
   EXPECT_EQ(ojr.votes_per_joint, 1);
   EXPECT_EQ(ojr.trees[0].votes.size(), ojr.trees[0].leaf_count() * 2);
+  EXPECT_NE(ojr.training_json.find("\"vote_length_m\":[0.4"), std::string::npos) << ojr.training_json;
+  EXPECT_THROW(run_cli({"train", "--data", data, "--method", "ojr", "--vote-length", "0.1,0.2,0.3", "--quiet", "--out",
+                        tmp.path + "/x.forest"}),
+               tools::ToolError);
 
   // Retro-fit onto the BPC structure, and a mixture proposal from it.
   ASSERT_EQ(0, run_cli({"train", "--data", data, "--method", "ojr", "--structure", tmp.path + "/bpc.forest",

@@ -5,7 +5,7 @@
 // time, so that other load on the machine does not distort it), where one evaluation =
 // one feature (offset pair) computed at one pixel and binned against the node's thresholds; the
 // paper's |T| candidates are offset pairs × thresholds, so the rate in (pixel·|T|) is ×20.
-// Environment: TRAIN_BENCH_IMAGES, TRAIN_BENCH_DEPTH, TRAIN_BENCH_OFFSETS, TRAIN_BENCH_THREADS
+// Environment: TRAIN_BENCH_METHOD (bpc|ojr: OJR adds the vote leaves), TRAIN_BENCH_IMAGES, TRAIN_BENCH_DEPTH, TRAIN_BENCH_OFFSETS, TRAIN_BENCH_THREADS
 // override the configuration.
 #include <time.h>
 
@@ -47,7 +47,7 @@ int main() {
   std::fflush(stdout);
 
   ForestOptions fo;
-  fo.method = "bpc";
+  fo.method = std::getenv("TRAIN_BENCH_METHOD") ? std::getenv("TRAIN_BENCH_METHOD") : "bpc";
   fo.tree.max_depth = depth;
   fo.tree.offset_candidates = offsets;
   fo.tree.threshold_candidates = 20;

@@ -15,6 +15,7 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
   const bool ojr = options.method == "ojr";
   if (ojr && !set.has_joints) fail("--method ojr needs joints in every frame of the datasets");
   if (!ojr && !set.has_labels) fail("--method bpc needs part labels (datasets with parts/)");
+  if (ojr) check_leaf_params(options.leaf, static_cast<int>(set.joint_names.size()));
   const size_t tree_count = options.structure ? options.structure->trees.size() : set.tree_pixels.size();
   if (set.tree_pixels.size() != tree_count)
     fail("training set holds pixels for " + std::to_string(set.tree_pixels.size()) + " trees, expected " +

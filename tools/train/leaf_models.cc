@@ -11,38 +11,58 @@ namespace dp::train {
 std::vector<Mode> mean_shift_modes(const std::vector<std::array<float, 3>>& points, float bandwidth_m) {
   std::vector<Mode> modes;
   if (points.empty()) return modes;
-  const double inv_b2 = 1.0 / (double(bandwidth_m) * bandwidth_m);
-  const double tolerance2 = 1e-8 * bandwidth_m * bandwidth_m;
-  const double merge2 = 0.25 * bandwidth_m * bandwidth_m;
-  for (const auto& start : points) {
-    double m[3] = {start[0], start[1], start[2]};
+  const size_t n = points.size();
+  // Structure of arrays in float for a vectorizable inner loop; points farther than 3b weigh
+  // < e^-9 ≈ 1.2e-4 of a coincident one and are left out (their exp is never computed).
+  std::vector<float> xs(n), ys(n), zs(n), w(n);
+  for (size_t i = 0; i < n; ++i) {
+    xs[i] = points[i][0];
+    ys[i] = points[i][1];
+    zs[i] = points[i][2];
+  }
+  const float inv_b2 = 1.0f / (bandwidth_m * bandwidth_m);
+  const float cutoff = 9.0f;
+  const float tolerance2 = 1e-6f * bandwidth_m * bandwidth_m;  // stop when the shift < b/1000
+  const float merge2 = 0.25f * bandwidth_m * bandwidth_m;       // modes closer than b/2 are one
+  const float arrived2 = 0.01f * bandwidth_m * bandwidth_m;     // within b/10 of a found mode
+  auto near_mode = [&](const float* m, float limit2) -> Mode* {
+    for (Mode& mode : modes) {
+      const float dx = mode.position[0] - m[0], dy = mode.position[1] - m[1], dz = mode.position[2] - m[2];
+      if (dx * dx + dy * dy + dz * dz < limit2) return &mode;
+    }
+    return nullptr;
+  };
+  for (size_t s = 0; s < n; ++s) {
+    float m[3] = {xs[s], ys[s], zs[s]};
     for (int iteration = 0; iteration < 100; ++iteration) {
-      double num[3] = {0, 0, 0}, den = 0;
-      for (const auto& p : points) {
-        const double dx = p[0] - m[0], dy = p[1] - m[1], dz = p[2] - m[2];
-        const double w = std::exp(-(dx * dx + dy * dy + dz * dz) * inv_b2);
-        num[0] += w * p[0];
-        num[1] += w * p[1];
-        num[2] += w * p[2];
-        den += w;
+      // A path that reaches a found mode's peak ends there: it would converge to the same point.
+      if (iteration > 0 && near_mode(m, arrived2)) break;
+      for (size_t i = 0; i < n; ++i) {
+        const float dx = xs[i] - m[0], dy = ys[i] - m[1], dz = zs[i] - m[2];
+        const float q = (dx * dx + dy * dy + dz * dz) * inv_b2;
+        w[i] = q < cutoff ? q : -1.0f;
       }
-      const double n[3] = {num[0] / den, num[1] / den, num[2] / den};
-      const double shift2 = (n[0] - m[0]) * (n[0] - m[0]) + (n[1] - m[1]) * (n[1] - m[1]) + (n[2] - m[2]) * (n[2] - m[2]);
-      m[0] = n[0];
-      m[1] = n[1];
-      m[2] = n[2];
+      double num[3] = {0, 0, 0}, den = 0;
+      for (size_t i = 0; i < n; ++i) {
+        if (w[i] < 0) continue;
+        const double k = std::exp(-w[i]);  // float exp
+        num[0] += k * xs[i];
+        num[1] += k * ys[i];
+        num[2] += k * zs[i];
+        den += k;
+      }
+      const float next[3] = {float(num[0] / den), float(num[1] / den), float(num[2] / den)};
+      const float shift2 = (next[0] - m[0]) * (next[0] - m[0]) + (next[1] - m[1]) * (next[1] - m[1]) +
+                           (next[2] - m[2]) * (next[2] - m[2]);
+      m[0] = next[0];
+      m[1] = next[1];
+      m[2] = next[2];
       if (shift2 < tolerance2) break;
     }
-    bool merged = false;
-    for (Mode& mode : modes) {
-      const double dx = mode.position[0] - m[0], dy = mode.position[1] - m[1], dz = mode.position[2] - m[2];
-      if (dx * dx + dy * dy + dz * dz < merge2) {
-        ++mode.weight;
-        merged = true;
-        break;
-      }
-    }
-    if (!merged) modes.push_back({{float(m[0]), float(m[1]), float(m[2])}, 1});
+    if (Mode* mode = near_mode(m, merge2))
+      ++mode->weight;
+    else
+      modes.push_back({{m[0], m[1], m[2]}, 1});
   }
   std::stable_sort(modes.begin(), modes.end(), [](const Mode& a, const Mode& b) { return a.weight > b.weight; });
   return modes;
@@ -75,15 +95,20 @@ void fit_part_distributions(const std::vector<TrainingPixel>& pixels, const Leaf
   }
 }
 
-void fit_votes(const TrainingSet& set, const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,
-               const LeafParams& params, int tree_index, TrainedTree& tree) {
-  const int joints = static_cast<int>(set.joint_names.size());
-  if (!set.has_joints || joints == 0) tools::fail("offset joint regression leaves need joints in every frame");
+void check_leaf_params(const LeafParams& params, int joints) {
   if (params.reservoir < 1) tools::fail("--nres must be ≥ 1");
   if (!(params.bandwidth_m > 0)) tools::fail("--bandwidth must be > 0");
   if (params.votes_per_joint < 1 || params.votes_per_joint > 64) tools::fail("--votes-per-leaf must be 1..64");
   if (params.vote_length_m.size() > 1 && params.vote_length_m.size() != size_t(joints))
-    tools::fail("--vote-length wants one value or " + std::to_string(joints) + " (one per joint)");
+    tools::fail("--vote-length wants one value or " + std::to_string(joints) + " (one per joint), got " +
+                std::to_string(params.vote_length_m.size()));
+}
+
+void fit_votes(const TrainingSet& set, const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,
+               const LeafParams& params, int tree_index, TrainedTree& tree) {
+  const int joints = static_cast<int>(set.joint_names.size());
+  check_leaf_params(params, joints);
+  if (!set.has_joints || joints == 0) tools::fail("offset joint regression leaves need joints in every frame");
   const int k = params.votes_per_joint;
   tree.votes.assign(ranges.size() * joints * k, LeafVote{});
   parallel_for(ranges.size(), params.threads, [&](size_t l, int) {

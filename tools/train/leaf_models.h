@@ -66,6 +66,9 @@ using LeafRanges = std::vector<std::pair<uint32_t, uint32_t>>;  // per leaf reco
 void fit_part_distributions(const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,
                             int part_count, TrainedTree& tree);
 
+// Throws ToolError naming the option when OJR leaf parameters are out of range.
+void check_leaf_params(const LeafParams& params, int joints);
+
 // Fills tree.votes (leaf × joints × K) by Algorithm 3; the reservoir of (leaf, joint) is keyed by
 // (seed, tree_index, leaf, joint) and fed in pixel order, so the result is thread-count independent.
 void fit_votes(const TrainingSet& set, const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,

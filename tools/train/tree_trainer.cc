@@ -578,8 +578,25 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
     }
     first_item[info.size()] = items.size();
     std::vector<Best> results(items.size());
+    std::atomic<size_t> items_done{0};
+    auto last_beat = std::chrono::steady_clock::now();
     parallel_for(items.size(), threads, [&](size_t i, int thread) {
       results[i] = grower.evaluate(info[items[i].node], items[i].c0, items[i].c1, thread);
+      const size_t done = items_done.fetch_add(1) + 1;
+      if (thread == 0 && progress) {
+        const auto now = std::chrono::steady_clock::now();
+        if (now - last_beat > std::chrono::seconds(10)) {
+          last_beat = now;
+          LevelReport r;
+          r.tree = tree_index;
+          r.level = level;
+          r.partial = true;
+          r.done = double(done) / items.size();
+          r.seconds = std::chrono::duration<double>(now - level_start).count();
+          r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
+          progress(r);
+        }
+      }
     });
 
     std::vector<size_t> splitting;

@@ -49,7 +49,10 @@ struct LevelReport {
   uint64_t feature_evaluations = 0;  // pixel × offset-pair evaluations this level
   double seconds = 0;                // this level
   double tree_seconds = 0;           // since the tree started
+  bool partial = false;              // a heartbeat within a long level: only `done` is meaningful
+  double done = 1;                   // fraction of the level's split search finished
 };
+// Called on the calling thread after each level, and every ~10 s within a long level (partial).
 using ProgressFn = std::function<void(const LevelReport&)>;
 
 struct GrownTree {
