@@ -165,6 +165,20 @@ TEST(TrainTree, RegressionObjectiveLowersOffsetDeviation) {
     for (uint32_t i = b; i < e; ++i) EXPECT_EQ(g.pixels[i].label, g.pixels[b].label);
 }
 
+TEST(TrainTree, RegressionIgnoresOffsetsLongerThanRho) {
+  TempDir tmp;
+  write_toy_dataset(tmp.path + "/toy");
+  const TrainingSet set = load_training_set({tmp.path + "/toy"}, toy_sampling());
+  TreeParams p = toy_params(4);
+  p.objective = Objective::kRegression;
+  // Every pixel is ≥ 5 cm from both joints (they sit 5 cm behind the surface): with ρ = 4 cm no
+  // offset counts, Eq. 9 is 0 everywhere and the root stays a leaf.
+  p.rho_m = 0.04f;
+  EXPECT_EQ(grow_tree(set, set.tree_pixels[0], 0, p).tree.nodes.size(), 1u);
+  p.rho_m = 5;
+  EXPECT_GT(grow_tree(set, set.tree_pixels[0], 0, p).tree.nodes.size(), 1u);
+}
+
 bool same_trees(const TrainedForest& a, const TrainedForest& b) {
   TrainedForest x = a, y = b;
   x.timings_json = y.timings_json = "{}";

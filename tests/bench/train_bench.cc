@@ -1,5 +1,5 @@
 // Training throughput of `depthpose train` on a reference configuration, with its own main.
-// Reference: 1 tree, depth 16, 400 procedural 320×240 stick-body images × 2000 pixels,
+// Reference: 1 tree, depth 16, 1000 procedural 320×240 stick-body images × 2000 pixels,
 // 200 offset pairs × 20 thresholds per node, classification objective, all cores.
 // Reports wall time and pixel·candidate evaluations per second per core (evaluations / process CPU
 // time, so that other load on the machine does not distort it), where one evaluation =
@@ -34,7 +34,7 @@ int env_int(const char* name, int fallback) {
 
 int main() {
   using namespace dp::train;
-  const int images = env_int("TRAIN_BENCH_IMAGES", 400);
+  const int images = env_int("TRAIN_BENCH_IMAGES", 1000);
   const int depth = env_int("TRAIN_BENCH_DEPTH", 16);
   const int offsets = env_int("TRAIN_BENCH_OFFSETS", 200);
   const int threads = env_int("TRAIN_BENCH_THREADS", std::max(1u, std::thread::hardware_concurrency()));
