@@ -19,6 +19,8 @@
 
 namespace dp {
 
+namespace kernels { struct PackedNode; }
+
 enum class Status : int32_t {
   kOk = 0,
   kBadArgument,        // null pointer, non-positive size, stride < width, bad intrinsics
@@ -158,6 +160,7 @@ class Pipeline {
   int32_t* vote_counts_ = nullptr;
   struct Vote* starts_ = nullptr;       // [max_starts] for the joint being aggregated
   float* modes_ = nullptr;              // scratch for mean-shift modes
+  kernels::PackedNode* packed_nodes_ = nullptr;  // persistent (arena tail): compact copy of the nodes
   int32_t evaluated_count_ = 0;
   bool initialized_ = false;
   // process_user: only evaluated pixels whose mask value equals user_filter_id_ cast votes.

@@ -61,11 +61,21 @@ struct Layout {
   Vote* starts;
   float* modes;
   blob::RuntimeConfig* config;
+  kernels::PackedNode* packed_nodes;  // nullptr when the forest's offsets do not fit the packing
 };
+
+// Measured in docs/runtime_speed.md: the packed 8-byte nodes cost more decode work than they save in
+// cache misses with the current kernels, so the pipeline evaluates the blob's nodes in place.
+constexpr bool kUsePackedNodes = false;
+bool packable(const blob::LoadedBlob& b) {
+  return kUsePackedNodes && int32_t(b.meta->max_abs_offset_pxm) <= kernels::kPackedMaxOffset;
+}
 
 bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, Layout* l) {
   l->config = c.tail<blob::RuntimeConfig>(1);
-  l->probe_image = c.head<uint16_t>(size_t(w) * size_t(h));
+  l->packed_nodes = packable(b) ? c.tail<kernels::PackedNode>(size_t(b.tree_count()) * blob::nodes_per_tree(b.depth()))
+                                : nullptr;
+  l->probe_image = c.head<uint16_t>(kernels::padded_probe_elements(w, h));
   l->pixels = c.head<EvaluatedPixel>(size_t(max_pixels));
   l->leaves = c.head<uint32_t>(size_t(max_pixels) * size_t(b.tree_count()));
   l->votes = c.head<Vote>(size_t(blob::kMaxJoints) * blob::kMaxVotesCap);
@@ -159,6 +169,11 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
   modes_ = l.modes;
   config_ = l.config;
   *config_ = *blob.config;
+  packed_nodes_ = l.packed_nodes;
+  if (packed_nodes_) {
+    const size_t count = size_t(blob.tree_count()) * blob::nodes_per_tree(blob.depth());
+    for (size_t i = 0; i < count; ++i) packed_nodes_[i] = kernels::pack_node(blob.nodes[i]);
+  }
   evaluated_count_ = 0;
   kernel_ = KernelIsa::kScalar;
   initialized_ = true;
@@ -213,11 +228,13 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
 
   // Stage 1: foreground → probe image and the (possibly strided) list of pixels to evaluate.
   const int32_t w = f.width, h = f.height;
+  const int32_t probe_stride = w + 2;
+  kernels::fill_probe_border(probe_image_, w, h);
   int32_t fg = 0;
   for (int32_t v = 0; v < h; ++v) {
     const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     const uint8_t* mrow = f.foreground_mask ? f.foreground_mask + size_t(v) * f.stride_px : nullptr;
-    uint16_t* out = probe_image_ + size_t(v) * w;
+    uint16_t* out = probe_image_ + size_t(v + 1) * probe_stride + 1;
     for (int32_t u = 0; u < w; ++u) {
       const uint16_t z = row[u];
       const bool is_fg = z != 0 && z < kBackgroundDepthMm &&
@@ -236,7 +253,7 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   r->pixel_stride = stride;
   int32_t n = 0, seen = 0;
   for (int32_t v = 0; v < h && n < budget; ++v) {
-    const uint16_t* row = probe_image_ + size_t(v) * w;
+    const uint16_t* row = probe_image_ + size_t(v + 1) * probe_stride + 1;
     for (int32_t u = 0; u < w; ++u) {
       if (row[u] == kBackgroundDepthMm) continue;
       if (seen++ % stride != 0) continue;
@@ -259,7 +276,9 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   const int32_t focal = focal_factor_mm(0.5f * (f.intrinsics.fx + f.intrinsics.fy), fref);
   const kernels::ForestKernelFn kernel = kernels::forest_kernel(kernel_);
   for (int t = 0; t < blob_.tree_count(); ++t) {
-    kernels::ForestKernelArgs a{probe_image_, w, h, focal, pixels_, n, blob_.tree_nodes(t),
+    const kernels::PackedNode* packed =
+        packed_nodes_ ? packed_nodes_ + size_t(t) * blob::nodes_per_tree(blob_.depth()) : nullptr;
+    kernels::ForestKernelArgs a{probe_image_, probe_stride, w, h, focal, pixels_, n, blob_.tree_nodes(t), packed,
                                 blob_.tree_leaf_index(t), blob_.depth(), leaves_ + size_t(t) * max_pixels_};
     kernel(a);
   }
