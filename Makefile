@@ -140,3 +140,14 @@ clean:
 
 -include $(sort $(wildcard mk/*.mk))
 -include $(RUNTIME_OBJS:.o=.d) $(TOOLS_OBJS:.o=.d) $(TEST_OBJS:.o=.d) $(BUILD)/obj/tools/cli/main.d
+
+# ---- the main job ----------------------------------------------------------------------------
+# Replays the shipped recording with the shipped OJR blob when both exist (MODEL=bpc for BPC);
+# until then runs the handcrafted smoke demo.
+MODEL ?= ojr
+run: all
+	@if [ -f models/$(MODEL).blob ] && [ -f models/demo.oni ] && $(CLI) --help | grep -q '^  run '; then \
+	  mkdir -p out && $(CLI) run --blob models/$(MODEL).blob --source oni:models/demo.oni --overlay out; \
+	else \
+	  $(CLI) demo; \
+	fi

@@ -100,13 +100,14 @@ struct ForestMeta {
   uint32_t leaf_stride_bytes;// BPC: ≥ 2·part_count, multiple of 4; OJR: joint_count·K·8
   uint32_t max_width;        // frame size the converter sized arena_bytes for
   uint32_t max_height;
-  uint64_t arena_bytes;      // required_arena_bytes(blob, max_width, max_height) at conversion
   uint32_t max_abs_offset_pxm;  // largest |du|,|dv| in kNodes (≤ kMaxProbeOffsetPxm)
-  uint32_t reserved1;
+  uint64_t arena_bytes;      // required_arena_bytes(blob, max_width, max_height) at conversion
+  uint32_t reserved1;        // zero
+  uint32_t reserved2;        // zero
   char part_names[kMaxParts][kNameBytes];
   char joint_names[kMaxJoints][kNameBytes];
 };
-static_assert(sizeof(ForestMeta) == 40 + kMaxParts * kNameBytes + kMaxJoints * kNameBytes,
+static_assert(sizeof(ForestMeta) == 48 + kMaxParts * kNameBytes + kMaxJoints * kNameBytes,
               "ForestMeta layout");
 
 struct TreeNode {

@@ -2,7 +2,7 @@
 // load_blob() checks every field before forming any pointer into the bytes; after it returns
 // BlobStatus::kOk the LoadedBlob views may be used without further checks. The caller owns the
 // bytes and must keep them alive and unchanged while the LoadedBlob is used. Bytes must be at
-// least 4-byte aligned (kBadAlignment otherwise).
+// least 8-byte aligned (kBadAlignment otherwise).
 #pragma once
 #include <stddef.h>
 #include <stdint.h>
@@ -14,7 +14,7 @@ namespace dp::blob {
 enum class BlobStatus : int32_t {
   kOk = 0,
   kNullInput,
-  kBadAlignment,        // data pointer not 4-byte aligned
+  kBadAlignment,        // data pointer not 8-byte aligned
   kTooSmall,            // fewer bytes than a header
   kBadMagic,
   kWrongEndianness,     // endian tag byte-swapped: written on a big-endian host

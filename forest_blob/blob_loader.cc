@@ -1,0 +1,239 @@
+#include "forest_blob/blob_loader.h"
+
+#include <string.h>
+
+namespace dp::blob {
+
+const char* blob_status_message(BlobStatus s) {
+  switch (s) {
+    case BlobStatus::kOk: return "ok";
+    case BlobStatus::kNullInput: return "no blob bytes given";
+    case BlobStatus::kBadAlignment: return "blob bytes are not 8-byte aligned in memory";
+    case BlobStatus::kTooSmall: return "file too small to be a depthpose blob (truncated header)";
+    case BlobStatus::kBadMagic: return "not a depthpose blob (bad magic)";
+    case BlobStatus::kWrongEndianness: return "blob was written big-endian; this build reads little-endian only";
+    case BlobStatus::kBadEndianTag: return "corrupt endianness tag";
+    case BlobStatus::kVersionTooOld: return "blob format major version too old for this build";
+    case BlobStatus::kVersionTooNew: return "blob format major version too new for this build";
+    case BlobStatus::kBadHeaderSize: return "header size disagrees with the section count";
+    case BlobStatus::kTruncated: return "blob truncated (fewer bytes than its header declares)";
+    case BlobStatus::kTrailingBytes: return "unexpected bytes after the end the header declares";
+    case BlobStatus::kHeaderChecksum: return "header checksum mismatch (corrupt header)";
+    case BlobStatus::kPayloadChecksum: return "payload checksum mismatch (corrupt data)";
+    case BlobStatus::kBadSectionCount: return "section count out of range";
+    case BlobStatus::kSectionMisaligned: return "a section is not 64-byte aligned";
+    case BlobStatus::kSectionOutOfBounds: return "a section lies outside the blob";
+    case BlobStatus::kSectionOverlap: return "two sections (or a section and the header) overlap";
+    case BlobStatus::kSectionMissing: return "a required section is missing";
+    case BlobStatus::kSectionDuplicate: return "a section appears twice";
+    case BlobStatus::kUnknownSection: return "unknown section kind";
+    case BlobStatus::kBadSectionSize: return "a section's size disagrees with the forest meta";
+    case BlobStatus::kBadMethod: return "unknown method (neither BPC nor OJR)";
+    case BlobStatus::kBadTreeCount: return "tree count out of range";
+    case BlobStatus::kBadDepth: return "tree depth out of range";
+    case BlobStatus::kBadPartCount: return "part count out of range";
+    case BlobStatus::kBadJointCount: return "joint count out of range";
+    case BlobStatus::kBadVotesPerJoint: return "votes per joint out of range";
+    case BlobStatus::kBadFocalLength: return "reference focal length not positive and finite";
+    case BlobStatus::kBadLeafCount: return "leaf count out of range";
+    case BlobStatus::kBadLeafStride: return "leaf stride disagrees with the method and counts";
+    case BlobStatus::kBadFrameSize: return "maximum frame size out of range";
+    case BlobStatus::kBadName: return "a part or joint name is not NUL-terminated printable ASCII";
+    case BlobStatus::kOffsetTooLarge: return "a node's probe offset exceeds the allowed radius";
+    case BlobStatus::kBadLeafIndex: return "a leaf index points outside the leaf table";
+    case BlobStatus::kBadLeafDistribution: return "a BPC leaf distribution sums above 1";
+    case BlobStatus::kBadVote: return "an OJR vote offset exceeds the allowed length";
+    case BlobStatus::kBadPartMask: return "a joint's part mask names a part the forest lacks";
+    case BlobStatus::kBadConfig: return "a runtime config value is outside its range";
+    case BlobStatus::kReservedNotZero: return "a reserved field is not zero";
+  }
+  return "unknown status";
+}
+
+namespace {
+
+bool names_ok(const char (*names)[kNameBytes], int count, int capacity) {
+  for (int i = 0; i < capacity; ++i) {
+    const char* n = names[i];
+    bool terminated = false;
+    for (int k = 0; k < kNameBytes; ++k) {
+      if (n[k] == 0) {
+        terminated = true;
+        for (int r = k; r < kNameBytes; ++r)
+          if (n[r] != 0) return false;  // padding must be zero
+        break;
+      }
+      if (n[k] < 0x20 || n[k] > 0x7E || i >= count) return false;
+    }
+    if (!terminated) return false;
+  }
+  return true;
+}
+
+int abs16(int16_t v) { return v < 0 ? -int(v) : int(v); }
+
+BlobStatus validate_meta(const ForestMeta& m) {
+  if (m.method != uint8_t(Method::kBpc) && m.method != uint8_t(Method::kOjr)) return BlobStatus::kBadMethod;
+  if (m.tree_count < 1 || m.tree_count > kMaxTrees) return BlobStatus::kBadTreeCount;
+  if (m.depth < 1 || m.depth > kMaxDepth) return BlobStatus::kBadDepth;
+  const bool bpc = m.method == uint8_t(Method::kBpc);
+  if (m.part_count > kMaxParts || (bpc && m.part_count < 1)) return BlobStatus::kBadPartCount;
+  if (m.joint_count > kMaxJoints || (!bpc && m.joint_count < 1)) return BlobStatus::kBadJointCount;
+  if (bpc ? m.votes_per_joint != 0 : (m.votes_per_joint < 1 || m.votes_per_joint > kMaxVotesPerLeafJoint))
+    return BlobStatus::kBadVotesPerJoint;
+  if (!(m.reference_focal_px > 0.0f && m.reference_focal_px < 1e6f)) return BlobStatus::kBadFocalLength;
+  if (m.leaf_count < 1 || m.leaf_count > m.tree_count * leaves_per_tree(m.depth)) return BlobStatus::kBadLeafCount;
+  if (bpc) {
+    if (m.leaf_stride_bytes < 2u * m.part_count || m.leaf_stride_bytes % 4 != 0 || m.leaf_stride_bytes > 4u * kMaxParts)
+      return BlobStatus::kBadLeafStride;
+  } else if (m.leaf_stride_bytes != uint32_t(m.joint_count) * m.votes_per_joint * sizeof(OjrVote)) {
+    return BlobStatus::kBadLeafStride;
+  }
+  if (m.max_width < 1 || m.max_height < 1 || m.max_width > uint32_t(kMaxFrameDimension) ||
+      m.max_height > uint32_t(kMaxFrameDimension))
+    return BlobStatus::kBadFrameSize;
+  if (m.max_abs_offset_pxm > uint32_t(kMaxProbeOffsetPxm)) return BlobStatus::kOffsetTooLarge;
+  if (m.reserved0 != 0 || m.reserved1 != 0 || m.reserved2 != 0) return BlobStatus::kReservedNotZero;
+  if (!names_ok(m.part_names, m.part_count, kMaxParts) || !names_ok(m.joint_names, m.joint_count, kMaxJoints))
+    return BlobStatus::kBadName;
+  return BlobStatus::kOk;
+}
+
+}  // namespace
+
+BlobStatus validate_config(const ForestMeta& m, const RuntimeConfig& c) {
+  const bool bpc = m.method == uint8_t(Method::kBpc);
+  for (int j = 0; j < kMaxJoints; ++j) {
+    const JointConfig& jc = c.joints[j];
+    if (jc.reserved != 0) return BlobStatus::kReservedNotZero;
+    if (j >= m.joint_count) continue;
+    if (bpc) {
+      if (m.part_count < 32 && (jc.part_mask >> m.part_count) != 0) return BlobStatus::kBadPartMask;
+      if (jc.part_mask == 0) return BlobStatus::kBadPartMask;
+      if (jc.prob_threshold_q15 > 32768) return BlobStatus::kBadConfig;
+    }
+    if (jc.bandwidth_mm < 1 || jc.bandwidth_mm > 2000) return BlobStatus::kBadConfig;
+    if (jc.push_back_mm < -500 || jc.push_back_mm > 500) return BlobStatus::kBadConfig;
+    if (jc.vote_length_mm > kMaxVoteOffsetMm * 2) return BlobStatus::kBadConfig;
+  }
+  if (c.near_mm >= c.far_mm) return BlobStatus::kBadConfig;
+  if (c.max_votes_per_joint < 1 || c.max_votes_per_joint > kMaxVotesCap) return BlobStatus::kBadConfig;
+  if (c.max_starts_per_joint < 1 || c.max_starts_per_joint > kMaxStartsCap) return BlobStatus::kBadConfig;
+  if (c.mean_shift_iterations < 1 || c.mean_shift_iterations > kMaxMeanShiftIterations) return BlobStatus::kBadConfig;
+  if (c.max_proposals_per_joint < 1 || c.max_proposals_per_joint > kMaxProposalsCap) return BlobStatus::kBadConfig;
+  if (c.merge_tolerance_mm < 1) return BlobStatus::kBadConfig;
+  if (c.max_evaluated_pixels < 1) return BlobStatus::kBadConfig;
+  if (c.reserved0 != 0 || c.reserved1 != 0) return BlobStatus::kReservedNotZero;
+  return BlobStatus::kOk;
+}
+
+BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out) {
+  if (!data || !out) return BlobStatus::kNullInput;
+  if (reinterpret_cast<uintptr_t>(data) % 8 != 0) return BlobStatus::kBadAlignment;
+  const uint8_t* bytes = static_cast<const uint8_t*>(data);
+  if (size < sizeof(BlobHeader)) return BlobStatus::kTooSmall;
+  BlobHeader h;
+  memcpy(&h, bytes, sizeof h);
+  if (h.magic != kMagic) return BlobStatus::kBadMagic;
+  if (h.endian_tag != kEndianTag)
+    return h.endian_tag == 0x04030201u ? BlobStatus::kWrongEndianness : BlobStatus::kBadEndianTag;
+  if (h.version_major < kVersionMajor) return BlobStatus::kVersionTooOld;
+  if (h.version_major > kVersionMajor) return BlobStatus::kVersionTooNew;
+  if (h.section_count < 1 || h.section_count > uint32_t(kMaxSections)) return BlobStatus::kBadSectionCount;
+  if (h.header_bytes != sizeof(BlobHeader) + h.section_count * sizeof(SectionEntry)) return BlobStatus::kBadHeaderSize;
+  if (size < h.header_bytes) return BlobStatus::kTruncated;
+  if (h.total_bytes > size) return BlobStatus::kTruncated;
+  if (h.total_bytes < size) return BlobStatus::kTrailingBytes;
+  {
+    // CRC of the header with the crc field zeroed: hash in three pieces to avoid a copy.
+    const size_t crc_at = offsetof(BlobHeader, header_crc32);
+    const uint32_t zero = 0;
+    uint32_t c = crc32(bytes, crc_at);
+    c = crc32(&zero, 4, c);
+    c = crc32(bytes + crc_at + 4, h.header_bytes - crc_at - 4, c);
+    if (c != h.header_crc32) return BlobStatus::kHeaderChecksum;
+  }
+  if (crc32(bytes + h.header_bytes, size_t(h.total_bytes - h.header_bytes)) != h.payload_crc32)
+    return BlobStatus::kPayloadChecksum;
+  if (h.flags != 0) return BlobStatus::kReservedNotZero;
+  for (uint8_t r : h.reserved)
+    if (r != 0) return BlobStatus::kReservedNotZero;
+
+  // Section table.
+  SectionEntry sections[kMaxSections];
+  memcpy(sections, bytes + sizeof(BlobHeader), h.section_count * sizeof(SectionEntry));
+  const SectionEntry* by_kind[6] = {};
+  for (uint32_t i = 0; i < h.section_count; ++i) {
+    const SectionEntry& s = sections[i];
+    if (s.kind < 1 || s.kind > 5) return BlobStatus::kUnknownSection;
+    if (s.reserved != 0) return BlobStatus::kReservedNotZero;
+    if (by_kind[s.kind]) return BlobStatus::kSectionDuplicate;
+    by_kind[s.kind] = &sections[i];
+    if (s.offset % kSectionAlignment != 0) return BlobStatus::kSectionMisaligned;
+    if (s.offset < h.header_bytes || s.offset > h.total_bytes || s.size > h.total_bytes - s.offset)
+      return BlobStatus::kSectionOutOfBounds;
+    for (uint32_t k = 0; k < i; ++k) {
+      const SectionEntry& o = sections[k];
+      if (s.offset < o.offset + o.size && o.offset < s.offset + s.size) return BlobStatus::kSectionOverlap;
+    }
+  }
+  for (int k = 1; k <= 5; ++k)
+    if (!by_kind[k]) return BlobStatus::kSectionMissing;
+
+  const SectionEntry& meta_s = *by_kind[int(SectionKind::kMeta)];
+  if (meta_s.size != sizeof(ForestMeta)) return BlobStatus::kBadSectionSize;
+  const ForestMeta* meta = reinterpret_cast<const ForestMeta*>(bytes + meta_s.offset);
+  if (BlobStatus s = validate_meta(*meta); s != BlobStatus::kOk) return s;
+
+  const SectionEntry& config_s = *by_kind[int(SectionKind::kConfig)];
+  if (config_s.size != sizeof(RuntimeConfig)) return BlobStatus::kBadSectionSize;
+  const RuntimeConfig* config = reinterpret_cast<const RuntimeConfig*>(bytes + config_s.offset);
+  if (BlobStatus s = validate_config(*meta, *config); s != BlobStatus::kOk) return s;
+
+  const size_t node_count = size_t(meta->tree_count) * nodes_per_tree(meta->depth);
+  const size_t slot_count = size_t(meta->tree_count) * leaves_per_tree(meta->depth);
+  const SectionEntry& nodes_s = *by_kind[int(SectionKind::kNodes)];
+  const SectionEntry& index_s = *by_kind[int(SectionKind::kLeafIndex)];
+  const SectionEntry& leaves_s = *by_kind[int(SectionKind::kLeaves)];
+  if (nodes_s.size != node_count * sizeof(TreeNode)) return BlobStatus::kBadSectionSize;
+  if (index_s.size != slot_count * sizeof(uint32_t)) return BlobStatus::kBadSectionSize;
+  if (leaves_s.size != size_t(meta->leaf_count) * meta->leaf_stride_bytes) return BlobStatus::kBadSectionSize;
+
+  const TreeNode* nodes = reinterpret_cast<const TreeNode*>(bytes + nodes_s.offset);
+  const int limit = int(meta->max_abs_offset_pxm);
+  for (size_t i = 0; i < node_count; ++i) {
+    const TreeNode& n = nodes[i];
+    if (abs16(n.du1) > limit || abs16(n.dv1) > limit || abs16(n.du2) > limit || abs16(n.dv2) > limit)
+      return BlobStatus::kOffsetTooLarge;
+  }
+  const uint32_t* leaf_index = reinterpret_cast<const uint32_t*>(bytes + index_s.offset);
+  for (size_t i = 0; i < slot_count; ++i)
+    if (leaf_index[i] >= meta->leaf_count) return BlobStatus::kBadLeafIndex;
+
+  const uint8_t* leaves = bytes + leaves_s.offset;
+  if (meta->method == uint8_t(Method::kBpc)) {
+    for (uint32_t l = 0; l < meta->leaf_count; ++l) {
+      const uint16_t* p = reinterpret_cast<const uint16_t*>(leaves + size_t(l) * meta->leaf_stride_bytes);
+      uint32_t sum = 0;
+      for (int c = 0; c < meta->part_count; ++c) sum += p[c];
+      if (sum > 32768u) return BlobStatus::kBadLeafDistribution;
+    }
+  } else {
+    const size_t votes = size_t(meta->leaf_count) * meta->joint_count * meta->votes_per_joint;
+    const OjrVote* v = reinterpret_cast<const OjrVote*>(leaves);
+    for (size_t i = 0; i < votes; ++i)
+      if (abs16(v[i].dx_mm) > kMaxVoteOffsetMm || abs16(v[i].dy_mm) > kMaxVoteOffsetMm ||
+          abs16(v[i].dz_mm) > kMaxVoteOffsetMm)
+        return BlobStatus::kBadVote;
+  }
+
+  out->header = reinterpret_cast<const BlobHeader*>(bytes);
+  out->meta = meta;
+  out->config = config;
+  out->nodes = nodes;
+  out->leaf_index = leaf_index;
+  out->leaves = leaves;
+  return BlobStatus::kOk;
+}
+
+}  // namespace dp::blob

@@ -1,0 +1,178 @@
+#include "forest_blob/blob_writer.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "forest_blob/blob_loader.h"
+#include "runtime/depthpose.h"
+#include "tools/common/error.h"
+
+namespace dp::blob {
+using dp::tools::fail;
+
+RuntimeConfig default_runtime_config(int joint_count) {
+  RuntimeConfig c{};
+  for (int j = 0; j < joint_count && j < kMaxJoints; ++j) {
+    c.joints[j].part_mask = 0;
+    c.joints[j].prob_threshold_q15 = 3277;  // 0.10
+    c.joints[j].push_back_mm = 40;          // the paper's mean learned push-back
+    c.joints[j].bandwidth_mm = 65;
+    c.joints[j].vote_length_mm = 400;
+  }
+  c.near_mm = 300;
+  c.far_mm = 8000;
+  c.max_votes_per_joint = 200;
+  c.max_starts_per_joint = 24;
+  c.mean_shift_iterations = 12;
+  c.max_proposals_per_joint = 4;
+  c.merge_tolerance_mm = 30;
+  c.max_evaluated_pixels = 20000;
+  c.cycle_budget = 0;
+  return c;
+}
+
+namespace {
+void put_name(char (&dst)[kNameBytes], const std::string& name, const char* what) {
+  if (name.size() >= size_t(kNameBytes)) fail(std::string(what) + " name '" + name + "' is longer than 23 bytes");
+  for (char ch : name)
+    if (ch < 0x20 || ch > 0x7E) fail(std::string(what) + " name '" + name + "' is not printable ASCII");
+  std::memset(dst, 0, kNameBytes);
+  std::memcpy(dst, name.data(), name.size());
+}
+size_t align_up(size_t v) { return (v + kSectionAlignment - 1) / kSectionAlignment * kSectionAlignment; }
+}  // namespace
+
+std::vector<uint8_t> write_blob(const BlobContents& in) {
+  const bool bpc = in.method == Method::kBpc;
+  const int trees = int(in.tree_nodes.size());
+  if (trees < 1 || trees > kMaxTrees) fail("blob needs 1.." + std::to_string(kMaxTrees) + " trees, got " + std::to_string(trees));
+  if (in.depth < 1 || in.depth > kMaxDepth) fail("tree depth " + std::to_string(in.depth) + " outside 1..20");
+  if (int(in.tree_leaf_index.size()) != trees) fail("leaf index tables do not match the tree count");
+  if (in.part_names.size() > size_t(kMaxParts)) fail("too many parts");
+  if (in.joint_names.size() > size_t(kMaxJoints)) fail("too many joints");
+
+  ForestMeta meta{};
+  meta.method = uint8_t(in.method);
+  meta.tree_count = uint8_t(trees);
+  meta.depth = uint8_t(in.depth);
+  meta.part_count = uint8_t(in.part_names.size());
+  meta.joint_count = uint8_t(in.joint_names.size());
+  meta.votes_per_joint = uint8_t(bpc ? 0 : in.votes_per_joint);
+  meta.reference_focal_px = in.reference_focal_px;
+  for (size_t i = 0; i < in.part_names.size(); ++i) put_name(meta.part_names[i], in.part_names[i], "part");
+  for (size_t i = 0; i < in.joint_names.size(); ++i) put_name(meta.joint_names[i], in.joint_names[i], "joint");
+  if (bpc) {
+    meta.leaf_stride_bytes = uint32_t((2 * meta.part_count + 3) / 4 * 4);
+    if (in.part_names.empty() || in.bpc_leaves.size() % in.part_names.size() != 0)
+      fail("BPC leaf table size is not a multiple of the part count");
+    meta.leaf_count = uint32_t(in.bpc_leaves.size() / in.part_names.size());
+  } else {
+    const size_t per_leaf = in.joint_names.size() * size_t(in.votes_per_joint);
+    meta.leaf_stride_bytes = uint32_t(per_leaf * sizeof(OjrVote));
+    if (per_leaf == 0 || in.ojr_leaves.size() % per_leaf != 0) fail("OJR vote table size is not a multiple of joints × K");
+    meta.leaf_count = uint32_t(in.ojr_leaves.size() / per_leaf);
+  }
+  meta.max_width = in.max_width;
+  meta.max_height = in.max_height;
+  uint32_t max_off = 0;
+  for (const auto& t : in.tree_nodes) {
+    if (t.size() != nodes_per_tree(in.depth)) fail("a tree has the wrong node count for its depth");
+    for (const TreeNode& n : t)
+      for (int16_t d : {n.du1, n.dv1, n.du2, n.dv2}) max_off = std::max<uint32_t>(max_off, uint32_t(std::abs(int(d))));
+  }
+  for (const auto& t : in.tree_leaf_index)
+    if (t.size() != leaves_per_tree(in.depth)) fail("a tree has the wrong leaf-index count for its depth");
+  meta.max_abs_offset_pxm = max_off;
+
+  // Sections in fixed order: meta, config, nodes, leaf index, leaves.
+  const uint32_t section_count = 5;
+  const size_t header_bytes = sizeof(BlobHeader) + section_count * sizeof(SectionEntry);
+  SectionEntry entries[5]{};
+  const size_t sizes[5] = {sizeof(ForestMeta), sizeof(RuntimeConfig),
+                           size_t(trees) * nodes_per_tree(in.depth) * sizeof(TreeNode),
+                           size_t(trees) * leaves_per_tree(in.depth) * sizeof(uint32_t),
+                           size_t(meta.leaf_count) * meta.leaf_stride_bytes};
+  size_t at = align_up(header_bytes);
+  for (uint32_t i = 0; i < section_count; ++i) {
+    entries[i].kind = i + 1;
+    entries[i].offset = at;
+    entries[i].size = sizes[i];
+    at = align_up(at + sizes[i]);
+  }
+  const size_t total = entries[4].offset + entries[4].size;
+  std::vector<uint8_t> out(total, 0);
+
+  RuntimeConfig config = in.config;
+  // Arena size for the declared maximum frame: computed from a provisional view of the blob.
+  std::memcpy(out.data() + entries[1].offset, &config, sizeof config);
+  uint8_t* p = out.data() + entries[2].offset;
+  for (const auto& t : in.tree_nodes) {
+    std::memcpy(p, t.data(), t.size() * sizeof(TreeNode));
+    p += t.size() * sizeof(TreeNode);
+  }
+  p = out.data() + entries[3].offset;
+  for (const auto& t : in.tree_leaf_index) {
+    std::memcpy(p, t.data(), t.size() * sizeof(uint32_t));
+    p += t.size() * sizeof(uint32_t);
+  }
+  p = out.data() + entries[4].offset;
+  if (bpc) {
+    const size_t parts = in.part_names.size();
+    for (uint32_t l = 0; l < meta.leaf_count; ++l)
+      std::memcpy(p + size_t(l) * meta.leaf_stride_bytes, &in.bpc_leaves[l * parts], parts * 2);
+  } else {
+    std::memcpy(p, in.ojr_leaves.data(), in.ojr_leaves.size() * sizeof(OjrVote));
+  }
+
+  auto finish = [&]() {
+    std::memcpy(out.data() + entries[0].offset, &meta, sizeof meta);
+    BlobHeader h{};
+    h.magic = kMagic;
+    h.endian_tag = kEndianTag;
+    h.version_major = kVersionMajor;
+    h.version_minor = kVersionMinor;
+    h.header_bytes = uint32_t(header_bytes);
+    h.total_bytes = total;
+    h.section_count = section_count;
+    h.payload_crc32 = crc32(out.data() + header_bytes, total - header_bytes);
+    std::memcpy(out.data(), &h, sizeof h);
+    std::memcpy(out.data() + sizeof h, entries, sizeof entries);
+    h.header_crc32 = crc32(out.data(), header_bytes);
+    std::memcpy(out.data(), &h, sizeof h);
+  };
+  finish();
+  LoadedBlob view;
+  BlobStatus s = load_blob(out.data(), out.size(), &view);
+  if (s != BlobStatus::kOk) fail(std::string("refusing to write an invalid blob: ") + blob_status_message(s));
+  meta.arena_bytes = required_arena_bytes(view, int32_t(in.max_width), int32_t(in.max_height));
+  finish();
+  s = load_blob(out.data(), out.size(), &view);
+  if (s != BlobStatus::kOk) fail(std::string("refusing to write an invalid blob: ") + blob_status_message(s));
+  return out;
+}
+
+void save_blob_file(const std::string& path, const std::vector<uint8_t>& bytes) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) fail("cannot create " + tmp);
+    f.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    f.flush();
+    if (!f) fail("cannot write " + tmp + " (disk full?)");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) fail("cannot rename " + tmp + " to " + path + ": " + ec.message());
+}
+
+std::vector<uint8_t> read_blob_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) fail("cannot open blob " + path);
+  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  return bytes;
+}
+
+}  // namespace dp::blob

@@ -1,0 +1,214 @@
+// The runtime core against answers known analytically.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <memory>
+#include <vector>
+
+#include "forest_blob/blob_loader.h"
+#include "forest_blob/blob_writer.h"
+#include "runtime/depthpose.h"
+#include "runtime/fixed_point.h"
+#include "tools/demo/fixtures.h"
+
+using namespace dp;
+using dp::tools::SyntheticFrame;
+
+namespace {
+
+struct Loaded {
+  std::vector<uint8_t> bytes;
+  blob::LoadedBlob view;
+  std::unique_ptr<uint8_t, decltype(&std::free)> arena{nullptr, &std::free};
+  size_t arena_bytes = 0;
+  Pipeline pipeline;
+
+  explicit Loaded(const blob::BlobContents& c, int max_w = 320, int max_h = 240) {
+    bytes = blob::write_blob(c);
+    EXPECT_EQ(blob::load_blob(bytes.data(), bytes.size(), &view), blob::BlobStatus::kOk);
+    arena_bytes = required_arena_bytes(view, max_w, max_h);
+    arena.reset(static_cast<uint8_t*>(std::aligned_alloc(64, (arena_bytes + 63) / 64 * 64)));
+    EXPECT_EQ(pipeline.init(view, max_w, max_h, arena.get(), arena_bytes), Status::kOk);
+  }
+};
+
+// Mean 3D position of the nonzero pixels of a frame.
+void centroid(const SyntheticFrame& f, double* x, double* y, double* z) {
+  double sx = 0, sy = 0, sz = 0;
+  int n = 0;
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u) {
+      const uint16_t d = f.depth_mm[size_t(v) * f.width + u];
+      if (!d) continue;
+      const double zm = d * 0.001;
+      sx += (u - f.intrinsics.cx) * zm / f.intrinsics.fx;
+      sy += -(v - f.intrinsics.cy) * zm / f.intrinsics.fy;
+      sz += zm;
+      ++n;
+    }
+  *x = sx / n;
+  *y = sy / n;
+  *z = sz / n;
+}
+
+}  // namespace
+
+TEST(FixedPoint, ScaleAndRoundingRule) {
+  EXPECT_EQ(scale_q13(1000, 1000), 8192);                 // 1 m, reference focal: scale 1.0
+  EXPECT_EQ(scale_q13(1000, 2000), 4096);                 // 2 m: half
+  EXPECT_EQ(scale_q13(1000, 100), kScaleMaxQ13);          // saturates below focal_factor / 4
+  EXPECT_EQ(scale_q13(1000, 3000), (1000 * 8192 + 1500) / 3000);
+  EXPECT_EQ(probe_offset_px(3, 4096), 2);                 // 1.5 rounds half up
+  EXPECT_EQ(probe_offset_px(-3, 4096), -1);               // −1.5 rounds up to −1
+  EXPECT_EQ(probe_offset_px(-5, 4096), -2);               // −2.5 → −2
+  EXPECT_EQ(focal_factor_mm(262.5f, 525.0f), 500);
+  EXPECT_EQ(focal_factor_mm(525.0f, 525.0f), 1000);
+}
+
+TEST(FixedPoint, FeatureOnTiltedPlaneHasKnownValue) {
+  // z = 1500 + 2·(u − cx) mm along u (cx = 159.5, so use integer columns relative to 160).
+  SyntheticFrame f = tools::make_plane_frame(320, 240, 1501.0f, 2.0f, 0.0f);
+  const int u = 160, v = 120;
+  const int32_t z = f.depth_mm[v * 320 + u];
+  ASSERT_EQ(z, 1502);
+  const int32_t focal = 1000;
+  const int32_t s = scale_q13(focal, z);
+  const int16_t du = 90;
+  const int32_t off = probe_offset_px(du, s);
+  ASSERT_EQ(off, int32_t(std::floor(90.0 * 8192.0 * 1000.0 / 1502.0 / 8192.0 + 0.5)));
+  EXPECT_EQ(depth_feature(f.depth_mm.data(), 320, 240, u, v, z, focal, du, 0, 0, 0), 2 * off);
+  EXPECT_EQ(depth_feature(f.depth_mm.data(), 320, 240, u, v, z, focal, -du, 0, du, 0), -4 * off);
+  // Off-image probe reads the background constant.
+  EXPECT_EQ(depth_feature(f.depth_mm.data(), 320, 240, u, v, z, focal, 4000, 0, 0, 0), kBackgroundDepthMm - z);
+}
+
+TEST(Pipeline, BpcDiscGivesOneProposalAtCentroidPushedBack) {
+  Loaded L(tools::single_part_bpc(4, 2, 3, 55));
+  SyntheticFrame f = tools::make_disc_frame(320, 240, 200.0f, 90.0f, 7.0f, 2000);
+  FrameResult r;
+  ASSERT_EQ(L.pipeline.process(f.view(), &r), Status::kOk);
+  double cx, cy, cz;
+  centroid(f, &cx, &cy, &cz);
+  ASSERT_EQ(r.joint_count, 3);
+  for (int j = 0; j < 3; ++j) {
+    ASSERT_EQ(r.proposal_count[j], 1) << "joint " << j;
+    EXPECT_NEAR(r.proposals[j][0].x_m, cx, 0.003);
+    EXPECT_NEAR(r.proposals[j][0].y_m, cy, 0.003);
+    EXPECT_NEAR(r.proposals[j][0].z_m, cz + 0.055, 0.001);
+    // Every pixel votes with p = 1 and weight z² = 4.
+    EXPECT_NEAR(r.proposals[j][0].confidence, 4.0 * r.evaluated_pixels, 1e-2);
+  }
+  EXPECT_EQ(r.flags & kFlagPixelsStrided, 0u);
+}
+
+TEST(Pipeline, OjrProposalIsCentroidPlusOffset) {
+  Loaded L(tools::single_vote_ojr(2, 100, -50, 120));
+  SyntheticFrame f = tools::make_disc_frame(320, 240, 120.0f, 150.0f, 6.0f, 1500);
+  FrameResult r;
+  ASSERT_EQ(L.pipeline.process(f.view(), &r), Status::kOk);
+  double cx, cy, cz;
+  centroid(f, &cx, &cy, &cz);
+  for (int j = 0; j < 2; ++j) {
+    ASSERT_GE(r.proposal_count[j], 1);
+    EXPECT_NEAR(r.proposals[j][0].x_m, cx + 0.100, 0.003);
+    EXPECT_NEAR(r.proposals[j][0].y_m, cy - 0.050, 0.003);
+    EXPECT_NEAR(r.proposals[j][0].z_m, cz + 0.120, 0.001);
+  }
+}
+
+TEST(Pipeline, MeanShiftSeparatesTwoClustersWithTheirConfidences) {
+  auto c = tools::single_part_bpc(4, 1, 1, 0);
+  c.config.max_votes_per_joint = 1024;
+  c.config.max_starts_per_joint = 64;
+  Loaded L(c);
+  // Two small discs far apart (> 3 bandwidths) at different depths and sizes.
+  SyntheticFrame f = tools::make_disc_frame(320, 240, 60.0f, 60.0f, 5.0f, 1000);
+  SyntheticFrame g = tools::make_disc_frame(320, 240, 250.0f, 180.0f, 8.0f, 3000);
+  int n1 = 0, n2 = 0;
+  for (size_t i = 0; i < f.depth_mm.size(); ++i) {
+    n1 += f.depth_mm[i] != 0;
+    n2 += g.depth_mm[i] != 0;
+    if (g.depth_mm[i]) f.depth_mm[i] = g.depth_mm[i];
+  }
+  FrameResult r;
+  ASSERT_EQ(L.pipeline.process(f.view(), &r), Status::kOk);
+  ASSERT_EQ(r.proposal_count[0], 2);
+  // Confidence = Σ p·z²: n1·1² and n2·3²; the far disc (n2·9) wins.
+  EXPECT_NEAR(r.proposals[0][0].confidence, 9.0 * n2, 1e-2 * n2);
+  EXPECT_NEAR(r.proposals[0][1].confidence, 1.0 * n1, 1e-2 * n1);
+  EXPECT_NEAR(r.proposals[0][0].z_m, 3.0, 0.002);
+  EXPECT_NEAR(r.proposals[0][1].z_m, 1.0, 0.002);
+}
+
+TEST(Pipeline, RefusesFramesBeyondItsSizeAndBadArenas) {
+  auto c = tools::single_part_bpc(4, 2, 1, 0);
+  Loaded L(c, 160, 120);
+  SyntheticFrame f = tools::make_disc_frame(320, 240, 100.0f, 100.0f, 5.0f, 2000);
+  FrameResult r;
+  EXPECT_EQ(L.pipeline.process(f.view(), &r), Status::kFrameTooLarge);
+  EXPECT_EQ(r.proposal_count[0], 0);
+  Pipeline p;
+  EXPECT_EQ(p.process(f.view(), &r), Status::kNotInitialized);
+  EXPECT_EQ(p.init(L.view, 160, 120, L.arena.get(), L.arena_bytes - 64), Status::kArenaTooSmall);
+  EXPECT_EQ(p.init(L.view, 160, 120, L.arena.get() + 8, L.arena_bytes - 64), Status::kArenaMisaligned);
+  EXPECT_EQ(p.init(L.view, 0, 120, L.arena.get(), L.arena_bytes), Status::kBadArgument);
+  DepthFrame bad = f.view();
+  bad.stride_px = 10;
+  EXPECT_EQ(L.pipeline.process(bad, &r), Status::kBadArgument);
+  EXPECT_GE(L.arena_bytes, L.pipeline.arena_used_bytes());
+}
+
+TEST(Pipeline, BudgetStridesPixelsAndFlagsIt) {
+  auto c = tools::single_part_bpc(4, 2, 1, 0);
+  c.config.max_evaluated_pixels = 500;
+  c.config.max_votes_per_joint = 100;
+  Loaded L(c);
+  SyntheticFrame f = tools::make_disc_frame(320, 240, 160.0f, 120.0f, 40.0f, 2500);
+  FrameResult r;
+  ASSERT_EQ(L.pipeline.process(f.view(), &r), Status::kOk);
+  EXPECT_GT(r.foreground_pixels, 500);
+  EXPECT_LE(r.evaluated_pixels, 500);
+  EXPECT_GT(r.pixel_stride, 1);
+  EXPECT_NE(r.flags & kFlagPixelsStrided, 0u);
+  EXPECT_NE(r.flags & kFlagVotesTruncated, 0u);
+  EXPECT_GT(r.stage_cycles[kStageForest], 0u);
+  // The config cannot ask for more pixels than the arena was sized for.
+  blob::RuntimeConfig more = L.pipeline.config();
+  more.max_evaluated_pixels = 100000;
+  EXPECT_EQ(L.pipeline.set_config(more), Status::kBadConfig);
+}
+
+TEST(Pipeline, EmptyFrameReportsNoForeground) {
+  Loaded L(tools::single_part_bpc(4, 2, 1, 0));
+  SyntheticFrame f = tools::make_disc_frame(320, 240, 100.0f, 100.0f, 0.0f, 0);
+  FrameResult r;
+  ASSERT_EQ(L.pipeline.process(f.view(), &r), Status::kOk);
+  EXPECT_NE(r.flags & kFlagNoForeground, 0u);
+  EXPECT_EQ(r.proposal_count[0], 0);
+}
+
+TEST(Pipeline, ForestFollowsTheFeatureRule) {
+  // A depth-1 tree splitting on a unary feature: probe 40 px·m to the right; a pixel whose probe
+  // leaves the disc reads background (far) → feature > threshold → right leaf (part 1).
+  blob::BlobContents c = tools::single_part_bpc(2, 0, 1, 0);
+  c.tree_nodes[0][0] = blob::TreeNode{40, 0, 0, 0, 100};
+  c.tree_leaf_index[0] = {0, 1};
+  c.bpc_leaves = {32768, 0, 0, 32768};
+  Loaded L(c);
+  SyntheticFrame f = tools::make_disc_frame(320, 240, 160.0f, 120.0f, 20.0f, 1000);
+  FrameResult r;
+  ASSERT_EQ(L.pipeline.process(f.view(), &r), Status::kOk);
+  int checked = 0;
+  for (int i = 0; i < L.pipeline.evaluated_pixel_count(); ++i) {
+    const EvaluatedPixel p = L.pipeline.evaluated_pixels()[i];
+    const int32_t off = probe_offset_px(40, scale_q13(focal_factor_mm(262.5f, 525.0f), p.z_mm));
+    const int pu = p.u + off;
+    const bool outside = pu >= 320 || f.depth_mm[p.v * 320 + pu] == 0;
+    uint16_t dist[2];
+    L.pipeline.part_distribution(i, dist);
+    EXPECT_EQ(dist[1] == 32768, outside) << "pixel " << p.u << "," << p.v;
+    ++checked;
+  }
+  EXPECT_GT(checked, 1000);
+}

@@ -1,0 +1,120 @@
+// `depthpose info BLOB`: describes a blob; on a bad blob prints one line naming the problem.
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "forest_blob/blob_loader.h"
+#include "forest_blob/blob_writer.h"
+#include "runtime/depthpose.h"
+#include "tools/cli/command.h"
+#include "tools/common/args.h"
+#include "tools/common/error.h"
+#include "tools/info/info.h"
+
+namespace dp::tools {
+
+static const char* kind_name(uint32_t k) {
+  switch (k) {
+    case 1: return "meta";
+    case 2: return "config";
+    case 3: return "nodes";
+    case 4: return "leaf_index";
+    case 5: return "leaves";
+  }
+  return "?";
+}
+
+void describe_blob(const blob::LoadedBlob& b, FILE* out) {
+  const blob::BlobHeader& h = *b.header;
+  const blob::ForestMeta& m = *b.meta;
+  const bool bpc = b.method() == blob::Method::kBpc;
+  std::fprintf(out, "depthpose forest blob v%u.%u, %llu bytes, header crc %08x, payload crc %08x\n",
+               h.version_major, h.version_minor, (unsigned long long)h.total_bytes, h.header_crc32, h.payload_crc32);
+  const auto* sections = reinterpret_cast<const blob::SectionEntry*>(reinterpret_cast<const uint8_t*>(&h) + sizeof h);
+  for (uint32_t i = 0; i < h.section_count; ++i)
+    std::fprintf(out, "  section %-10s offset %10llu size %10llu\n", kind_name(sections[i].kind),
+                 (unsigned long long)sections[i].offset, (unsigned long long)sections[i].size);
+  std::fprintf(out, "method %s, %d trees, depth %d, %u leaf records (%u bytes each), reference focal %.1f px\n",
+               bpc ? "BPC" : "OJR", m.tree_count, m.depth, m.leaf_count, m.leaf_stride_bytes, m.reference_focal_px);
+  std::fprintf(out, "max probe offset %u pixel·m; arena %llu bytes for %ux%u frames\n", m.max_abs_offset_pxm,
+               (unsigned long long)m.arena_bytes, m.max_width, m.max_height);
+  // Per-tree statistics: padded (never split) nodes and distinct leaves.
+  for (int t = 0; t < m.tree_count; ++t) {
+    const blob::TreeNode* nodes = b.tree_nodes(t);
+    size_t pad = 0, n = blob::nodes_per_tree(m.depth);
+    for (size_t i = 0; i < n; ++i) pad += nodes[i].threshold_mm == blob::kPadThreshold;
+    std::fprintf(out, "  tree %d: %zu split nodes, %zu padded\n", t, n - pad, pad);
+  }
+  std::fprintf(out, "parts (%d):", m.part_count);
+  for (int i = 0; i < m.part_count; ++i) std::fprintf(out, " %s", m.part_names[i]);
+  std::fprintf(out, "\njoints (%d):", m.joint_count);
+  for (int i = 0; i < m.joint_count; ++i) std::fprintf(out, " %s", m.joint_names[i]);
+  const blob::RuntimeConfig& c = *b.config;
+  std::fprintf(out, "\nconfig: band %u..%u mm, Nsub %u, starts %u, iterations %u, proposals %u, merge %u mm, "
+               "pixel budget %u, cycle budget %llu\n",
+               c.near_mm, c.far_mm, c.max_votes_per_joint, c.max_starts_per_joint, c.mean_shift_iterations,
+               c.max_proposals_per_joint, c.merge_tolerance_mm, c.max_evaluated_pixels,
+               (unsigned long long)c.cycle_budget);
+  for (int j = 0; j < m.joint_count; ++j) {
+    const blob::JointConfig& jc = c.joints[j];
+    if (bpc)
+      std::fprintf(out, "  %-12s parts 0x%08x  lambda %.3f  push-back %d mm  bandwidth %u mm\n", m.joint_names[j],
+                   jc.part_mask, jc.prob_threshold_q15 / 32768.0, jc.push_back_mm, jc.bandwidth_mm);
+    else
+      std::fprintf(out, "  %-12s vote length %u mm  bandwidth %u mm\n", m.joint_names[j], jc.vote_length_mm,
+                   jc.bandwidth_mm);
+  }
+}
+
+bool load_blob_or_explain(const std::string& path, std::vector<uint8_t>& bytes, blob::LoadedBlob* out,
+                          std::string* problem) {
+  bytes = blob::read_blob_file(path);
+  const blob::BlobStatus s = blob::load_blob(bytes.data(), bytes.size(), out);
+  if (s == blob::BlobStatus::kOk) return true;
+  *problem = path + ": " + blob::blob_status_message(s);
+  return false;
+}
+
+blob::LoadedBlob load_blob_file_checked(const std::string& path, std::vector<uint8_t>& bytes) {
+  blob::LoadedBlob b;
+  std::string problem;
+  if (!load_blob_or_explain(path, bytes, &b, &problem)) fail(problem);
+  return b;
+}
+
+// Other file kinds (e.g. trained forests) register a describer here.
+static std::vector<InfoDescriber>& describers() {
+  static std::vector<InfoDescriber> d;
+  return d;
+}
+InfoDescriberRegistrar::InfoDescriberRegistrar(InfoDescriber d) { describers().push_back(d); }
+
+static int run_info(int argc, char** argv) {
+  Args args(argc, argv, "usage: depthpose info FILE\n  Describes a forest blob (or a trained .forest file).", {});
+  if (args.help_requested()) {
+    std::printf("%s\n", args.usage().c_str());
+    return 0;
+  }
+  if (args.positional().size() != 1) fail("expected exactly one file\n" + args.usage());
+  const std::string path = args.positional()[0];
+  std::vector<uint8_t> bytes = blob::read_blob_file(path);
+  if (bytes.size() >= 4) {
+    uint32_t magic;
+    std::memcpy(&magic, bytes.data(), 4);
+    if (magic != blob::kMagic)
+      for (const InfoDescriber& d : describers())
+        if (d(path, bytes)) return 0;
+  }
+  blob::LoadedBlob b;
+  const blob::BlobStatus s = blob::load_blob(bytes.data(), bytes.size(), &b);
+  if (s != blob::BlobStatus::kOk) {
+    std::fprintf(stderr, "depthpose info: %s: invalid blob: %s\n", path.c_str(), blob::blob_status_message(s));
+    return 1;
+  }
+  describe_blob(b, stdout);
+  return 0;
+}
+
+DP_REGISTER_COMMAND(info, "info", "describe a forest blob or trained forest file", run_info);
+
+}  // namespace dp::tools
