@@ -76,7 +76,7 @@ class OniSource final : public FrameSource {
       fail("oni:" + path + ": cannot open the file");
     }
     if (device_.open(path.c_str()) != openni::STATUS_OK)
-      fail("oni:" + path + ": not a readable OpenNI2 recording (" + extended_error() + ")");
+      fail("oni:" + path + ": not a readable OpenNI2 recording (truncated or corrupt; " + extended_error() + ")");
     if (!device_.isFile()) fail("oni:" + path + ": OpenNI2 did not open it as a recording");
     openni::PlaybackControl* playback = device_.getPlaybackControl();
     if (!playback) fail("oni:" + path + ": no playback control");

@@ -50,8 +50,6 @@ namespace {
 constexpr uint32_t kZ16 = v4l2_fourcc('Z', '1', '6', ' ');
 constexpr uint32_t kY16 = v4l2_fourcc('Y', '1', '6', ' ');
 
-bool unplugged(int err) { return err == ENODEV || err == EIO || err == ENXIO; }
-
 class V4l2Source final : public FrameSource {
  public:
   V4l2Source(const std::string& path, const SourceOptions& options, V4l2Syscalls sys)

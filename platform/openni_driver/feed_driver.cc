@@ -1,6 +1,7 @@
 // depthpose's own OpenNI2 driver: one depth device per attached feed (feed_abi.h). Built as
 // libdepthpose_feed.so.0 and loaded by OpenNI2 from its private Drivers/ folder.
 #include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <mutex>
@@ -186,23 +187,20 @@ class FeedDevice : public oni::driver::DeviceBase {
   OniSensorInfo sensor_{};
 };
 
+// Connection state is a flag flipped atomically, never a lock held across OpenNI2 callbacks:
+// OpenNI2 calls tryDevice() with its context lock held, and deviceConnected() takes that lock.
 class FeedDriver : public oni::driver::DriverBase {
  public:
   explicit FeedDriver(OniDriverServices* services) : DriverBase(services) { g_driver = this; }
   ~FeedDriver() override { g_driver = nullptr; }
 
   OniStatus tryDevice(const char* uri) override {
-    std::lock_guard<std::mutex> lock(g_mutex);
-    if (!uri_names_feed(uri, g_feed)) return ONI_STATUS_ERROR;
-    if (g_feed->present && !g_feed->present(g_feed->user)) return ONI_STATUS_ERROR;
-    if (connected_uri_ != uri) {
-      std::memset(&info_, 0, sizeof info_);
-      std::snprintf(info_.uri, sizeof info_.uri, "%s", uri);
-      std::snprintf(info_.vendor, sizeof info_.vendor, "depthpose");
-      std::snprintf(info_.name, sizeof info_.name, "feed %s", g_feed->name);
-      connected_uri_ = uri;
-      deviceConnected(&info_);
+    {
+      std::lock_guard<std::mutex> lock(g_mutex);
+      if (!uri_names_feed(uri, g_feed)) return ONI_STATUS_ERROR;
+      if (g_feed->present && !g_feed->present(g_feed->user)) return ONI_STATUS_ERROR;
     }
+    connect(uri);
     return ONI_STATUS_OK;
   }
   oni::driver::DeviceBase* deviceOpen(const char* uri, const char*) override {
@@ -213,24 +211,63 @@ class FeedDriver : public oni::driver::DriverBase {
   void deviceClose(oni::driver::DeviceBase* device) override { delete device; }
   void shutdown() override {}
 
+  // Announces the device (once until it is lost). OpenNI2 keeps a disconnected device's URI
+  // in its driver table and then never asks tryDevice() again, so a replugged device must be
+  // announced by the driver itself, as a USB hotplug driver does.
+  void connect(const std::string& uri) {
+    bool expected = false;
+    if (!connected_.compare_exchange_strong(expected, true)) return;
+    OniDeviceInfo info{};
+    std::snprintf(info.uri, sizeof info.uri, "%s", uri.c_str());
+    std::snprintf(info.vendor, sizeof info.vendor, "depthpose");
+    std::snprintf(info.name, sizeof info.name, "feed");
+    {
+      std::lock_guard<std::mutex> lock(info_mutex_);
+      info_ = info;
+    }
+    deviceConnected(&info);
+  }
   void lost() {
+    bool expected = true;
+    if (!connected_.compare_exchange_strong(expected, false)) return;
     OniDeviceInfo info;
     {
-      std::lock_guard<std::mutex> lock(g_mutex);
-      if (connected_uri_.empty()) return;
-      connected_uri_.clear();
+      std::lock_guard<std::mutex> lock(info_mutex_);
       info = info_;
     }
     deviceDisconnected(&info);
   }
 
  private:
-  std::string connected_uri_;  // the URI OpenNI2 currently lists as connected
+  std::atomic<bool> connected_{false};
+  std::mutex info_mutex_;
   OniDeviceInfo info_{};
 };
 
 void report_lost() {
   if (g_driver) g_driver->lost();
+}
+
+// Watches feed->present() like a USB hotplug thread and announces the device when it appears.
+std::thread g_hotplug;
+std::atomic<bool> g_hotplug_stop{false};
+
+void hotplug_loop() {
+  while (!g_hotplug_stop.load()) {
+    std::string uri;
+    {
+      std::lock_guard<std::mutex> lock(g_mutex);
+      if (g_feed && (!g_feed->present || g_feed->present(g_feed->user))) uri = std::string(DP_FEED_URI_PREFIX) + g_feed->name;
+    }
+    if (!uri.empty() && g_driver) g_driver->connect(uri);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
+void stop_hotplug() {
+  if (!g_hotplug.joinable()) return;
+  g_hotplug_stop = true;
+  g_hotplug.join();
 }
 
 }  // namespace
@@ -240,9 +277,21 @@ ONI_EXPORT_DRIVER(FeedDriver)
 ONI_C_API_EXPORT int dp_feed_attach(const DpFeed* feed) {
   if (feed && feed->abi_version != DP_FEED_ABI_VERSION) return -1;
   if (g_running_streams.load() != 0) return -1;
-  std::lock_guard<std::mutex> lock(g_mutex);
-  g_feed = feed;
-  g_served = 0;
+  stop_hotplug();
+  {
+    std::lock_guard<std::mutex> lock(g_mutex);
+    g_feed = feed;
+    g_served = 0;
+  }
+  // Tell OpenNI2 the previous feed's device is gone, and announce the new one before returning
+  // so that it can be opened at once.
+  if (g_driver) g_driver->lost();
+  if (feed && g_driver && (!feed->present || feed->present(feed->user)))
+    g_driver->connect(std::string(DP_FEED_URI_PREFIX) + feed->name);
+  if (feed) {
+    g_hotplug_stop = false;
+    g_hotplug = std::thread(hotplug_loop);
+  }
   return 0;
 }
 
