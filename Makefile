@@ -122,9 +122,10 @@ bench: $(BENCH_BINS) $(CLI) $(EXTRA_LINK_DEPS)
 
 # ---- fuzz (clang + libFuzzer) --------------------------------------------------------------
 FUZZ_CXX := clang++-14
-fuzz-smoke:
+fuzz-smoke: $(CLI)
 	@mkdir -p $(BUILD)/fuzz/corpus
-	$(FUZZ_CXX) $(CXXSTD) -O1 -g -I. -fsanitize=fuzzer,address,undefined -fno-exceptions -fno-rtti \
+	$(CLI) demo --write-blobs $(BUILD)/fuzz/corpus
+	$(FUZZ_CXX) $(CXXSTD) -O1 -g -I. -DDP_BLOB_FUZZING -fsanitize=fuzzer,address,undefined -fno-exceptions -fno-rtti \
 	  tests/fuzz/blob_loader_fuzz.cc $(wildcard forest_blob/blob_loader.cc forest_blob/crc32.cc) -o $(BUILD)/fuzz/blob_loader_fuzz
 	$(BUILD)/fuzz/blob_loader_fuzz -max_total_time=$${FUZZ_SECONDS:-60} -max_len=65536 $(BUILD)/fuzz/corpus
 

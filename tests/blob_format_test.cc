@@ -20,7 +20,7 @@ struct AlignedBytes {
   std::vector<uint64_t> storage;
   size_t size;
   explicit AlignedBytes(const std::vector<uint8_t>& b) : storage((b.size() + 7) / 8 + 1), size(b.size()) {
-    std::memcpy(storage.data(), b.data(), b.size());
+    if (!b.empty()) std::memcpy(storage.data(), b.data(), b.size());
   }
   uint8_t* data() { return reinterpret_cast<uint8_t*>(storage.data()); }
 };

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "forest_blob/blob_loader.h"
+#include "forest_blob/blob_writer.h"
 #include "runtime/depthpose.h"
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
@@ -14,10 +15,20 @@
 namespace dp::tools {
 
 static int run_demo(int argc, char** argv) {
-  Args args(argc, argv, "usage: depthpose demo\n  Runs a handcrafted BPC blob on a generated 320x240 frame of a disc\n"
-                        "  and prints one proposal per joint (expected: the disc centre, pushed back).", {});
+  Args args(argc, argv,
+            "usage: depthpose demo [--write-blobs DIR]\n  Runs a handcrafted BPC blob on a generated 320x240 frame of a disc\n"
+            "  and prints one proposal per joint (expected: the disc centre, pushed back).\n"
+            "  --write-blobs DIR  instead writes small valid BPC and OJR fixture blobs (fuzzing seeds)",
+            {"--write-blobs"});
   if (args.help_requested()) {
     std::printf("%s\n", args.usage().c_str());
+    return 0;
+  }
+  if (args.has("--write-blobs")) {
+    const std::string dir = args.get("--write-blobs");
+    blob::save_blob_file(dir + "/seed_bpc.blob", blob::write_blob(single_part_bpc(5, 3, 2, 40, 3, 2)));
+    blob::save_blob_file(dir + "/seed_ojr.blob", blob::write_blob(single_vote_ojr(3, 10, -20, 30)));
+    blob::save_blob_file(dir + "/seed_random.blob", blob::write_blob(random_bpc_forest(3, 2, 4, 6, 300, 200)));
     return 0;
   }
   const std::vector<uint8_t> bytes = blob::write_blob(single_part_bpc(4, 2, 2, 40));

@@ -1,0 +1,37 @@
+// Whole-forest training: per tree, grow the structure (tree_trainer.h) or take it from an existing
+// forest (retro-fitting), then fit the leaf models (leaf_models.h); record the configuration,
+// dataset identity, memory and timings in the TrainedForest.
+#pragma once
+#include <functional>
+#include <string>
+
+#include "tools/train/forest_file.h"
+#include "tools/train/leaf_models.h"
+#include "tools/train/training_set.h"
+#include "tools/train/tree_trainer.h"
+
+namespace dp::train {
+
+struct ForestOptions {
+  std::string method = "bpc";          // "bpc": part distributions; "ojr": votes (+ distributions when labelled)
+  TreeParams tree;                     // structure growth (ignored for retro-fitting)
+  LeafParams leaf;                     // OJR leaves
+  const TrainedForest* structure = nullptr;  // retro-fit leaves onto this forest's trees
+  int pixels_per_image = 0;            // recorded in the configuration only
+  int images_per_tree = 0;             // recorded in the configuration only
+};
+
+struct ForestStats {
+  double structure_seconds = 0, leaf_seconds = 0;
+  uint64_t feature_evaluations = 0;    // pixel × offset-pair evaluations over all trees
+  size_t peak_bytes = 0;               // largest working set of one tree (excluding images)
+  size_t training_pixels = 0;
+  double bytes_per_pixel = 0;          // (images + per-tree working set) / training pixels of a tree
+};
+
+// Trains set.tree_pixels.size() trees (or the structure's tree count when retro-fitting; then
+// the set must have as many pixel lists). Throws ToolError on inconsistent inputs.
+TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options, const ProgressFn& progress,
+                           ForestStats* stats = nullptr);
+
+}  // namespace dp::train

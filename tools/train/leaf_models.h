@@ -1,0 +1,79 @@
+// Leaf prediction models (paper section 3.5.2), fitted after (or independently of) the structure:
+//   BPC: the normalized histogram of the part labels of the training pixels that reached a leaf.
+//   OJR: Algorithm 3 — per leaf and joint a reservoir sample of N_res relative offsets
+//        Δ = p_j − x(u) (metres), mean shift with a Gaussian kernel of bandwidth b* (Eq. 12), the
+//        modes longer than λ_j dropped, the K largest clusters kept; weight = cluster size.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "tools/train/forest_file.h"
+#include "tools/train/training_set.h"
+
+namespace dp::train {
+
+// Algorithm R: keeps a uniform sample (without replacement) of at most `capacity` of the items
+// offered so far. Every item offered has probability min(1, capacity/seen) of being kept.
+template <class T>
+class ReservoirSampler {
+ public:
+  explicit ReservoirSampler(size_t capacity) : capacity_(capacity) { items_.reserve(capacity); }
+  void offer(const T& item, Rng& rng) {
+    ++seen_;
+    if (items_.size() < capacity_) {
+      items_.push_back(item);
+    } else {
+      const uint64_t j = rng.below(seen_);
+      if (j < capacity_) items_[j] = item;
+    }
+  }
+  const std::vector<T>& items() const { return items_; }
+  uint64_t seen() const { return seen_; }
+
+ private:
+  size_t capacity_;
+  uint64_t seen_ = 0;
+  std::vector<T> items_;
+};
+
+struct Mode {
+  std::array<float, 3> position{};  // metres
+  int weight = 0;                   // points whose mean-shift path converged here
+};
+
+// Mean shift from every point with kernel exp(−|Δ'−Δ|²/b²); converged points within b/2 of an
+// earlier mode join it. Sorted by weight (descending; ties keep discovery order).
+std::vector<Mode> mean_shift_modes(const std::vector<std::array<float, 3>>& points, float bandwidth_m);
+
+// The K heaviest modes with |position| ≤ max_length_m (max_length_m ≤ 0: no limit), padded to
+// exactly K with zero-weight votes.
+std::vector<LeafVote> select_votes(const std::vector<Mode>& modes, float max_length_m, int k);
+
+struct LeafParams {
+  int reservoir = 100;              // N_res
+  float bandwidth_m = 0.05f;        // b*
+  int votes_per_joint = 2;          // K
+  std::vector<float> vote_length_m = {0.5f};  // λ_j per joint, or one for all; empty/0 = no limit
+  uint64_t seed = 1;
+  int threads = 1;
+};
+
+using LeafRanges = std::vector<std::pair<uint32_t, uint32_t>>;  // per leaf record: [begin, end)
+
+// Fills tree.part_probabilities (leaf × part_count) from the labels of the pixels of each leaf.
+void fit_part_distributions(const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,
+                            int part_count, TrainedTree& tree);
+
+// Fills tree.votes (leaf × joints × K) by Algorithm 3; the reservoir of (leaf, joint) is keyed by
+// (seed, tree_index, leaf, joint) and fed in pixel order, so the result is thread-count independent.
+void fit_votes(const TrainingSet& set, const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,
+               const LeafParams& params, int tree_index, TrainedTree& tree);
+
+// Retro-fitting onto an existing structure: sends every pixel down `tree` with the reference
+// evaluator and reorders `pixels` stably by leaf record. Sets tree.leaf_pixel_counts.
+LeafRanges group_by_leaf(const TrainingSet& set, TrainedTree& tree, std::vector<TrainingPixel>& pixels,
+                         int threads);
+
+}  // namespace dp::train

@@ -1,0 +1,175 @@
+// `depthpose train`: command-line front end of forest_trainer.h. docs/training.md is the manual.
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <thread>
+
+#include "tools/cli/command.h"
+#include "tools/common/args.h"
+#include "tools/common/error.h"
+#include "tools/train/forest_trainer.h"
+
+namespace dp::train {
+namespace {
+
+constexpr const char* kUsage =
+    "usage: depthpose train --data DIR[,DIR...] --method bpc|ojr --out FILE.forest [options]\n"
+    "  --trees T              trees (default 3)\n"
+    "  --depth D              maximum depth, leaves at level <= D (default 20)\n"
+    "  --objective O          classification (Eq. 8, default) or regression (Eq. 9-11)\n"
+    "  --pixels-per-image N   training pixels per image, N_ex (default 2000)\n"
+    "  --images-per-tree N    random images per tree (default 0 = all images)\n"
+    "  --offsets N            candidate offset pairs per node (default 2000)\n"
+    "  --thresholds N         candidate thresholds per offset pair, 1..255 (default 50)\n"
+    "  --max-offset M         max |du|,|dv| in pixel*metres at the reference focal length\n"
+    "                         (default round(129 * f_ref / 575): the paper's 129 at 640x480 Kinect)\n"
+    "  --reference-focal F    focal length (px) the offsets are expressed for (default fx of the first dataset)\n"
+    "  --min-samples N        nodes with fewer pixels become leaves (default 10)\n"
+    "  --rho R                regression: offsets longer than R metres are ignored (default 0.5)\n"
+    "  --nres N               OJR reservoir capacity per leaf and joint (default 100)\n"
+    "  --bandwidth B          OJR mean-shift bandwidth b*, metres (default 0.05)\n"
+    "  --votes-per-leaf K     OJR votes kept per leaf and joint (default 2)\n"
+    "  --vote-length L[,..]   OJR max vote length lambda_j, metres: one value or one per joint (default 0.5)\n"
+    "  --structure FILE       retro-fit leaves onto this forest's trees instead of growing new ones\n"
+    "  --proposal FILE        mixture proposal: offsets drawn near FILE's chosen ones (90%) or uniform (10%)\n"
+    "  --seed S               random seed (default 1); the forest is the same for any --threads\n"
+    "  --threads N            worker threads (default: all cores)\n"
+    "  --quiet                no progress on stderr\n";
+
+std::string format_duration(double s) {
+  char b[32];
+  if (s < 60)
+    std::snprintf(b, sizeof b, "%.1fs", s);
+  else if (s < 3600)
+    std::snprintf(b, sizeof b, "%dm%02ds", int(s) / 60, int(s) % 60);
+  else
+    std::snprintf(b, sizeof b, "%dh%02dm", int(s) / 3600, int(s) % 3600 / 60);
+  return b;
+}
+
+int run_train(int argc, char** argv) {
+  tools::Args args(argc, argv, kUsage,
+                   {"--data", "--method", "--trees", "--depth", "--out", "--objective", "--pixels-per-image",
+                    "--images-per-tree", "--offsets", "--thresholds", "--max-offset", "--reference-focal",
+                    "--min-samples", "--rho", "--nres", "--bandwidth", "--votes-per-leaf", "--vote-length",
+                    "--structure", "--proposal", "--seed", "--threads"},
+                   {"--quiet"});
+  if (args.help_requested()) {
+    std::cout << kUsage;
+    return 0;
+  }
+  const std::vector<std::string> dirs = tools::split_list(args.get("--data"));
+  const std::string method = args.get("--method");
+  const std::string out_path = args.get("--out");
+  if (method != "bpc" && method != "ojr") tools::fail("--method must be bpc or ojr, got '" + method + "'");
+  const std::string objective = args.get("--objective", "classification");
+  if (objective != "classification" && objective != "regression")
+    tools::fail("--objective must be classification or regression, got '" + objective + "'");
+  const bool quiet = args.flag("--quiet");
+  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+  const int threads = static_cast<int>(args.get_int("--threads", hw));
+  if (threads < 1 || threads > 256) tools::fail("--threads must be 1..256");
+
+  std::unique_ptr<TrainedForest> structure, proposal_forest;
+  if (args.has("--structure")) structure = std::make_unique<TrainedForest>(read_forest(args.get("--structure")));
+  std::unique_ptr<OffsetProposal> proposal;
+  if (args.has("--proposal")) {
+    proposal_forest = std::make_unique<TrainedForest>(read_forest(args.get("--proposal")));
+    proposal = std::make_unique<OffsetProposal>(OffsetProposal::from_forest(*proposal_forest));
+  }
+
+  SamplingOptions so;
+  so.pixels_per_image = static_cast<int>(args.get_int("--pixels-per-image", 2000));
+  so.trees = structure ? static_cast<int>(structure->trees.size()) : static_cast<int>(args.get_int("--trees", 3));
+  so.images_per_tree = static_cast<int>(args.get_int("--images-per-tree", 0));
+  so.seed = static_cast<uint64_t>(args.get_int("--seed", 1));
+  so.threads = threads;
+  so.reference_focal_px = structure ? structure->reference_focal_px
+                                    : static_cast<float>(args.get_double("--reference-focal", 0));
+  so.need_labels = method == "bpc" || (objective == "classification" && !structure);
+  so.need_joints = method == "ojr" || objective == "regression";
+  if (so.trees < 1 || so.trees > 64) tools::fail("--trees must be 1..64");
+  if (so.pixels_per_image < 1) tools::fail("--pixels-per-image must be >= 1");
+
+  if (!quiet) std::fprintf(stderr, "train: loading %zu dataset(s)...\n", dirs.size());
+  const TrainingSet set = load_training_set(dirs, so);
+  const size_t images_used = [&] {
+    size_t n = 0;
+    for (const auto& im : set.images) n += !im.probe.empty();
+    return n;
+  }();
+  if (!quiet)
+    std::fprintf(stderr, "train: %zu images, %zu training pixels over %zu tree(s), reference focal %.2f px, loaded in %s\n",
+                 images_used, set.pixel_count(), set.tree_pixels.size(), set.reference_focal_px,
+                 format_duration(set.load_seconds).c_str());
+
+  ForestOptions fo;
+  fo.method = method;
+  fo.structure = structure.get();
+  fo.pixels_per_image = so.pixels_per_image;
+  fo.images_per_tree = so.images_per_tree;
+  fo.tree.max_depth = static_cast<int>(args.get_int("--depth", 20));
+  fo.tree.offset_candidates = static_cast<int>(args.get_int("--offsets", 2000));
+  fo.tree.threshold_candidates = static_cast<int>(args.get_int("--thresholds", 50));
+  fo.tree.max_offset_pxm = static_cast<int>(
+      args.get_int("--max-offset", std::lround(129.0 * set.reference_focal_px / 575.0)));
+  fo.tree.min_samples = static_cast<int>(args.get_int("--min-samples", 10));
+  fo.tree.objective = objective == "classification" ? Objective::kClassification : Objective::kRegression;
+  fo.tree.rho_m = static_cast<float>(args.get_double("--rho", 0.5));
+  fo.tree.seed = so.seed;
+  fo.tree.threads = threads;
+  fo.tree.proposal = proposal.get();
+  fo.leaf.reservoir = static_cast<int>(args.get_int("--nres", 100));
+  fo.leaf.bandwidth_m = static_cast<float>(args.get_double("--bandwidth", 0.05));
+  fo.leaf.votes_per_joint = static_cast<int>(args.get_int("--votes-per-leaf", 2));
+  fo.leaf.seed = so.seed;
+  for (const std::string& v : tools::split_list(args.get("--vote-length", "0.5"))) {
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str(), &end);
+    if (*end || !(x >= 0)) tools::fail("--vote-length wants non-negative metres, got '" + v + "'");
+    fo.leaf.vote_length_m.push_back(static_cast<float>(x));
+  }
+
+  const int trees = static_cast<int>(set.tree_pixels.size());
+  const int depth = fo.tree.max_depth;
+  double done_seconds = 0;  // finished trees
+  ProgressFn progress = [&](const LevelReport& r) {
+    if (quiet) return;
+    const double per_level = r.tree_seconds / (r.level + 1);
+    const double tree_left = per_level * std::max(0, depth - r.level - 1);
+    const double per_tree = r.tree == 0 ? per_level * depth : done_seconds / r.tree;
+    const double eta = tree_left + per_tree * (trees - r.tree - 1);
+    std::fprintf(stderr,
+                 "train: tree %d/%d level %2d/%d: %zu nodes, %zu split, %.2fM px, %.2f G evals, %s (tree %s, ETA <= %s)\n",
+                 r.tree + 1, trees, r.level, depth, r.frontier_nodes, r.split_nodes, r.active_pixels / 1e6,
+                 r.feature_evaluations / 1e9, format_duration(r.seconds).c_str(),
+                 format_duration(r.tree_seconds).c_str(), format_duration(eta).c_str());
+    if (r.split_nodes == 0 || r.level + 1 == depth) done_seconds += r.tree_seconds;
+  };
+  ForestStats stats;
+  TrainedForest forest = train_forest(set, fo, progress, &stats);
+  write_forest(out_path, forest);
+  if (!quiet) {
+    size_t nodes = 0, leaves = 0;
+    for (const TrainedTree& t : forest.trees) {
+      nodes += t.nodes.size();
+      leaves += t.leaf_count();
+    }
+    const double rate = stats.structure_seconds > 0 ? stats.feature_evaluations / stats.structure_seconds : 0;
+    std::fprintf(stderr,
+                 "train: wrote %s: %d tree(s), %zu nodes, %zu leaves; structure %s, leaves %s; %.3g pixel*offset "
+                 "evaluations/s (%.3g per thread); memory %.0f bytes per training pixel (images %.1f MB, tree "
+                 "working set %.1f MB)\n",
+                 out_path.c_str(), trees, nodes, leaves, format_duration(stats.structure_seconds).c_str(),
+                 format_duration(stats.leaf_seconds).c_str(), rate, rate / threads, stats.bytes_per_pixel,
+                 set.image_bytes() / 1e6, stats.peak_bytes / 1e6);
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace dp::train
+
+DP_REGISTER_COMMAND(train, "train", "train a BPC or OJR decision forest from datasets (writes a .forest)",
+                    dp::train::run_train);

@@ -1,0 +1,614 @@
+#include "tools/train/tree_trainer.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <climits>
+#include <cmath>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+#include "runtime/fixed_point.h"
+#include "tools/common/error.h"
+
+namespace dp::train {
+using tools::fail;
+
+void parallel_for(size_t n, int threads, const std::function<void(size_t, int)>& fn) {
+  std::atomic<size_t> next{0};
+  std::mutex mutex;
+  size_t failed_at = SIZE_MAX;
+  std::exception_ptr error;
+  auto worker = [&](int thread) {
+    for (;;) {
+      const size_t i = next.fetch_add(1, std::memory_order_relaxed);
+      if (i >= n) return;
+      try {
+        fn(i, thread);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (i < failed_at) {
+          failed_at = i;
+          error = std::current_exception();
+        }
+        next.store(n);
+        return;
+      }
+    }
+  };
+  const int t = static_cast<int>(std::min<size_t>(std::max(1, threads), std::max<size_t>(n, 1)));
+  std::vector<std::thread> pool;
+  for (int i = 1; i < t; ++i) pool.emplace_back(worker, i);
+  worker(0);
+  for (auto& th : pool) th.join();
+  if (error) std::rethrow_exception(error);
+}
+
+namespace {
+
+constexpr int kNLogNTable = 4096;
+struct NLogN {
+  double v[kNLogNTable];
+  NLogN() {
+    v[0] = 0;
+    for (int i = 1; i < kNLogNTable; ++i) v[i] = i * std::log(double(i));
+  }
+};
+const NLogN& nlogn_table() {
+  static const NLogN t;
+  return t;
+}
+inline double nlogn(uint32_t n) {
+  return n < uint32_t(kNLogNTable) ? nlogn_table().v[n] : double(n) * std::log(double(n));
+}
+
+}  // namespace
+
+double weighted_entropy(const uint32_t* counts, int count) {
+  uint64_t n = 0;
+  double s = 0;
+  for (int i = 0; i < count; ++i) {
+    n += counts[i];
+    s += nlogn(counts[i]);
+  }
+  return nlogn(static_cast<uint32_t>(n)) - s;
+}
+
+double classification_objective(const uint32_t* left, const uint32_t* right, int count) {
+  uint64_t n = 0;
+  for (int i = 0; i < count; ++i) n += uint64_t(left[i]) + right[i];
+  if (n == 0) return 0;
+  return (weighted_entropy(left, count) + weighted_entropy(right, count)) / double(n);
+}
+
+double sum_squared_deviation(const JointOffsetStats* stats, int joints) {
+  double s = 0;
+  for (int j = 0; j < joints; ++j) {
+    const JointOffsetStats& t = stats[j];
+    if (t.n > 0) s += t.sq - (t.sx * t.sx + t.sy * t.sy + t.sz * t.sz) / t.n;
+  }
+  return s;
+}
+
+double regression_objective(const JointOffsetStats* left, const JointOffsetStats* right, int joints,
+                            double left_pixels, double right_pixels) {
+  const double n = left_pixels + right_pixels;
+  if (n <= 0) return 0;
+  return (sum_squared_deviation(left, joints) + sum_squared_deviation(right, joints)) / n;
+}
+
+OffsetProposal OffsetProposal::from_forest(const TrainedForest& forest) {
+  OffsetProposal p;
+  for (const TrainedTree& t : forest.trees)
+    for (const TrainedNode& n : t.nodes) {
+      if (n.is_leaf()) continue;
+      p.first.push_back({n.du1, n.dv1});
+      if (n.du2 != 0 || n.dv2 != 0) p.second.push_back({n.du2, n.dv2});
+    }
+  if (p.first.empty()) fail("proposal forest has no split nodes");
+  return p;
+}
+
+namespace {
+
+constexpr int kBlock = 256;          // pixels decoded at once, reused for a block of candidates
+constexpr int kMaxThresholds = 255;  // padded search table of 256 entries
+
+struct Candidate {
+  int32_t du1, dv1, du2, dv2;
+  int thresholds;        // unique, sorted
+  int search_top;        // half the padded table size
+  int32_t table[kMaxThresholds + 1];  // thresholds, then INT32_MAX
+};
+
+// Per-block decoded pixels (structure of arrays).
+struct Block {
+  int count = 0;
+  const uint16_t* image[kBlock];
+  int32_t width[kBlock], height[kBlock], u[kBlock], v[kBlock], scale[kBlock];
+  uint8_t label[kBlock];  // compact label of the node
+};
+
+inline int32_t feature_of(const uint16_t* image, int32_t width, int32_t height, int32_t u, int32_t v,
+                          int32_t scale, const Candidate& c) {
+  const int32_t d1 = probe_depth(image, width, height, u + probe_offset_px(c.du1, scale),
+                                 v + probe_offset_px(c.dv1, scale));
+  const int32_t d2 = probe_depth(image, width, height, u + probe_offset_px(c.du2, scale),
+                                 v + probe_offset_px(c.dv2, scale));
+  return d1 - d2;
+}
+
+inline int32_t feature_of_pixel(const TrainingSet& set, const TrainingPixel& p, const Candidate& c) {
+  const TrainingImage& im = set.images[p.image];
+  return feature_of(im.probe.data(), im.width, im.height, p.u, p.v, p.scale_q13, c);
+}
+
+// Number of thresholds below f (thresholds sorted, padded with INT32_MAX).
+inline int bin_of(const Candidate& c, int32_t f) {
+  int b = 0;
+  for (int step = c.search_top; step >= 1; step >>= 1) b += (c.table[b + step - 1] < f) ? step : 0;
+  return b;
+}
+
+struct NodeInfo {
+  uint32_t heap = 0;
+  uint32_t begin = 0, end = 0;
+  int level = 0;
+  bool splittable = false;
+  double parent_score = 0;      // objective of not splitting (same normalization as Eq. 7)
+  int classes = 0;              // classification: labels present
+  uint8_t class_of[256];        // label → compact class
+  std::vector<uint32_t> totals; // classification: count per compact class
+};
+
+struct Best {
+  double score = HUGE_VAL;
+  int candidate = -1;
+  int32_t du1 = 0, dv1 = 0, du2 = 0, dv2 = 0, threshold = 0;
+};
+
+struct Scratch {
+  Block block;
+  std::vector<Candidate> candidates;
+  std::vector<uint32_t> counts;   // classification histograms
+  std::vector<double> sums;       // regression histograms
+  std::vector<float> offsets;     // regression: block pixels × joints × {w, dx, dy, dz}
+  std::vector<uint32_t> cum;
+  std::vector<JointOffsetStats> left, right, total;
+};
+
+class Grower {
+ public:
+  Grower(const TrainingSet& set, std::vector<TrainingPixel>& pixels, int tree, const TreeParams& params)
+      : set_(set), px_(pixels), tree_(tree), p_(params) {
+    joints_ = static_cast<int>(set.joint_names.size());
+    chunk_ = p_.objective == Objective::kClassification ? 16 : 4;
+    scratch_.resize(std::max(1, p_.threads));
+  }
+
+  void pixel_offsets(const TrainingPixel& p, float* out) const {
+    const TrainingImage& im = set_.images[p.image];
+    const std::array<float, 3> x = pixel_point(im, p.u, p.v, p.depth_mm);
+    const float rho2 = p_.rho_m * p_.rho_m;
+    for (int j = 0; j < joints_; ++j) {
+      const float dx = im.joints[3 * j] - x[0], dy = im.joints[3 * j + 1] - x[1], dz = im.joints[3 * j + 2] - x[2];
+      const float w = dx * dx + dy * dy + dz * dz < rho2 ? 1.0f : 0.0f;
+      out[4 * j] = w;
+      out[4 * j + 1] = w * dx;
+      out[4 * j + 2] = w * dy;
+      out[4 * j + 3] = w * dz;
+    }
+  }
+
+  void prepare(NodeInfo& node) const {
+    const uint32_t n = node.end - node.begin;
+    if (p_.objective == Objective::kClassification) {
+      uint32_t counts[256] = {0};
+      for (uint32_t i = node.begin; i < node.end; ++i) ++counts[px_[i].label];
+      node.classes = 0;
+      node.totals.clear();
+      for (int l = 0; l < 256; ++l) {
+        node.class_of[l] = 0;
+        if (counts[l]) {
+          node.class_of[l] = static_cast<uint8_t>(node.classes++);
+          node.totals.push_back(counts[l]);
+        }
+      }
+      node.parent_score = weighted_entropy(node.totals.data(), node.classes) / n;
+      node.splittable = node.classes > 1;
+    } else {
+      std::vector<JointOffsetStats> st(joints_);
+      std::vector<float> o(4 * joints_);
+      for (uint32_t i = node.begin; i < node.end; ++i) {
+        pixel_offsets(px_[i], o.data());
+        for (int j = 0; j < joints_; ++j) {
+          st[j].n += o[4 * j];
+          st[j].sx += o[4 * j + 1];
+          st[j].sy += o[4 * j + 2];
+          st[j].sz += o[4 * j + 3];
+          st[j].sq += double(o[4 * j + 1]) * o[4 * j + 1] + double(o[4 * j + 2]) * o[4 * j + 2] +
+                      double(o[4 * j + 3]) * o[4 * j + 3];
+        }
+      }
+      node.parent_score = sum_squared_deviation(st.data(), joints_) / n;
+      node.splittable = node.parent_score > 1e-12;
+    }
+    node.splittable = node.splittable && node.level < p_.max_depth && n >= uint32_t(std::max(2, p_.min_samples));
+  }
+
+  void make_candidate(const NodeInfo& node, int index, Candidate& c) const {
+    Rng rng = Rng::keyed(p_.seed, 3, uint64_t(tree_), node.heap, uint64_t(index));
+    const int m = p_.max_offset_pxm;
+    auto draw = [&](const std::vector<std::array<int16_t, 2>>& chosen, int32_t& du, int32_t& dv) {
+      if (p_.proposal && !chosen.empty() && rng.unit() >= p_.proposal->uniform_fraction) {
+        const auto& o = chosen[rng.below(chosen.size())];
+        const int j = p_.proposal->jitter_pxm;
+        du = std::clamp<int32_t>(o[0] + rng.range(-j, j), -m, m);
+        dv = std::clamp<int32_t>(o[1] + rng.range(-j, j), -m, m);
+      } else {
+        du = rng.range(-m, m);
+        dv = rng.range(-m, m);
+      }
+    };
+    draw(p_.proposal ? p_.proposal->first : std::vector<std::array<int16_t, 2>>{}, c.du1, c.dv1);
+    if (rng.unit() < 0.5) {
+      c.du2 = c.dv2 = 0;
+    } else {
+      draw(p_.proposal ? p_.proposal->second : std::vector<std::array<int16_t, 2>>{}, c.du2, c.dv2);
+    }
+    // Thresholds: feature values of random pixels of the node (the response distribution).
+    const uint32_t n = node.end - node.begin;
+    const int wanted = std::min(p_.threshold_candidates, kMaxThresholds);
+    for (int i = 0; i < wanted; ++i) {
+      const TrainingPixel& q = px_[node.begin + rng.below(n)];
+      c.table[i] = feature_of_pixel(set_, q, c);
+    }
+    std::sort(c.table, c.table + wanted);
+    c.thresholds = static_cast<int>(std::unique(c.table, c.table + wanted) - c.table);
+    int padded = 1;
+    while (padded < c.thresholds + 1) padded *= 2;
+    for (int i = c.thresholds; i < padded; ++i) c.table[i] = INT32_MAX;
+    c.search_top = padded / 2;
+  }
+
+  void decode_block(const NodeInfo& node, uint32_t begin, uint32_t end, Block& b) const {
+    b.count = static_cast<int>(end - begin);
+    for (int i = 0; i < b.count; ++i) {
+      const TrainingPixel& p = px_[begin + i];
+      const TrainingImage& im = set_.images[p.image];
+      b.image[i] = im.probe.data();
+      b.width[i] = im.width;
+      b.height[i] = im.height;
+      b.u[i] = p.u;
+      b.v[i] = p.v;
+      b.scale[i] = p.scale_q13;
+      b.label[i] = node.class_of[p.label];
+    }
+  }
+
+  // Evaluates candidates [c0, c1) of `node`; returns the best.
+  Best evaluate(const NodeInfo& node, int c0, int c1, int thread) {
+    Scratch& s = scratch_[thread];
+    const int nc = c1 - c0;
+    s.candidates.resize(nc);
+    for (int c = 0; c < nc; ++c) make_candidate(node, c0 + c, s.candidates[c]);
+    int bins = 1;
+    for (const Candidate& c : s.candidates) bins = std::max(bins, c.thresholds + 1);
+    const uint32_t n = node.end - node.begin;
+    Best best;
+    if (p_.objective == Objective::kClassification) {
+      const int k = node.classes;
+      s.counts.assign(size_t(nc) * bins * k, 0);
+      for (uint32_t b0 = node.begin; b0 < node.end; b0 += kBlock) {
+        decode_block(node, b0, std::min<uint32_t>(node.end, b0 + kBlock), s.block);
+        const Block& b = s.block;
+        for (int c = 0; c < nc; ++c) {
+          const Candidate& cand = s.candidates[c];
+          uint32_t* h = s.counts.data() + size_t(c) * bins * k;
+          for (int i = 0; i < b.count; ++i) {
+            const int32_t f = feature_of(b.image[i], b.width[i], b.height[i], b.u[i], b.v[i], b.scale[i], cand);
+            ++h[bin_of(cand, f) * k + b.label[i]];
+          }
+        }
+      }
+      s.cum.resize(k);
+      for (int c = 0; c < nc; ++c) {
+        const Candidate& cand = s.candidates[c];
+        const uint32_t* h = s.counts.data() + size_t(c) * bins * k;
+        std::fill(s.cum.begin(), s.cum.end(), 0u);
+        uint32_t left = 0;
+        for (int t = 0; t < cand.thresholds; ++t) {
+          for (int j = 0; j < k; ++j) {
+            s.cum[j] += h[t * k + j];
+            left += h[t * k + j];
+          }
+          if (left == 0) continue;
+          const uint32_t right = n - left;
+          if (right == 0) break;
+          double wl = nlogn(left), wr = nlogn(right);
+          for (int j = 0; j < k; ++j) {
+            wl -= nlogn(s.cum[j]);
+            wr -= nlogn(node.totals[j] - s.cum[j]);
+          }
+          const double score = (wl + wr) / n;
+          if (score < best.score) {
+            best.score = score;
+            best.candidate = c0 + c;
+            best.du1 = cand.du1;
+            best.dv1 = cand.dv1;
+            best.du2 = cand.du2;
+            best.dv2 = cand.dv2;
+            best.threshold = cand.table[t];
+          }
+        }
+      }
+    } else {
+      const int J = joints_;
+      const size_t row = size_t(J) * 5;
+      s.sums.assign(size_t(nc) * bins * row, 0.0);
+      s.counts.assign(size_t(nc) * bins, 0);
+      s.offsets.resize(size_t(kBlock) * J * 4);
+      for (uint32_t b0 = node.begin; b0 < node.end; b0 += kBlock) {
+        const uint32_t b1 = std::min<uint32_t>(node.end, b0 + kBlock);
+        decode_block(node, b0, b1, s.block);
+        const Block& b = s.block;
+        for (int i = 0; i < b.count; ++i) pixel_offsets(px_[b0 + i], s.offsets.data() + size_t(i) * J * 4);
+        for (int c = 0; c < nc; ++c) {
+          const Candidate& cand = s.candidates[c];
+          double* h = s.sums.data() + size_t(c) * bins * row;
+          uint32_t* pixel_bins = s.counts.data() + size_t(c) * bins;
+          for (int i = 0; i < b.count; ++i) {
+            const int32_t f = feature_of(b.image[i], b.width[i], b.height[i], b.u[i], b.v[i], b.scale[i], cand);
+            const int bin = bin_of(cand, f);
+            ++pixel_bins[bin];
+            double* hb = h + bin * row;
+            const float* o = s.offsets.data() + size_t(i) * J * 4;
+            for (int j = 0; j < J; ++j) {
+              const double w = o[4 * j], dx = o[4 * j + 1], dy = o[4 * j + 2], dz = o[4 * j + 3];
+              hb[5 * j] += w;
+              hb[5 * j + 1] += dx;
+              hb[5 * j + 2] += dy;
+              hb[5 * j + 3] += dz;
+              hb[5 * j + 4] += dx * dx + dy * dy + dz * dz;
+            }
+          }
+        }
+      }
+      s.left.resize(J);
+      s.right.resize(J);
+      s.total.resize(J);
+      for (int c = 0; c < nc; ++c) {
+        const Candidate& cand = s.candidates[c];
+        const double* h = s.sums.data() + size_t(c) * bins * row;
+        std::fill(s.total.begin(), s.total.end(), JointOffsetStats{});
+        for (int t = 0; t <= cand.thresholds; ++t)
+          for (int j = 0; j < J; ++j) add(s.total[j], h + t * row + 5 * j);
+        std::fill(s.left.begin(), s.left.end(), JointOffsetStats{});
+        const uint32_t* pixel_bins = s.counts.data() + size_t(c) * bins;
+        uint32_t left = 0;
+        for (int t = 0; t < cand.thresholds; ++t) {
+          for (int j = 0; j < J; ++j) add(s.left[j], h + t * row + 5 * j);
+          left += pixel_bins[t];
+          if (left == 0) continue;
+          const uint32_t right = n - left;
+          if (right == 0) break;
+          for (int j = 0; j < J; ++j) {
+            s.right[j].n = s.total[j].n - s.left[j].n;
+            s.right[j].sx = s.total[j].sx - s.left[j].sx;
+            s.right[j].sy = s.total[j].sy - s.left[j].sy;
+            s.right[j].sz = s.total[j].sz - s.left[j].sz;
+            s.right[j].sq = s.total[j].sq - s.left[j].sq;
+          }
+          const double score = regression_objective(s.left.data(), s.right.data(), J, left, right);
+          if (score < best.score) {
+            best.score = score;
+            best.candidate = c0 + c;
+            best.du1 = cand.du1;
+            best.dv1 = cand.dv1;
+            best.du2 = cand.du2;
+            best.dv2 = cand.dv2;
+            best.threshold = cand.table[t];
+          }
+        }
+      }
+    }
+    return best;
+  }
+
+  static void add(JointOffsetStats& s, const double* h) {
+    s.n += h[0];
+    s.sx += h[1];
+    s.sy += h[2];
+    s.sz += h[3];
+    s.sq += h[4];
+  }
+
+  int chunk() const { return chunk_; }
+
+  size_t scratch_bytes() const {
+    size_t b = 0;
+    for (const Scratch& s : scratch_)
+      b += sizeof(Scratch) + s.candidates.capacity() * sizeof(Candidate) + s.counts.capacity() * 4 +
+           s.sums.capacity() * 8 + s.offsets.capacity() * 4;
+    return b;
+  }
+
+ private:
+  const TrainingSet& set_;
+  std::vector<TrainingPixel>& px_;
+  int tree_;
+  TreeParams p_;
+  int joints_ = 0;
+  int chunk_ = 16;
+  std::vector<Scratch> scratch_;
+};
+
+struct GrowNode {
+  uint32_t heap;
+  uint32_t begin, end;
+  bool leaf = true;
+  int32_t du1 = 0, dv1 = 0, du2 = 0, dv2 = 0, threshold = 0;
+};
+
+}  // namespace
+
+GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, int tree_index,
+                    const TreeParams& params, const ProgressFn& progress) {
+  const auto tree_start = std::chrono::steady_clock::now();
+  if (pixels.empty()) fail("tree " + std::to_string(tree_index) + ": no training pixels");
+  if (params.max_depth < 1 || params.max_depth > kMaxForestDepth)
+    fail("--depth must be 1.." + std::to_string(kMaxForestDepth));
+  if (params.offset_candidates < 1) fail("--offsets must be ≥ 1");
+  if (params.threshold_candidates < 1 || params.threshold_candidates > kMaxThresholds)
+    fail("--thresholds must be 1.." + std::to_string(kMaxThresholds));
+  if (params.max_offset_pxm < 0 || params.max_offset_pxm > 4096) fail("--max-offset must be 0..4096 pixel·metres");
+  if (params.objective == Objective::kClassification && !set.has_labels)
+    fail("the classification objective needs part labels (datasets with parts/)");
+  if (params.objective == Objective::kRegression && (!set.has_joints || set.joint_names.empty()))
+    fail("the regression objective needs joints in every frame");
+  if (pixels.size() > UINT32_MAX / 2) fail("too many training pixels for one tree");
+
+  GrownTree out;
+  Grower grower(set, pixels, tree_index, params);
+  std::vector<TrainingPixel> tmp(pixels.size());
+  std::vector<GrowNode> nodes;
+  nodes.push_back({0, 0, static_cast<uint32_t>(pixels.size())});
+  std::vector<size_t> frontier = {0};
+  const int threads = std::max(1, params.threads);
+  for (int level = 0; !frontier.empty(); ++level) {
+    const auto level_start = std::chrono::steady_clock::now();
+    std::vector<NodeInfo> info(frontier.size());
+    for (size_t f = 0; f < frontier.size(); ++f) {
+      const GrowNode& g = nodes[frontier[f]];
+      info[f].heap = g.heap;
+      info[f].begin = g.begin;
+      info[f].end = g.end;
+      info[f].level = level;
+    }
+    parallel_for(info.size(), threads, [&](size_t f, int) { grower.prepare(info[f]); });
+
+    struct Item {
+      uint32_t node;
+      int c0, c1;
+    };
+    std::vector<Item> items;
+    std::vector<size_t> first_item(info.size() + 1, 0);
+    uint64_t evaluations = 0;
+    size_t active = 0;
+    for (size_t f = 0; f < info.size(); ++f) {
+      first_item[f] = items.size();
+      if (!info[f].splittable) continue;
+      active += info[f].end - info[f].begin;
+      evaluations += uint64_t(info[f].end - info[f].begin) * params.offset_candidates;
+      for (int c = 0; c < params.offset_candidates; c += grower.chunk())
+        items.push_back({static_cast<uint32_t>(f), c, std::min(params.offset_candidates, c + grower.chunk())});
+    }
+    first_item[info.size()] = items.size();
+    std::vector<Best> results(items.size());
+    parallel_for(items.size(), threads, [&](size_t i, int thread) {
+      results[i] = grower.evaluate(info[items[i].node], items[i].c0, items[i].c1, thread);
+    });
+
+    std::vector<size_t> splitting;
+    for (size_t f = 0; f < info.size(); ++f) {
+      Best best;
+      for (size_t i = first_item[f]; i < first_item[f + 1]; ++i)
+        if (results[i].candidate >= 0 && results[i].score < best.score) best = results[i];
+      GrowNode& g = nodes[frontier[f]];
+      const double parent = info[f].parent_score;
+      if (best.candidate >= 0 && best.score < parent - 1e-12 * std::max(1.0, std::fabs(parent))) {
+        g.leaf = false;
+        g.du1 = best.du1;
+        g.dv1 = best.dv1;
+        g.du2 = best.du2;
+        g.dv2 = best.dv2;
+        g.threshold = best.threshold;
+        splitting.push_back(frontier[f]);
+      }
+    }
+
+    // Stable partition of each split node's pixels: left (feature ≤ threshold) then right.
+    std::vector<uint32_t> left_counts(splitting.size());
+    parallel_for(splitting.size(), threads, [&](size_t k, int) {
+      const GrowNode& g = nodes[splitting[k]];
+      Candidate c{};
+      c.du1 = g.du1;
+      c.dv1 = g.dv1;
+      c.du2 = g.du2;
+      c.dv2 = g.dv2;
+      uint32_t l = g.begin, r = g.begin;
+      for (uint32_t i = g.begin; i < g.end; ++i)
+        if (!(feature_of_pixel(set, pixels[i], c) > g.threshold)) ++r;
+      left_counts[k] = r - g.begin;
+      for (uint32_t i = g.begin; i < g.end; ++i) {
+        if (feature_of_pixel(set, pixels[i], c) > g.threshold)
+          tmp[r++] = pixels[i];
+        else
+          tmp[l++] = pixels[i];
+      }
+      std::copy(tmp.begin() + g.begin, tmp.begin() + g.end, pixels.begin() + g.begin);
+    });
+    std::vector<size_t> next;
+    for (size_t k = 0; k < splitting.size(); ++k) {
+      const GrowNode g = nodes[splitting[k]];
+      const uint32_t mid = g.begin + left_counts[k];
+      nodes.push_back({2 * g.heap + 1, g.begin, mid});
+      next.push_back(nodes.size() - 1);
+      nodes.push_back({2 * g.heap + 2, mid, g.end});
+      next.push_back(nodes.size() - 1);
+    }
+    frontier.swap(next);
+
+    const auto now = std::chrono::steady_clock::now();
+    out.feature_evaluations += evaluations;
+    if (progress) {
+      LevelReport r;
+      r.tree = tree_index;
+      r.level = level;
+      r.frontier_nodes = info.size();
+      r.split_nodes = splitting.size();
+      r.active_pixels = active;
+      r.feature_evaluations = evaluations;
+      r.seconds = std::chrono::duration<double>(now - level_start).count();
+      r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
+      progress(r);
+    }
+  }
+
+  std::sort(nodes.begin(), nodes.end(), [](const GrowNode& a, const GrowNode& b) { return a.heap < b.heap; });
+  TrainedTree& tree = out.tree;
+  for (const GrowNode& g : nodes) {
+    TrainedNode n;
+    n.heap_index = g.heap;
+    if (g.leaf) {
+      n.leaf = static_cast<int32_t>(out.leaf_ranges.size());
+      out.leaf_ranges.push_back({g.begin, g.end});
+      tree.leaf_pixel_counts.push_back(g.end - g.begin);
+    } else {
+      n.du1 = static_cast<int16_t>(g.du1);
+      n.dv1 = static_cast<int16_t>(g.dv1);
+      n.du2 = static_cast<int16_t>(g.du2);
+      n.dv2 = static_cast<int16_t>(g.dv2);
+      n.threshold_mm = static_cast<float>(std::clamp<int32_t>(g.threshold, -32768, 32767));
+    }
+    tree.nodes.push_back(n);
+  }
+  for (TrainedNode& n : tree.nodes) {
+    if (n.is_leaf()) continue;
+    auto position = [&](uint32_t heap) {
+      return static_cast<int32_t>(std::lower_bound(tree.nodes.begin(), tree.nodes.end(), heap,
+                                                   [](const TrainedNode& a, uint32_t h) { return a.heap_index < h; }) -
+                                  tree.nodes.begin());
+    };
+    n.left = position(2 * n.heap_index + 1);
+    n.right = position(2 * n.heap_index + 2);
+  }
+  out.peak_bytes = pixels.size() * sizeof(TrainingPixel) * 2 + grower.scratch_bytes() +
+                   nodes.size() * sizeof(GrowNode);
+  out.pixels = std::move(pixels);
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tree_start).count();
+  return out;
+}
+
+}  // namespace dp::train

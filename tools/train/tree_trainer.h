@@ -1,0 +1,89 @@
+// Tree-structure training (paper section 3.5.1): greedy, breadth first. Each level evaluates,
+// for every frontier node, |offsets| candidate offset pairs × up to |thresholds| thresholds over
+// all the node's pixels with one histogram pass per candidate block, picks the candidate that
+// minimizes Eq. 7, and partitions the pixels (stable) into the children.
+//
+// Determinism: every random choice is keyed by (seed, tree, node heap index, candidate), histogram
+// counts are integers or sums in a fixed pixel order, and ties go to the lowest candidate and
+// threshold. The grown tree is therefore identical for any thread count.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "tools/train/forest_file.h"
+#include "tools/train/training_set.h"
+
+namespace dp::train {
+
+enum class Objective { kClassification, kRegression };
+
+// Proposal distribution over offsets learnt from a trained forest's chosen splits (section 3.5.1,
+// Fig. 8): δ1 and non-zero δ2 are drawn from the chosen ones with a uniform jitter of ±jitter,
+// mixed with `uniform_fraction` of the uniform box.
+struct OffsetProposal {
+  std::vector<std::array<int16_t, 2>> first;   // chosen δ1
+  std::vector<std::array<int16_t, 2>> second;  // chosen non-zero δ2
+  double uniform_fraction = 0.1;
+  int jitter_pxm = 2;
+  static OffsetProposal from_forest(const TrainedForest& forest);
+};
+
+struct TreeParams {
+  int max_depth = 20;               // leaves at level ≤ max_depth (root level 0)
+  int offset_candidates = 2000;     // offset pairs per node
+  int threshold_candidates = 50;    // thresholds per offset pair (1..255)
+  int max_offset_pxm = 65;          // |du|,|dv| ≤ this, pixel·metres at the reference focal
+  int min_samples = 10;             // nodes with fewer pixels become leaves
+  Objective objective = Objective::kClassification;
+  float rho_m = 0.5f;               // regression: offsets with |Δ| ≥ ρ are ignored (Eq. 11)
+  uint64_t seed = 1;
+  int threads = 1;
+  const OffsetProposal* proposal = nullptr;
+};
+
+struct LevelReport {
+  int tree = 0, level = 0;
+  size_t frontier_nodes = 0, split_nodes = 0, active_pixels = 0;
+  uint64_t feature_evaluations = 0;  // pixel × offset-pair evaluations this level
+  double seconds = 0;                // this level
+  double tree_seconds = 0;           // since the tree started
+};
+using ProgressFn = std::function<void(const LevelReport&)>;
+
+struct GrownTree {
+  TrainedTree tree;                  // structure and leaf_pixel_counts; no leaf models yet
+  std::vector<TrainingPixel> pixels; // reordered so that each leaf's pixels are contiguous
+  std::vector<std::pair<uint32_t, uint32_t>> leaf_ranges;  // per leaf record: [begin, end) in pixels
+  uint64_t feature_evaluations = 0;
+  double seconds = 0;
+  size_t peak_bytes = 0;             // working memory of the growth (pixels, buffers, scratch)
+};
+
+// Grows one tree on `pixels` (which it takes) of `set`. For kRegression the images need joints.
+GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, int tree_index,
+                    const TreeParams& params, const ProgressFn& progress = {});
+
+// Objective pieces, exposed for tests. Natural logarithms.
+// n·log n − Σ_c n_c·log n_c = |S|·H(S) of Eq. 8 for label counts n_c (n = Σ n_c).
+double weighted_entropy(const uint32_t* counts, int count);
+// Eq. 7 with Eq. 8: (|L|·H(L) + |R|·H(R)) / (|L| + |R|).
+double classification_objective(const uint32_t* left, const uint32_t* right, int count);
+
+// Per joint sufficient statistics of the offsets Δ (metres) with |Δ| < ρ.
+struct JointOffsetStats {
+  double n = 0, sx = 0, sy = 0, sz = 0, sq = 0;
+};
+// Eq. 9: Σ_j Σ_{u∈S_j} |Δ_uj − μ_j|² from per-joint statistics.
+double sum_squared_deviation(const JointOffsetStats* stats, int joints);
+// Eq. 7 with Eq. 9: (I_reg(L) + I_reg(R)) / (|L| + |R|); I_reg/|S| is the per-pixel deviation, so
+// weighting it by |S_d|/|S| as Eq. 7 does gives this sum.
+double regression_objective(const JointOffsetStats* left, const JointOffsetStats* right, int joints,
+                            double left_pixels, double right_pixels);
+
+// Runs fn(i, thread) for i in [0, n) on `threads` threads (thread 0 is the caller), items taken in
+// increasing order. An exception stops the loop and the one of the lowest item is rethrown.
+void parallel_for(size_t n, int threads, const std::function<void(size_t, int)>& fn);
+
+}  // namespace dp::train
