@@ -6,6 +6,8 @@
 #include <zlib.h>
 
 #include <atomic>
+#include <cerrno>
+#include <cstdio>
 #include <chrono>
 #include <cstring>
 #include <thread>
@@ -101,6 +103,14 @@ Attempt record_once(FrameSource& source, const std::string& out_path, const Reco
       fail("record: cannot open depthpose's OpenNI2 feed device (" + std::string(openni::OpenNI::getExtendedError()) + ")");
     openni::VideoStream stream;
     if (stream.create(device, openni::SENSOR_DEPTH) != openni::STATUS_OK) fail("record: cannot create the feed's depth stream");
+    // OpenNI2 2.2 hangs or crashes when Recorder::create() fails (its destructor joins a thread
+    // it never started): make sure the file can be written before asking it.
+    if (FILE* probe = std::fopen(out_path.c_str(), "wb")) {
+      std::fclose(probe);
+    } else {
+      stream.destroy();
+      fail("record: cannot write " + out_path + " (" + std::strerror(errno) + ")");
+    }
     openni::Recorder recorder;
     if (recorder.create(out_path.c_str()) != openni::STATUS_OK) {
       stream.destroy();
@@ -144,6 +154,11 @@ RecordReport record_oni(const SourceFactory& reopen, bool replayable, const std:
   for (int a = 1; a <= attempts; ++a) {
     if (!path.empty()) ::unlink(path.c_str());
     path = out_path + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(serial++);
+    if (FILE* probe = std::fopen(path.c_str(), "wb")) {
+      std::fclose(probe);
+    } else {
+      fail("record: cannot write " + out_path + " (" + std::strerror(errno) + ")");
+    }
     std::unique_ptr<FrameSource> source = reopen();
     report.width = source->width();
     report.height = source->height();

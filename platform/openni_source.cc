@@ -96,7 +96,11 @@ class OniSource final : public FrameSource {
       fail("oni:" + path + ": cannot start playback (" + extended_error() + ")");
   }
   ~OniSource() override {
+    // OniFile's player thread walks its stream list and raises frames without a lock; destroying
+    // a started stream under it crashes (about one teardown in ten). Stopped, the thread only
+    // polls for a started stream every 10 ms: let it settle there before the stream goes.
     stream_.stop();
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
     stream_.destroy();
     device_.close();
   }
