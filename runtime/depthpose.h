@@ -19,6 +19,8 @@
 
 namespace dp {
 
+namespace kernels { struct PackedNode; }
+
 enum class Status : int32_t {
   kOk = 0,
   kBadArgument,        // null pointer, non-positive size, stride < width, bad intrinsics
@@ -120,6 +122,15 @@ class Pipeline {
   // Validates then replaces the runtime config (tune uses this). kBadConfig on invalid values.
   Status set_config(const blob::RuntimeConfig& config);
 
+  // Re-runs only votes and mean shift (stages 3–4) with the current config, on a pixel list and
+  // its leaves saved from an earlier process() of a frame with these intrinsics (tune's grid
+  // search re-aggregates cached forest output). `leaves` is tree-major: tree t's leaf for pixel i
+  // at leaves[t · count + i]. Returns kNotInitialized, kBadArgument (null pointer, count outside
+  // 1..pixel budget, bad intrinsics, a leaf ≥ leaf_count) or kOk; stage_cycles[kStageForest] = 0.
+  // Afterwards the views below describe the given pixels.
+  Status aggregate_from_leaves(const CameraIntrinsics& intrinsics, const EvaluatedPixel* pixels,
+                               const uint32_t* leaves, int32_t count, FrameResult* result);
+
   // Views of the last processed frame, valid until the next process() call.
   int32_t evaluated_pixel_count() const { return evaluated_count_; }
   const EvaluatedPixel* evaluated_pixels() const { return pixels_; }
@@ -149,6 +160,7 @@ class Pipeline {
   int32_t* vote_counts_ = nullptr;
   struct Vote* starts_ = nullptr;       // [max_starts] for the joint being aggregated
   float* modes_ = nullptr;              // scratch for mean-shift modes
+  kernels::PackedNode* packed_nodes_ = nullptr;  // persistent (arena tail): compact copy of the nodes
   int32_t evaluated_count_ = 0;
   bool initialized_ = false;
 

@@ -61,11 +61,21 @@ struct Layout {
   Vote* starts;
   float* modes;
   blob::RuntimeConfig* config;
+  kernels::PackedNode* packed_nodes;  // nullptr when the forest's offsets do not fit the packing
 };
+
+// Measured in docs/runtime_speed.md: the packed 8-byte nodes cost more decode work than they save in
+// cache misses with the current kernels, so the pipeline evaluates the blob's nodes in place.
+constexpr bool kUsePackedNodes = false;
+bool packable(const blob::LoadedBlob& b) {
+  return kUsePackedNodes && int32_t(b.meta->max_abs_offset_pxm) <= kernels::kPackedMaxOffset;
+}
 
 bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, Layout* l) {
   l->config = c.tail<blob::RuntimeConfig>(1);
-  l->probe_image = c.head<uint16_t>(size_t(w) * size_t(h));
+  l->packed_nodes = packable(b) ? c.tail<kernels::PackedNode>(size_t(b.tree_count()) * blob::nodes_per_tree(b.depth()))
+                                : nullptr;
+  l->probe_image = c.head<uint16_t>(kernels::padded_probe_elements(w, h));
   l->pixels = c.head<EvaluatedPixel>(size_t(max_pixels));
   l->leaves = c.head<uint32_t>(size_t(max_pixels) * size_t(b.tree_count()));
   l->votes = c.head<Vote>(size_t(blob::kMaxJoints) * blob::kMaxVotesCap);
@@ -159,6 +169,11 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
   modes_ = l.modes;
   config_ = l.config;
   *config_ = *blob.config;
+  packed_nodes_ = l.packed_nodes;
+  if (packed_nodes_) {
+    const size_t count = size_t(blob.tree_count()) * blob::nodes_per_tree(blob.depth());
+    for (size_t i = 0; i < count; ++i) packed_nodes_[i] = kernels::pack_node(blob.nodes[i]);
+  }
   evaluated_count_ = 0;
   kernel_ = KernelIsa::kScalar;
   initialized_ = true;
@@ -213,11 +228,13 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
 
   // Stage 1: foreground → probe image and the (possibly strided) list of pixels to evaluate.
   const int32_t w = f.width, h = f.height;
+  const int32_t probe_stride = w + 2;
+  kernels::fill_probe_border(probe_image_, w, h);
   int32_t fg = 0;
   for (int32_t v = 0; v < h; ++v) {
     const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     const uint8_t* mrow = f.foreground_mask ? f.foreground_mask + size_t(v) * f.stride_px : nullptr;
-    uint16_t* out = probe_image_ + size_t(v) * w;
+    uint16_t* out = probe_image_ + size_t(v + 1) * probe_stride + 1;
     for (int32_t u = 0; u < w; ++u) {
       const uint16_t z = row[u];
       const bool is_fg = z != 0 && z < kBackgroundDepthMm &&
@@ -236,7 +253,7 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   r->pixel_stride = stride;
   int32_t n = 0, seen = 0;
   for (int32_t v = 0; v < h && n < budget; ++v) {
-    const uint16_t* row = probe_image_ + size_t(v) * w;
+    const uint16_t* row = probe_image_ + size_t(v + 1) * probe_stride + 1;
     for (int32_t u = 0; u < w; ++u) {
       if (row[u] == kBackgroundDepthMm) continue;
       if (seen++ % stride != 0) continue;
@@ -259,7 +276,9 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   const int32_t focal = focal_factor_mm(0.5f * (f.intrinsics.fx + f.intrinsics.fy), fref);
   const kernels::ForestKernelFn kernel = kernels::forest_kernel(kernel_);
   for (int t = 0; t < blob_.tree_count(); ++t) {
-    kernels::ForestKernelArgs a{probe_image_, w, h, focal, pixels_, n, blob_.tree_nodes(t),
+    const kernels::PackedNode* packed =
+        packed_nodes_ ? packed_nodes_ + size_t(t) * blob::nodes_per_tree(blob_.depth()) : nullptr;
+    kernels::ForestKernelArgs a{probe_image_, probe_stride, w, h, focal, pixels_, n, blob_.tree_nodes(t), packed,
                                 blob_.tree_leaf_index(t), blob_.depth(), leaves_ + size_t(t) * max_pixels_};
     kernel(a);
   }
@@ -281,6 +300,40 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   r->stage_cycles[kStageMeanShift] = t4 - t3;
   r->total_cycles = t4 - t0;
   if (cfg.cycle_budget != 0 && r->total_cycles > cfg.cycle_budget) r->flags |= kFlagOverCycleBudget;
+  return Status::kOk;
+}
+
+Status Pipeline::aggregate_from_leaves(const CameraIntrinsics& intr, const EvaluatedPixel* pixels,
+                                       const uint32_t* leaves, int32_t count, FrameResult* r) {
+  if (!r) return Status::kBadArgument;
+  memset(r, 0, sizeof *r);
+  if (!initialized_) return Status::kNotInitialized;
+  if (!pixels || !leaves || count < 1 || count > max_pixels_ || !(intr.fx > 0.0f) || !(intr.fy > 0.0f))
+    return Status::kBadArgument;
+  const int trees = blob_.tree_count();
+  for (size_t k = 0; k < size_t(count) * size_t(trees); ++k)
+    if (leaves[k] >= blob_.meta->leaf_count) return Status::kBadArgument;
+  const uint64_t t0 = cycles_now();
+  memcpy(pixels_, pixels, size_t(count) * sizeof(EvaluatedPixel));
+  for (int t = 0; t < trees; ++t)
+    memcpy(leaves_ + size_t(t) * max_pixels_, leaves + size_t(t) * count, size_t(count) * sizeof(uint32_t));
+  evaluated_count_ = count;
+  r->joint_count = blob_.meta->joint_count;
+  r->evaluated_pixels = count;
+  r->foreground_pixels = count;
+  r->pixel_stride = 1;
+  const DepthFrame f{nullptr, 0, 0, 0, intr, nullptr};  // the vote casters read only the intrinsics
+  for (int j = 0; j < blob::kMaxJoints; ++j) vote_counts_[j] = 0;
+  if (blob_.method() == blob::Method::kBpc)
+    cast_bpc_votes(f, r);
+  else
+    cast_ojr_votes(f, r);
+  const uint64_t t1 = cycles_now();
+  r->stage_cycles[kStageVotes] = t1 - t0;
+  aggregate(r);
+  const uint64_t t2 = cycles_now();
+  r->stage_cycles[kStageMeanShift] = t2 - t1;
+  r->total_cycles = t2 - t0;
   return Status::kOk;
 }
 

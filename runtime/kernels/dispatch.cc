@@ -1,5 +1,7 @@
 #include <cpuid.h>
 
+#include <atomic>
+
 #include "runtime/kernels/forest_kernel.h"
 
 namespace dp {
@@ -25,17 +27,24 @@ CpuFeatures detect() {
   f.avx512 = f.avx2 && zmm && ((b >> 16) & 1) && ((b >> 17) & 1) && ((b >> 30) & 1) && ((b >> 31) & 1);
   return f;
 }
+// CPUID traps to the hypervisor on virtual machines (microseconds): detect once, then reuse.
+CpuFeatures cached_features() {
+  static std::atomic<int> bits{0};  // 0 = not yet detected; else 0x100 | avx2 | avx512 << 1
+  int b = bits.load(std::memory_order_relaxed);
+  if (b == 0) {
+    const CpuFeatures f = detect();
+    b = 0x100 | (f.avx2 ? 1 : 0) | (f.avx512 ? 2 : 0);
+    bits.store(b, std::memory_order_relaxed);
+  }
+  CpuFeatures f;
+  f.avx2 = (b & 1) != 0;
+  f.avx512 = (b & 2) != 0;
+  return f;
+}
 }  // namespace
 
 bool kernel_isa_supported(KernelIsa isa) {
-  const CpuFeatures f = detect();
-  switch (isa) {
-    case KernelIsa::kScalar: return true;
-    case KernelIsa::kAvx2: return f.avx2 && kernels::forest_kernel(isa) != nullptr;
-    case KernelIsa::kAvx512: return f.avx512 && kernels::forest_kernel(isa) != nullptr;
-    case KernelIsa::kBest: return true;
-  }
-  return false;
+  return kernels::forest_kernel(isa) != nullptr;
 }
 
 const char* kernel_isa_name(KernelIsa isa) {
@@ -49,13 +58,14 @@ const char* kernel_isa_name(KernelIsa isa) {
 }
 
 namespace kernels {
-// Per-ISA kernels are linked in when their folders exist; until then only the reference runs.
 ForestKernelFn forest_kernel(KernelIsa isa) {
+  const CpuFeatures f = cached_features();
   switch (isa) {
     case KernelIsa::kScalar: return &ref::evaluate_tree;
-    case KernelIsa::kAvx2: return nullptr;
-    case KernelIsa::kAvx512: return nullptr;
-    case KernelIsa::kBest: return &ref::evaluate_tree;
+    case KernelIsa::kAvx2: return f.avx2 ? &avx2::evaluate_tree : nullptr;
+    case KernelIsa::kAvx512: return f.avx512 ? &avx512::evaluate_tree : nullptr;
+    case KernelIsa::kBest:
+      return f.avx512 ? &avx512::evaluate_tree : f.avx2 ? &avx2::evaluate_tree : &ref::evaluate_tree;
   }
   return nullptr;
 }

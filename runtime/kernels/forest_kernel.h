@@ -1,21 +1,69 @@
 // The forest-evaluation seam. runtime/kernels/ref/ is the specification; per-ISA folders
 // (runtime/kernels/avx2/, runtime/kernels/avx512/) hold files of the same names whose results
 // must equal the reference bit for bit (tests/runtime_kernel_test.cc proves it).
+// Kernels run on caller-provided memory only: no heap, no exceptions, no state between calls.
 #pragma once
+#include <stddef.h>
 #include <stdint.h>
 
 #include "forest_blob/blob_format.h"
 #include "runtime/depthpose.h"
+#include "runtime/fixed_point.h"
 
 namespace dp::kernels {
 
+// The probe image with a one-pixel border: (width + 2) × (height + 2) uint16, row stride
+// probe_stride = width + 2. Pixel (u, v) is at [(v + 1)·probe_stride + (u + 1)]; the border rows and
+// columns hold kBackgroundDepthMm, so a probe clamped to the border reads exactly what
+// runtime/fixed_point.h prescribes for any probe off the image.
+inline size_t padded_probe_elements(int32_t width, int32_t height) {
+  return size_t(width + 2) * size_t(height + 2);
+}
+// Fills the border of a padded probe image (interior untouched).
+inline void fill_probe_border(uint16_t* padded, int32_t width, int32_t height) {
+  const int32_t stride = width + 2;
+  for (int32_t u = 0; u < stride; ++u) {
+    padded[u] = kBackgroundDepthMm;
+    padded[size_t(height + 1) * stride + u] = kBackgroundDepthMm;
+  }
+  for (int32_t v = 1; v <= height; ++v) {
+    padded[size_t(v) * stride] = kBackgroundDepthMm;
+    padded[size_t(v) * stride + width + 1] = kBackgroundDepthMm;
+  }
+}
+
+// Compact 8-byte node, built at init from blob::TreeNode when every |offset| ≤ kPackedMaxOffset
+// (PCL's trees: 395). Lane k (int16, k = du1, dv1, du2, dv2) holds offset_k·16 in bits 4..15 and
+// bits 4k..4k+3 of the int16 threshold in bits 0..3:
+//   offset_k·4   = (lane_k & ~15) >> 2      (what the SIMD probe arithmetic wants)
+//   threshold_mm = int16(pext(node, 0x000F000F000F000F))
+struct PackedNode {
+  uint64_t bits;
+};
+static_assert(sizeof(PackedNode) == 8, "PackedNode is 8 bytes");
+constexpr int32_t kPackedMaxOffset = 2047;
+
+inline PackedNode pack_node(const blob::TreeNode& n) {
+  const int16_t offsets[4] = {n.du1, n.dv1, n.du2, n.dv2};
+  const uint16_t t = uint16_t(n.threshold_mm);
+  uint64_t bits = 0;
+  for (int k = 0; k < 4; ++k) {
+    const uint16_t lane = uint16_t(uint16_t(offsets[k]) << 4) | uint16_t((t >> (4 * k)) & 15u);
+    bits |= uint64_t(lane) << (16 * k);
+  }
+  return PackedNode{bits};
+}
+
 struct ForestKernelArgs {
-  const uint16_t* probe_image;    // width × height, no stride: foreground depth or kBackgroundDepthMm
+  const uint16_t* probe_image;    // padded probe image (above): foreground depth or kBackgroundDepthMm
+  int32_t probe_stride;           // width + 2
   int32_t width, height;
   int32_t focal_factor;           // runtime/fixed_point.h
-  const EvaluatedPixel* pixels;   // pixels to classify; z_mm > 0 for each
+  const EvaluatedPixel* pixels;   // pixels to classify; z_mm > 0, u < width, v < height
   int32_t pixel_count;
   const blob::TreeNode* nodes;    // one tree: nodes_per_tree(depth) nodes in heap order
+  const PackedNode* packed_nodes; // the same tree packed (heap order), or nullptr; kernels may use
+                                  // either, the result is the same
   const uint32_t* leaf_index;     // that tree's leaves_per_tree(depth) leaf-record indices
   int32_t depth;                  // validated 1..kMaxDepth
   uint32_t* leaf_out;             // pixel_count outputs: leaf-record index reached

@@ -1,8 +1,18 @@
 // Scalar reference kernel: the specification every SIMD kernel must reproduce bit for bit.
+// It reads the blob's nodes and checks image bounds itself (it never relies on the border).
 #include "runtime/fixed_point.h"
 #include "runtime/kernels/forest_kernel.h"
 
 namespace dp::kernels::ref {
+
+namespace {
+inline int32_t probe(const ForestKernelArgs& a, int32_t u, int32_t v) {
+  if (static_cast<uint32_t>(u) >= static_cast<uint32_t>(a.width) ||
+      static_cast<uint32_t>(v) >= static_cast<uint32_t>(a.height))
+    return kBackgroundDepthMm;
+  return a.probe_image[size_t(v + 1) * size_t(a.probe_stride) + size_t(u + 1)];
+}
+}  // namespace
 
 void evaluate_tree(const ForestKernelArgs& a) {
   const uint32_t first_leaf = (1u << a.depth) - 1;
@@ -12,10 +22,8 @@ void evaluate_tree(const ForestKernelArgs& a) {
     uint32_t n = 0;
     for (int32_t level = 0; level < a.depth; ++level) {
       const blob::TreeNode& node = a.nodes[n];
-      const int32_t d1 = probe_depth(a.probe_image, a.width, a.height, p.u + probe_offset_px(node.du1, s),
-                                     p.v + probe_offset_px(node.dv1, s));
-      const int32_t d2 = probe_depth(a.probe_image, a.width, a.height, p.u + probe_offset_px(node.du2, s),
-                                     p.v + probe_offset_px(node.dv2, s));
+      const int32_t d1 = probe(a, p.u + probe_offset_px(node.du1, s), p.v + probe_offset_px(node.dv1, s));
+      const int32_t d2 = probe(a, p.u + probe_offset_px(node.du2, s), p.v + probe_offset_px(node.dv2, s));
       n = 2 * n + 1 + ((d1 - d2) > node.threshold_mm ? 1u : 0u);
     }
     a.leaf_out[i] = a.leaf_index[n - first_leaf];

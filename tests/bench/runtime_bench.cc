@@ -1,0 +1,313 @@
+// `make bench`: forest-kernel and end-to-end speed of the runtime, SIMD beside the scalar
+// reference in the same run, on the real Skeltrack frames with PCL's trees and on synthetic
+// frames. Prints a table and writes build/bench/runtime.json (docs/runtime_speed.md).
+#include <x86intrin.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "forest_blob/blob_loader.h"
+#include "forest_blob/blob_writer.h"
+#include "runtime/depthpose.h"
+#include "runtime/fixed_point.h"
+#include "runtime/kernels/forest_kernel.h"
+#include "tools/common/body_model.h"
+#include "tools/convert/pcl_import.h"
+#include "tools/demo/fixtures.h"
+
+using namespace dp;
+
+namespace {
+
+double now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+struct Frame {
+  int width, height;
+  std::vector<uint16_t> depth;
+  CameraIntrinsics intrinsics;
+  DepthFrame view() const { return DepthFrame{depth.data(), width, height, width, intrinsics, nullptr}; }
+};
+
+std::vector<Frame> skeltrack_frames(bool half) {
+  const char* const names[] = {"1028894671", "1038901490", "1045879925", "1051883281", "1058893191", "1064898470",
+                               "1070905432", "1078881076", "1166565565", "1234568668", "1399145206", "82823944"};
+  std::vector<Frame> out;
+  for (const char* name : names) {
+    const std::string path = std::string("../shared/data/skeltrack-frames/depth-data-") + name + ".raw";
+    std::ifstream in(path, std::ios::binary);
+    std::vector<uint16_t> d(640 * 480);
+    in.read(reinterpret_cast<char*>(d.data()), std::streamsize(d.size() * 2));
+    if (!in) {
+      std::fprintf(stderr, "bench: cannot read %s (run from the repo root; ../shared/data is required)\n", path.c_str());
+      std::exit(1);
+    }
+    if (!half) {
+      out.push_back(Frame{640, 480, d, tools::kinect_intrinsics(640, 480)});
+    } else {
+      std::vector<uint16_t> h(320 * 240);
+      for (int v = 0; v < 240; ++v)
+        for (int u = 0; u < 320; ++u) h[size_t(v) * 320 + u] = d[size_t(2 * v) * 640 + 2 * u];
+      out.push_back(Frame{320, 240, h, tools::kinect_intrinsics(320, 240)});
+    }
+  }
+  return out;
+}
+
+std::vector<Frame> synthetic_frames(bool half) {
+  std::vector<Frame> out;
+  const int w = half ? 320 : 640, h = half ? 240 : 480;
+  for (int i = 0; i < 4; ++i) {
+    tools::SyntheticFrame f = tools::make_disc_frame(w, h, w * (0.35f + 0.1f * i), h * 0.5f, h * 0.3f, uint16_t(1100 + 100 * i));
+    // A tilted surface inside the disc, so features are not all zero.
+    for (int v = 0; v < h; ++v)
+      for (int u = 0; u < w; ++u) {
+        uint16_t& z = f.depth_mm[size_t(v) * w + u];
+        if (z) z = uint16_t(z + (u * 3 + v * 2) % 97);
+      }
+    out.push_back(Frame{w, h, f.depth_mm, f.intrinsics});
+  }
+  return out;
+}
+
+// Forest-kernel inputs prepared the pipeline's way: padded probe image and all foreground pixels.
+struct KernelInput {
+  std::vector<uint16_t> probe;
+  std::vector<EvaluatedPixel> pixels;
+  int width, height;
+  int32_t focal;
+};
+
+KernelInput kernel_input(const Frame& f, float reference_focal) {
+  KernelInput k;
+  k.width = f.width;
+  k.height = f.height;
+  k.focal = focal_factor_mm(f.intrinsics.fx, reference_focal);
+  k.probe.assign(kernels::padded_probe_elements(f.width, f.height), kBackgroundDepthMm);
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u) {
+      const uint16_t z = f.depth[size_t(v) * f.width + u];
+      if (!z) continue;
+      k.probe[size_t(v + 1) * (f.width + 2) + u + 1] = z;
+      k.pixels.push_back(EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0});
+    }
+  return k;
+}
+
+struct Variant {
+  const char* name;
+  KernelIsa isa;
+  bool packed;
+};
+const Variant kVariants[] = {{"scalar ref", KernelIsa::kScalar, false},
+                             {"avx2 10B nodes", KernelIsa::kAvx2, false},
+                             {"avx2 8B packed", KernelIsa::kAvx2, true},
+                             {"avx512 10B nodes", KernelIsa::kAvx512, false},
+                             {"avx512 8B packed", KernelIsa::kAvx512, true}};
+constexpr int kVariantCount = sizeof kVariants / sizeof kVariants[0];
+
+// ns per node visit of each variant over all inputs; variants interleaved round by round, best
+// round kept (whole-process timings drift, so pairs are compared inside one run).
+std::vector<double> kernel_ns_per_visit(const blob::LoadedBlob& b, const std::vector<kernels::PackedNode>& packed,
+                                        const std::vector<KernelInput>& inputs, int rounds) {
+  std::vector<double> best(kVariantCount, 1e30);
+  std::vector<uint32_t> out;
+  size_t max_pixels = 0, visits = 0;
+  for (const auto& in : inputs) {
+    max_pixels = std::max(max_pixels, in.pixels.size());
+    visits += in.pixels.size() * size_t(b.tree_count()) * size_t(b.depth());
+  }
+  out.resize(max_pixels);
+  for (int r = 0; r < rounds; ++r)
+    for (int v = 0; v < kVariantCount; ++v) {
+      const kernels::ForestKernelFn fn = kernels::forest_kernel(kVariants[v].isa);
+      if (!fn) continue;
+      const double t0 = now_s();
+      for (const auto& in : inputs)
+        for (int t = 0; t < b.tree_count(); ++t) {
+          kernels::ForestKernelArgs a{in.probe.data(), in.width + 2, in.width, in.height, in.focal, in.pixels.data(),
+                                      int32_t(in.pixels.size()), b.tree_nodes(t),
+                                      kVariants[v].packed ? packed.data() + size_t(t) * blob::nodes_per_tree(b.depth())
+                                                          : nullptr,
+                                      b.tree_leaf_index(t), b.depth(), out.data()};
+          fn(a);
+        }
+      best[v] = std::min(best[v], (now_s() - t0) * 1e9 / double(visits));
+    }
+  return best;
+}
+
+struct Runner {
+  std::vector<uint8_t> bytes;
+  blob::LoadedBlob view{};
+  std::unique_ptr<uint8_t, decltype(&std::free)> arena{nullptr, &std::free};
+  size_t arena_bytes = 0;
+  Pipeline pipeline;
+  Runner(std::vector<uint8_t> b, int w, int h) : bytes(std::move(b)) {
+    if (blob::load_blob(bytes.data(), bytes.size(), &view) != blob::BlobStatus::kOk) std::abort();
+    arena_bytes = required_arena_bytes(view, w, h);
+    arena.reset(static_cast<uint8_t*>(std::aligned_alloc(64, (arena_bytes + 63) / 64 * 64)));
+    if (pipeline.init(view, w, h, arena.get(), arena_bytes) != Status::kOk) std::abort();
+  }
+};
+
+struct EndToEnd {
+  double fps = 0;
+  double stage_cycles[kStageCount] = {};
+  double total_cycles = 0;
+  double evaluated_pixels = 0;
+};
+
+EndToEnd end_to_end(Runner& r, KernelIsa isa, const std::vector<Frame>& frames, int rounds) {
+  EndToEnd e;
+  if (r.pipeline.set_kernel(isa) != Status::kOk) return e;
+  FrameResult res;
+  double best = 1e30;
+  for (int round = 0; round < rounds; ++round) {
+    EndToEnd acc;
+    const double t0 = now_s();
+    for (const Frame& f : frames) {
+      r.pipeline.process(f.view(), &res);
+      for (int s = 0; s < kStageCount; ++s) acc.stage_cycles[s] += double(res.stage_cycles[s]);
+      acc.total_cycles += double(res.total_cycles);
+      acc.evaluated_pixels += res.evaluated_pixels;
+    }
+    const double dt = now_s() - t0;
+    if (dt < best) {
+      best = dt;
+      e = acc;
+    }
+  }
+  const double n = double(frames.size());
+  e.fps = n / best;
+  for (double& c : e.stage_cycles) c /= n;
+  e.total_cycles /= n;
+  e.evaluated_pixels /= n;
+  return e;
+}
+
+// OJR forest for speed only: PCL's tree structure (realistic paths) with random vote leaves.
+blob::BlobContents ojr_on_pcl_nodes(const blob::BlobContents& pcl) {
+  blob::BlobContents c;
+  c.method = blob::Method::kOjr;
+  c.depth = pcl.depth;
+  c.reference_focal_px = pcl.reference_focal_px;
+  for (const char* n : tools::kJointNames) c.joint_names.push_back(n);
+  c.votes_per_joint = 2;
+  c.tree_nodes = pcl.tree_nodes;
+  std::mt19937 rng(5);
+  const uint32_t leaves = 4096;
+  for (size_t t = 0; t < pcl.tree_nodes.size(); ++t) {
+    std::vector<uint32_t> index(blob::leaves_per_tree(c.depth));
+    for (auto& i : index) i = rng() % leaves;
+    c.tree_leaf_index.push_back(std::move(index));
+  }
+  std::uniform_int_distribution<int> off(-300, 300), w(1, 1000);
+  for (uint32_t l = 0; l < leaves * tools::kJointCount * 2; ++l)
+    c.ojr_leaves.push_back(blob::OjrVote{int16_t(off(rng)), int16_t(off(rng)), int16_t(off(rng)), uint16_t(w(rng))});
+  c.config = blob::default_runtime_config(tools::kJointCount);
+  c.config.max_evaluated_pixels = 640 * 480;
+  return c;
+}
+
+void print_end_to_end(const char* label, const EndToEnd& scalar, const EndToEnd& best) {
+  std::printf("  %-28s scalar %7.1f fps | best SIMD %7.1f fps (x%.2f) | %6.0f px/frame | cycles/frame:", label,
+              scalar.fps, best.fps, best.fps / scalar.fps, best.evaluated_pixels);
+  for (int s = 0; s < kStageCount; ++s) std::printf(" %s %.0f", stage_name(s), best.stage_cycles[s]);
+  std::printf(" (scalar forest %.0f)\n", scalar.stage_cycles[kStageForest]);
+}
+
+}  // namespace
+
+int main() {
+  std::printf("runtime bench: kernels %s/%s/%s available: %d/%d/%d\n", kernel_isa_name(KernelIsa::kScalar),
+              kernel_isa_name(KernelIsa::kAvx2), kernel_isa_name(KernelIsa::kAvx512), 1,
+              int(kernel_isa_supported(KernelIsa::kAvx2)), int(kernel_isa_supported(KernelIsa::kAvx512)));
+  std::vector<tools::PclTree> trees;
+  for (int i = 1; i <= 3; ++i)
+    trees.push_back(tools::read_pcl_tree("../shared/data/pcl-people-trees/forest" + std::to_string(i) + "_tree_20.txt.bz2"));
+  const blob::BlobContents pcl = tools::pcl_blob_contents(trees);
+  trees.clear();
+  const std::vector<uint8_t> pcl_bytes = blob::write_blob(pcl);
+  blob::LoadedBlob pb;
+  if (blob::load_blob(pcl_bytes.data(), pcl_bytes.size(), &pb) != blob::BlobStatus::kOk) return 1;
+  std::vector<kernels::PackedNode> packed;
+  for (size_t i = 0; i < size_t(pb.tree_count()) * blob::nodes_per_tree(pb.depth()); ++i)
+    packed.push_back(kernels::pack_node(pb.nodes[i]));
+
+  const std::vector<Frame> real_vga = skeltrack_frames(false), real_qvga = skeltrack_frames(true);
+  const std::vector<Frame> syn_vga = synthetic_frames(false), syn_qvga = synthetic_frames(true);
+
+  // --- forest kernels alone -------------------------------------------------------------------
+  std::printf("\nforest kernel, ns per node visit (pixel x tree x level), PCL 3 x depth-20 trees:\n");
+  std::printf("  %-24s", "frames");
+  for (const Variant& v : kVariants) std::printf(" %17s", v.name);
+  std::printf("  best/scalar\n");
+  struct Set { const char* name; const std::vector<Frame>* frames; };
+  const Set sets[] = {{"skeltrack 640x480", &real_vga}, {"skeltrack 320x240", &real_qvga},
+                      {"synthetic 640x480", &syn_vga}, {"synthetic 320x240", &syn_qvga}};
+  std::vector<double> real_vga_ns;
+  for (const Set& s : sets) {
+    std::vector<KernelInput> inputs;
+    for (const Frame& f : *s.frames) inputs.push_back(kernel_input(f, pb.meta->reference_focal_px));
+    const std::vector<double> ns = kernel_ns_per_visit(pb, packed, inputs, 3);
+    double best = 1e30;
+    for (int v = 1; v < kVariantCount; ++v) best = std::min(best, ns[v]);
+    std::printf("  %-24s", s.name);
+    for (double x : ns) std::printf(" %17.3f", x);
+    std::printf("  x%.2f\n", ns[0] / best);
+    if (s.frames == &real_vga) real_vga_ns = ns;
+  }
+  int best_variant = 1;
+  for (int v = 1; v < kVariantCount; ++v)
+    if (real_vga_ns[v] < real_vga_ns[best_variant]) best_variant = v;
+
+  // --- end to end -------------------------------------------------------------------------------
+  std::printf("\nend to end (one core, Pipeline::process, best SIMD = %s):\n", kernel_isa_name(KernelIsa::kBest));
+  Runner bpc_vga(pcl_bytes, 640, 480), bpc_qvga(pcl_bytes, 320, 240);
+  const std::vector<uint8_t> ojr_bytes = blob::write_blob(ojr_on_pcl_nodes(pcl));
+  Runner ojr_vga(ojr_bytes, 640, 480), ojr_qvga(ojr_bytes, 320, 240);
+  struct E2E { const char* label; Runner* r; const std::vector<Frame>* frames; EndToEnd scalar, best; };
+  E2E runs[] = {{"BPC skeltrack 640x480", &bpc_vga, &real_vga, {}, {}},
+                {"BPC skeltrack 320x240", &bpc_qvga, &real_qvga, {}, {}},
+                {"OJR skeltrack 640x480", &ojr_vga, &real_vga, {}, {}},
+                {"OJR skeltrack 320x240", &ojr_qvga, &real_qvga, {}, {}},
+                {"BPC synthetic 640x480", &bpc_vga, &syn_vga, {}, {}},
+                {"BPC synthetic 320x240", &bpc_qvga, &syn_qvga, {}, {}}};
+  for (E2E& e : runs) {
+    e.scalar = end_to_end(*e.r, KernelIsa::kScalar, *e.frames, 2);
+    e.best = end_to_end(*e.r, KernelIsa::kBest, *e.frames, 5);
+    print_end_to_end(e.label, e.scalar, e.best);
+  }
+  std::printf("\narena bytes: BPC 640x480 %zu (%zu used), 320x240 %zu; OJR 640x480 %zu\n", bpc_vga.arena_bytes,
+              bpc_vga.pipeline.arena_used_bytes(), bpc_qvga.arena_bytes, ojr_vga.arena_bytes);
+
+  const double simd_ns = real_vga_ns[best_variant], scalar_ns = real_vga_ns[0];
+  std::printf("\nheadline: %.3f ns/visit (%s) vs scalar %.3f: x%.2f; BPC 320x240 %.0f fps, 640x480 %.0f fps\n", simd_ns,
+              kVariants[best_variant].name, scalar_ns, scalar_ns / simd_ns, runs[1].best.fps, runs[0].best.fps);
+  std::system("mkdir -p build/bench");
+  FILE* j = std::fopen("build/bench/runtime.json", "w");
+  if (!j) return 1;
+  std::fprintf(j,
+               "{\n  \"ns_per_node_visit\": %.4f,\n  \"ns_per_node_visit_variant\": \"%s\",\n"
+               "  \"scalar_ns_per_node_visit\": %.4f,\n  \"simd_vs_scalar\": %.3f,\n"
+               "  \"bpc_fps_320x240\": %.1f,\n  \"ojr_fps_320x240\": %.1f,\n  \"bpc_fps_640x480\": %.1f,\n"
+               "  \"ojr_fps_640x480\": %.1f,\n  \"bpc_scalar_fps_320x240\": %.1f,\n  \"bpc_scalar_fps_640x480\": %.1f,\n"
+               "  \"arena_bytes\": %zu,\n  \"arena_bytes_320x240\": %zu,\n"
+               "  \"forest_cycles_640x480\": %.0f,\n  \"mean_shift_cycles_640x480\": %.0f,\n"
+               "  \"frames\": \"skeltrack 12 real Kinect frames, PCL 3 x depth-20 trees\"\n}\n",
+               simd_ns, kVariants[best_variant].name, scalar_ns, scalar_ns / simd_ns, runs[1].best.fps, runs[3].best.fps,
+               runs[0].best.fps, runs[2].best.fps, runs[1].scalar.fps, runs[0].scalar.fps, bpc_vga.arena_bytes,
+               bpc_qvga.arena_bytes, runs[0].best.stage_cycles[kStageForest], runs[0].best.stage_cycles[kStageMeanShift]);
+  std::fclose(j);
+  std::printf("wrote build/bench/runtime.json\n");
+  return 0;
+}

@@ -1,0 +1,235 @@
+// Every forest kernel (scalar reference, AVX2, AVX-512) and both node layouts give the same leaf
+// for every pixel and tree, and the pipeline the same proposals, on random forests and frames and
+// on the real Skeltrack frames with PCL's trees.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "forest_blob/blob_loader.h"
+#include "forest_blob/blob_writer.h"
+#include "runtime/depthpose.h"
+#include "runtime/fixed_point.h"
+#include "runtime/kernels/forest_kernel.h"
+#include "tools/convert/pcl_import.h"
+#include "tools/demo/fixtures.h"
+
+using namespace dp;
+using dp::tools::SyntheticFrame;
+
+namespace {
+
+const KernelIsa kSimdIsas[] = {KernelIsa::kAvx2, KernelIsa::kAvx512};
+
+struct Runner {
+  std::vector<uint8_t> bytes;
+  blob::LoadedBlob view{};
+  std::unique_ptr<uint8_t, decltype(&std::free)> arena{nullptr, &std::free};
+  Pipeline pipeline;
+
+  Runner(std::vector<uint8_t> blob_bytes, int max_w, int max_h) : bytes(std::move(blob_bytes)) {
+    EXPECT_EQ(blob::load_blob(bytes.data(), bytes.size(), &view), blob::BlobStatus::kOk);
+    const size_t n = required_arena_bytes(view, max_w, max_h);
+    arena.reset(static_cast<uint8_t*>(std::aligned_alloc(64, (n + 63) / 64 * 64)));
+    EXPECT_EQ(pipeline.init(view, max_w, max_h, arena.get(), n), Status::kOk);
+  }
+};
+
+struct Outcome {
+  FrameResult result{};
+  std::vector<uint32_t> leaves;  // [tree][pixel]
+};
+
+Outcome run(Runner& r, KernelIsa isa, const DepthFrame& frame) {
+  Outcome o;
+  EXPECT_EQ(r.pipeline.set_kernel(isa), Status::kOk);
+  EXPECT_EQ(r.pipeline.process(frame, &o.result), Status::kOk);
+  const int32_t n = r.pipeline.evaluated_pixel_count();
+  for (int t = 0; t < r.view.tree_count(); ++t)
+    for (int32_t i = 0; i < n; ++i) o.leaves.push_back(r.pipeline.leaf_of(i, t));
+  return o;
+}
+
+// Same leaves, same proposals (bit for bit), same flags and counts.
+void expect_identical(const Outcome& ref, const Outcome& simd, const char* what) {
+  ASSERT_EQ(ref.leaves.size(), simd.leaves.size()) << what;
+  size_t differing = 0;
+  for (size_t i = 0; i < ref.leaves.size(); ++i) differing += ref.leaves[i] != simd.leaves[i];
+  EXPECT_EQ(differing, 0u) << what << ": leaves differ for " << differing << " of " << ref.leaves.size();
+  EXPECT_EQ(ref.result.flags, simd.result.flags) << what;
+  EXPECT_EQ(ref.result.evaluated_pixels, simd.result.evaluated_pixels) << what;
+  for (int j = 0; j < ref.result.joint_count; ++j) {
+    ASSERT_EQ(ref.result.proposal_count[j], simd.result.proposal_count[j]) << what << " joint " << j;
+    EXPECT_EQ(0, std::memcmp(ref.result.proposals[j], simd.result.proposals[j],
+                             sizeof(JointProposal) * size_t(ref.result.proposal_count[j])))
+        << what << " joint " << j;
+  }
+}
+
+void compare_all_kernels(Runner& r, const DepthFrame& frame, const std::string& what) {
+  const Outcome ref = run(r, KernelIsa::kScalar, frame);
+  ASSERT_GT(ref.leaves.size(), 0u) << what;
+  for (KernelIsa isa : kSimdIsas) {
+    if (!kernel_isa_supported(isa)) continue;  // reported by KernelDispatch.ThisMachineHasBoth
+    expect_identical(ref, run(r, isa, frame), (what + " " + kernel_isa_name(isa)).c_str());
+  }
+}
+
+// Random depth: a disc of noisy depth, holes, and near-saturating depths (scale clamps at 4.0).
+SyntheticFrame noisy_frame(uint64_t seed, int w, int h) {
+  std::mt19937_64 rng(seed);
+  SyntheticFrame f = tools::make_disc_frame(w, h, w * 0.4f, h * 0.6f, h * 0.45f, 1000);
+  std::uniform_int_distribution<int> depth(100, 6000), coin(0, 9);
+  for (auto& d : f.depth_mm)
+    if (d) d = coin(rng) == 0 ? 0 : uint16_t(coin(rng) == 1 ? 150 : depth(rng));
+  f.intrinsics.fx = f.intrinsics.fy = 600.0f;  // not the reference focal: exercises focal_factor
+  return f;
+}
+
+std::vector<uint16_t> read_skeltrack(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<uint16_t> depth(640 * 480);
+  in.read(reinterpret_cast<char*>(depth.data()), std::streamsize(depth.size() * 2));
+  EXPECT_TRUE(in.good()) << path << ": missing or short (expected 640x480 uint16 from ../shared/data)";
+  return depth;
+}
+
+}  // namespace
+
+TEST(KernelDispatch, ThisMachineHasBoth) {
+  // The development and CI machines are Zen 4: both SIMD paths must be present and selected.
+  EXPECT_TRUE(kernel_isa_supported(KernelIsa::kAvx2));
+  EXPECT_TRUE(kernel_isa_supported(KernelIsa::kAvx512));
+  EXPECT_EQ(kernels::forest_kernel(KernelIsa::kBest), kernels::forest_kernel(KernelIsa::kAvx512));
+  EXPECT_NE(kernels::forest_kernel(KernelIsa::kAvx2), kernels::forest_kernel(KernelIsa::kScalar));
+}
+
+TEST(KernelPacking, PackedNodeRoundTrips) {
+  std::mt19937_64 rng(7);
+  std::uniform_int_distribution<int> off(-kernels::kPackedMaxOffset, kernels::kPackedMaxOffset), thr(-32768, 32767);
+  for (int i = 0; i < 10000; ++i) {
+    blob::TreeNode n{int16_t(off(rng)), int16_t(off(rng)), int16_t(off(rng)), int16_t(off(rng)), int16_t(thr(rng))};
+    const uint64_t bits = kernels::pack_node(n).bits;
+    const int16_t offsets[4] = {n.du1, n.dv1, n.du2, n.dv2};
+    int32_t t = 0;
+    for (int k = 0; k < 4; ++k) {
+      const int16_t lane = int16_t(uint16_t(bits >> (16 * k)));
+      EXPECT_EQ((lane & ~15) >> 2, offsets[k] * 4);
+      t |= (lane & 15) << (4 * k);
+    }
+    EXPECT_EQ(int16_t(uint16_t(t)), n.threshold_mm);
+  }
+}
+
+TEST(KernelExactness, RandomForestsRandomFramesBothLayouts) {
+  struct Case { uint64_t seed; int trees, depth, max_offset, thresh; };
+  // max_offset 4096 (the format's limit) uses the blob's 10-byte nodes; ≤ 2047 the packed nodes.
+  const Case cases[] = {{1, 3, 12, 4096, 3000}, {2, 2, 9, 300, 200}, {3, 1, 16, 2047, 32767}, {4, 3, 1, 50, 10}};
+  for (const Case& c : cases) {
+    Runner r(blob::write_blob(tools::random_bpc_forest(c.seed, c.trees, c.depth, 8, c.max_offset, c.thresh)), 320,
+             240);
+    const std::string what = "forest seed " + std::to_string(c.seed);
+    compare_all_kernels(r, tools::make_disc_frame(320, 240, 150.0f, 100.0f, 60.0f, 2100).view(), what + " disc");
+    compare_all_kernels(r, tools::make_plane_frame(320, 240, 1800.0f, 3.0f, -2.0f).view(), what + " plane");
+    for (uint64_t s = 0; s < 3; ++s)
+      compare_all_kernels(r, noisy_frame(100 * c.seed + s, 320, 240).view(), what + " noisy " + std::to_string(s));
+    // A small frame inside the 320x240 arena: the padded stride follows the frame, not the maximum.
+    compare_all_kernels(r, noisy_frame(9, 97, 31).view(), what + " 97x31");
+  }
+}
+
+TEST(KernelExactness, KernelsAgreeOnBothLayoutsDirectly) {
+  // Calls the kernels without the pipeline: blob nodes vs packed nodes, every kernel.
+  const blob::BlobContents c = tools::random_bpc_forest(11, 1, 14, 8, 1500, 400);
+  const std::vector<uint8_t> bytes = blob::write_blob(c);
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+  const SyntheticFrame f = noisy_frame(5, 200, 150);
+  std::vector<uint16_t> probe(kernels::padded_probe_elements(f.width, f.height));
+  kernels::fill_probe_border(probe.data(), f.width, f.height);
+  std::vector<EvaluatedPixel> pixels;
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u) {
+      const uint16_t z = f.depth_mm[size_t(v) * f.width + u];
+      probe[size_t(v + 1) * (f.width + 2) + u + 1] = z ? z : kBackgroundDepthMm;
+      if (z) pixels.push_back(EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0});
+    }
+  std::vector<kernels::PackedNode> packed;
+  for (size_t i = 0; i < blob::nodes_per_tree(b.depth()); ++i) packed.push_back(kernels::pack_node(b.nodes[i]));
+  const int32_t n = int32_t(pixels.size());
+  auto evaluate = [&](KernelIsa isa, bool use_packed) {
+    std::vector<uint32_t> out(pixels.size(), 0xFFFFFFFFu);
+    kernels::ForestKernelArgs a{probe.data(), f.width + 2, f.width, f.height, focal_factor_mm(600.0f, 525.0f),
+                                pixels.data(), n, b.tree_nodes(0), use_packed ? packed.data() : nullptr,
+                                b.tree_leaf_index(0), b.depth(), out.data()};
+    kernels::forest_kernel(isa)(a);
+    return out;
+  };
+  const std::vector<uint32_t> ref = evaluate(KernelIsa::kScalar, false);
+  for (KernelIsa isa : kSimdIsas)
+    for (bool use_packed : {false, true}) {
+      if (!kernel_isa_supported(isa)) continue;
+      EXPECT_EQ(evaluate(isa, use_packed), ref) << kernel_isa_name(isa) << (use_packed ? " packed" : " blob nodes");
+    }
+}
+
+class PclRealFrames : public testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    std::vector<tools::PclTree> trees;
+    for (int i = 1; i <= 3; ++i)
+      trees.push_back(tools::read_pcl_tree("../shared/data/pcl-people-trees/forest" + std::to_string(i) +
+                                           "_tree_20.txt.bz2"));
+    blob_bytes_ = new std::vector<uint8_t>(blob::write_blob(tools::pcl_blob_contents(trees)));
+  }
+  static void TearDownTestSuite() {
+    delete blob_bytes_;
+    blob_bytes_ = nullptr;
+  }
+  static std::vector<uint8_t>* blob_bytes_;
+};
+std::vector<uint8_t>* PclRealFrames::blob_bytes_ = nullptr;
+
+TEST_F(PclRealFrames, AllKernelsBitExactOnSkeltrackFrames) {
+  const char* const names[] = {"1028894671", "1038901490", "1045879925", "1051883281", "1058893191", "1064898470",
+                               "1070905432", "1078881076", "1166565565", "1234568668", "1399145206", "82823944"};
+  Runner vga(*blob_bytes_, 640, 480);
+  Runner qvga(*blob_bytes_, 320, 240);
+  int compared = 0;
+  for (const char* name : names) {
+    const std::vector<uint16_t> depth =
+        read_skeltrack(std::string("../shared/data/skeltrack-frames/depth-data-") + name + ".raw");
+    DepthFrame f{depth.data(), 640, 480, 640, tools::kinect_intrinsics(640, 480), nullptr};
+    compare_all_kernels(vga, f, std::string("skeltrack ") + name + " 640x480");
+    // 2×2 subsampled, focal 262.5: focal_factor 500.
+    std::vector<uint16_t> half(320 * 240);
+    for (int v = 0; v < 240; ++v)
+      for (int u = 0; u < 320; ++u) half[size_t(v) * 320 + u] = depth[size_t(2 * v) * 640 + 2 * u];
+    DepthFrame h{half.data(), 320, 240, 320, tools::kinect_intrinsics(320, 240), nullptr};
+    compare_all_kernels(qvga, h, std::string("skeltrack ") + name + " 320x240");
+    ++compared;
+  }
+  EXPECT_EQ(compared, 12);
+}
+
+TEST_F(PclRealFrames, BlobDescribesPclForest) {
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(blob_bytes_->data(), blob_bytes_->size(), &b), blob::BlobStatus::kOk);
+  EXPECT_EQ(b.tree_count(), 3);
+  EXPECT_EQ(b.depth(), 20);
+  EXPECT_EQ(b.meta->part_count, tools::kPclPartCount);
+  EXPECT_STREQ(b.meta->part_names[19], "FaceLB");
+  EXPECT_EQ(b.meta->leaf_count, uint32_t(tools::kPclPartCount));
+  EXPECT_FLOAT_EQ(b.meta->reference_focal_px, 525.0f);
+  EXPECT_LE(b.meta->max_abs_offset_pxm, uint32_t(kernels::kPackedMaxOffset));  // packed layout applies
+  // Head = the four face parts.
+  EXPECT_EQ(b.config->joints[0].part_mask, (1u << 19) | (1u << 20) | (1u << 21) | (1u << 22));
+  // One-hot leaves.
+  for (uint32_t l = 0; l < b.meta->leaf_count; ++l)
+    for (int p = 0; p < tools::kPclPartCount; ++p) EXPECT_EQ(b.bpc_leaf(l)[p], p == int(l) ? 32768 : 0);
+}
