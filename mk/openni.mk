@@ -33,3 +33,16 @@ $(OPENNI_FEED): $(OPENNI_FEED_OBJS)
 	$(CXX) $(TOOLS_CXXFLAGS) -shared -fPIC -Wl,-soname,libdepthpose_feed.so.0 -o $@ $^ -pthread
 
 -include $(OPENNI_FEED_OBJS:.o=.d)
+
+# Real cameras: `make openni-devices` adds Debian's PrimeSense/Asus drivers (PS1080, PSLink) to
+# the private folder; `make openni-devices FREENECT_DRIVER=/path/libFreenectDriver.so` adds the
+# Kinect v1 driver built from libfreenect (docs/app.md). Not part of `make`: tests stay hermetic.
+OPENNI_SYSTEM_DRIVERS_DIR := $(dir $(ONIFILE_SYSTEM_DRIVER))
+.PHONY: openni-devices
+openni-devices: $(OPENNI_TARGETS)
+	@for d in libPS1080.so.0 libPSLink.so.0; do \
+	  if [ -e $(OPENNI_SYSTEM_DRIVERS_DIR)$$d ]; then ln -sfn $(OPENNI_SYSTEM_DRIVERS_DIR)$$d $(OPENNI_DIR)/OpenNI2/Drivers/$$d; \
+	  echo "linked $$d"; else echo "missing $(OPENNI_SYSTEM_DRIVERS_DIR)$$d (install libopenni2-0)"; fi; done
+	@if [ -n "$(FREENECT_DRIVER)" ]; then \
+	  if [ -e "$(FREENECT_DRIVER)" ]; then ln -sfn "$(abspath $(FREENECT_DRIVER))" $(OPENNI_DIR)/OpenNI2/Drivers/libFreenectDriver.so.0; \
+	  echo "linked $(FREENECT_DRIVER) as libFreenectDriver.so.0"; else echo "FREENECT_DRIVER=$(FREENECT_DRIVER) does not exist"; exit 1; fi; fi
