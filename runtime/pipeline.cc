@@ -303,6 +303,41 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   return Status::kOk;
 }
 
+Status Pipeline::process_user(const DepthFrame& f, uint8_t user_id, FrameResult* r) {
+  if (!r) return Status::kBadArgument;
+  memset(r, 0, sizeof *r);
+  if (!initialized_) return Status::kNotInitialized;
+  if (!f.foreground_mask || user_id == 0 || f.stride_px < f.width || f.width > max_width_ || f.height > max_height_)
+    return Status::kBadArgument;
+  r->joint_count = blob_.meta->joint_count;
+  const uint64_t t0 = cycles_now();
+  int32_t mine = 0;
+  for (int32_t i = 0; i < evaluated_count_; ++i)
+    mine += f.foreground_mask[size_t(pixels_[i].v) * size_t(f.stride_px) + pixels_[i].u] == user_id;
+  r->evaluated_pixels = mine;
+  if (mine == 0) {
+    r->flags |= kFlagNoForeground;
+    r->total_cycles = cycles_now() - t0;
+    return Status::kOk;
+  }
+  user_filter_ = f.foreground_mask;
+  user_filter_stride_ = f.stride_px;
+  user_filter_id_ = user_id;
+  for (int j = 0; j < blob::kMaxJoints; ++j) vote_counts_[j] = 0;
+  if (blob_.method() == blob::Method::kBpc)
+    cast_bpc_votes(f, r);
+  else
+    cast_ojr_votes(f, r);
+  user_filter_ = nullptr;
+  const uint64_t t1 = cycles_now();
+  aggregate(r);
+  const uint64_t t2 = cycles_now();
+  r->stage_cycles[kStageVotes] = t1 - t0;
+  r->stage_cycles[kStageMeanShift] = t2 - t1;
+  r->total_cycles = t2 - t0;
+  return Status::kOk;
+}
+
 Status Pipeline::aggregate_from_leaves(const CameraIntrinsics& intr, const EvaluatedPixel* pixels,
                                        const uint32_t* leaves, int32_t count, FrameResult* r) {
   if (!r) return Status::kBadArgument;
@@ -347,6 +382,7 @@ void Pipeline::cast_bpc_votes(const DepthFrame& f, FrameResult* r) {
   const int32_t cap = cfg.max_votes_per_joint;
   for (int32_t i = 0; i < evaluated_count_; ++i) {
     const EvaluatedPixel px = pixels_[i];
+    if (skipped_by_user_filter(px)) continue;
     uint32_t acc[blob::kMaxParts] = {};
     for (int t = 0; t < trees; ++t) {
       const uint16_t* p = blob_.bpc_leaf(leaf_of(i, t));
@@ -377,6 +413,7 @@ void Pipeline::cast_ojr_votes(const DepthFrame& f, FrameResult* r) {
   const int32_t cap = cfg.max_votes_per_joint;
   for (int32_t i = 0; i < evaluated_count_; ++i) {
     const EvaluatedPixel px = pixels_[i];
+    if (skipped_by_user_filter(px)) continue;
     const float z = float(px.z_mm) * 0.001f;
     const float x = (float(px.u) - f.intrinsics.cx) * z * inv_fx;
     const float y = -(float(px.v) - f.intrinsics.cy) * z * inv_fy;
