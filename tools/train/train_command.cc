@@ -23,7 +23,7 @@ constexpr const char* kUsage =
     "  --offsets N            candidate offset pairs per node (default 2000)\n"
     "  --thresholds N         candidate thresholds per offset pair, 1..255 (default 50)\n"
     "  --max-offset M         max |du|,|dv| in pixel*metres at the reference focal length\n"
-    "                         (default round(129 * f_ref / 575): the paper's 129 at 640x480 Kinect)\n"
+    "                         (default round(129 * f_ref / 525): the paper's 129 at 640x480 Kinect, f = 525)\n"
     "  --reference-focal F    focal length (px) the offsets are expressed for (default fx of the first dataset)\n"
     "  --min-samples N        nodes with fewer pixels become leaves (default 10)\n"
     "  --rho R                regression: offsets longer than R metres are ignored (default 0.5)\n"
@@ -113,7 +113,7 @@ int run_train(int argc, char** argv) {
   fo.tree.offset_candidates = static_cast<int>(args.get_int("--offsets", 2000));
   fo.tree.threshold_candidates = static_cast<int>(args.get_int("--thresholds", 50));
   fo.tree.max_offset_pxm = static_cast<int>(
-      args.get_int("--max-offset", std::lround(129.0 * set.reference_focal_px / 575.0)));
+      args.get_int("--max-offset", std::lround(129.0 * set.reference_focal_px / 525.0)));
   fo.tree.min_samples = static_cast<int>(args.get_int("--min-samples", 10));
   fo.tree.objective = objective == "classification" ? Objective::kClassification : Objective::kRegression;
   fo.tree.rho_m = static_cast<float>(args.get_double("--rho", 0.5));
@@ -137,6 +137,13 @@ int run_train(int argc, char** argv) {
   double done_seconds = 0;  // finished trees
   ProgressFn progress = [&](const LevelReport& r) {
     if (quiet) return;
+    if (r.partial) {
+      const double level_left = r.done > 0 ? r.seconds * (1 - r.done) / r.done : 0;
+      std::fprintf(stderr, "train: tree %d/%d level %2d/%d: %3.0f%% of the split search, %s (level ETA %s)\n",
+                   r.tree + 1, trees, r.level, depth, 100 * r.done, format_duration(r.seconds).c_str(),
+                   format_duration(level_left).c_str());
+      return;
+    }
     const double per_level = r.tree_seconds / (r.level + 1);
     const double tree_left = per_level * std::max(0, depth - r.level - 1);
     const double per_tree = r.tree == 0 ? per_level * depth : done_seconds / r.tree;
