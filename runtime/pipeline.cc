@@ -411,7 +411,6 @@ void Pipeline::cast_ojr_votes(const DepthFrame& f, FrameResult* r) {
   const int k_votes = blob_.meta->votes_per_joint;
   const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
   const int32_t cap = cfg.max_votes_per_joint;
-  uint32_t order = 0;
   for (int32_t i = 0; i < evaluated_count_; ++i) {
     const EvaluatedPixel px = pixels_[i];
     if (skipped_by_user_filter(px)) continue;
@@ -428,8 +427,11 @@ void Pipeline::cast_ojr_votes(const DepthFrame& f, FrameResult* r) {
           if (ov.weight == 0) continue;
           const int64_t d2 = int64_t(ov.dx_mm) * ov.dx_mm + int64_t(ov.dy_mm) * ov.dy_mm + int64_t(ov.dz_mm) * ov.dz_mm;
           if (len != 0 && d2 > len2) continue;
+          // The order depends on (pixel, tree, k) only, never on other joints' vote-length filters:
+          // each joint's proposals depend only on its own JointConfig (tune relies on this).
+          const uint32_t order = (uint32_t(i) * uint32_t(trees) + uint32_t(t)) * uint32_t(k_votes) + uint32_t(k);
           Vote v{x + float(ov.dx_mm) * 0.001f, y + float(ov.dy_mm) * 0.001f, z + float(ov.dz_mm) * 0.001f,
-                 float(ov.weight) * z * z, order++, 1};
+                 float(ov.weight) * z * z, order, 1};
           if (push_top_n(votes_ + size_t(j) * blob::kMaxVotesCap, &vote_counts_[j], cap, v))
             r->flags |= kFlagVotesTruncated;
         }
