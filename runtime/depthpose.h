@@ -133,6 +133,15 @@ class Pipeline {
   // Validates then replaces the runtime config (tune uses this). kBadConfig on invalid values.
   Status set_config(const blob::RuntimeConfig& config);
 
+  // Re-runs only votes and mean shift (stages 3–4) with the current config, on a pixel list and
+  // its leaves saved from an earlier process() of a frame with these intrinsics (tune's grid
+  // search re-aggregates cached forest output). `leaves` is tree-major: tree t's leaf for pixel i
+  // at leaves[t · count + i]. Returns kNotInitialized, kBadArgument (null pointer, count outside
+  // 1..pixel budget, bad intrinsics, a leaf ≥ leaf_count) or kOk; stage_cycles[kStageForest] = 0.
+  // Afterwards the views below describe the given pixels.
+  Status aggregate_from_leaves(const CameraIntrinsics& intrinsics, const EvaluatedPixel* pixels,
+                               const uint32_t* leaves, int32_t count, FrameResult* result);
+
   // Views of the last processed frame, valid until the next process() call.
   int32_t evaluated_pixel_count() const { return evaluated_count_; }
   const EvaluatedPixel* evaluated_pixels() const { return pixels_; }

@@ -400,6 +400,44 @@ void Pipeline::plan_budget(int32_t frame_pixels, int32_t fg, int32_t pixel_cap, 
   r->predicted_cycles = total();
 }
 
+Status Pipeline::aggregate_from_leaves(const CameraIntrinsics& intr, const EvaluatedPixel* pixels,
+                                       const uint32_t* leaves, int32_t count, FrameResult* r) {
+  if (!r) return Status::kBadArgument;
+  memset(r, 0, sizeof *r);
+  if (!initialized_) return Status::kNotInitialized;
+  if (!pixels || !leaves || count < 1 || count > max_pixels_ || !(intr.fx > 0.0f) || !(intr.fy > 0.0f))
+    return Status::kBadArgument;
+  const int trees = blob_.tree_count();
+  for (size_t k = 0; k < size_t(count) * size_t(trees); ++k)
+    if (leaves[k] >= blob_.meta->leaf_count) return Status::kBadArgument;
+  const uint64_t t0 = cycles_now();
+  memcpy(pixels_, pixels, size_t(count) * sizeof(EvaluatedPixel));
+  for (int t = 0; t < trees; ++t)
+    memcpy(leaves_ + size_t(t) * max_pixels_, leaves + size_t(t) * count, size_t(count) * sizeof(uint32_t));
+  evaluated_count_ = count;
+  r->joint_count = blob_.meta->joint_count;
+  r->evaluated_pixels = count;
+  r->foreground_pixels = count;
+  r->pixel_stride = 1;
+  // No cycle-budget plan here (the frame size is unknown): the config's limits apply as they are.
+  r->votes_per_joint_used = config_->max_votes_per_joint;
+  r->starts_per_joint_used = config_->max_starts_per_joint;
+  r->iterations_used = config_->mean_shift_iterations;
+  const DepthFrame f{nullptr, 0, 0, 0, intr, nullptr};  // the vote casters read only the intrinsics
+  for (int j = 0; j < blob::kMaxJoints; ++j) vote_counts_[j] = 0;
+  if (blob_.method() == blob::Method::kBpc)
+    cast_bpc_votes(f, r);
+  else
+    cast_ojr_votes(f, r);
+  const uint64_t t1 = cycles_now();
+  r->stage_cycles[kStageVotes] = t1 - t0;
+  aggregate(r);
+  const uint64_t t2 = cycles_now();
+  r->stage_cycles[kStageMeanShift] = t2 - t1;
+  r->total_cycles = t2 - t0;
+  return Status::kOk;
+}
+
 void Pipeline::cast_bpc_votes(const DepthFrame& f, FrameResult* r) {
   const blob::RuntimeConfig& cfg = *config_;
   const int joints = blob_.meta->joint_count;

@@ -1,0 +1,110 @@
+#include "tools/eval/report.h"
+
+#include <string>
+
+namespace dp::tools {
+namespace {
+
+nlohmann::json optional_number(const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(nullptr); }
+
+const char* const kFlagNames[6] = {"no_foreground", "pixels_strided", "votes_truncated", "starts_truncated",
+                                   "proposals_truncated", "over_cycle_budget"};
+
+std::string fmt_ap(const std::optional<double>& v) {
+  if (!v) return "  n/a";
+  char b[16];
+  std::snprintf(b, sizeof b, "%5.3f", *v);
+  return b;
+}
+
+}  // namespace
+
+nlohmann::json report_to_json(const EvalReport& r) {
+  using nlohmann::json;
+  json j;
+  j["method"] = r.method;
+  j["frames"] = r.frames;
+  j["mAP"] = optional_number(r.mean_ap);
+  j["d_tp"] = r.d_tp;
+  j["d_tp_unit"] = r.d_tp_unit;
+  j["silhouette"] = r.silhouette;
+  j["penalize_occluded"] = r.penalize_occluded;
+  j["ap_interpolation"] = "all-point (PASCAL VOC 2010+): sum over recall steps of the precision envelope";
+  json per = json::object(), pos = json::object();
+  for (size_t k = 0; k < r.joint_names.size(); ++k) {
+    per[r.joint_names[k]] = optional_number(r.ap[k]);
+    pos[r.joint_names[k]] = r.positives[k];
+  }
+  j["per_joint_ap"] = per;
+  j["positives"] = pos;
+  json curve = json::array();
+  for (size_t g = 0; g < r.dtp_grid.size(); ++g) {
+    json aps = json::object();
+    for (size_t k = 0; k < r.joint_names.size(); ++k) aps[r.joint_names[k]] = optional_number(r.ap_vs_dtp[g][k]);
+    curve.push_back({{"d_tp", r.dtp_grid[g]}, {"mAP", optional_number(r.map_vs_dtp[g])}, {"per_joint_ap", aps}});
+  }
+  j["ap_vs_dtp"] = curve;
+  j["class_accuracy"] = optional_number(r.class_accuracy);
+  if (r.has_confusion) {
+    json rows = json::array(), per_class = json::object();
+    for (int t = 0; t < r.confusion.classes(); ++t) {
+      json row = json::array();
+      for (int p = 0; p < r.confusion.classes(); ++p) row.push_back(r.confusion.count(t, p));
+      rows.push_back(row);
+      per_class[r.part_names[size_t(t)]] =
+          r.confusion.row_total(t) > 0 ? json(r.confusion.row_normalized(t, t)) : json(nullptr);
+    }
+    j["confusion"] = {{"parts", r.part_names}, {"counts", rows}, {"rows", "ground truth"}, {"columns", "most likely part"}};
+    j["per_class_accuracy"] = per_class;
+  } else {
+    j["confusion"] = nullptr;
+  }
+  j["fps"] = r.fps;
+  json stages = json::object();
+  for (int s = 0; s < kStageCount; ++s) stages[stage_name(s)] = r.stage_ms[size_t(s)];
+  j["speed"] = {{"fps", r.fps}, {"ms_per_frame", r.ms_per_frame}, {"stage_ms", stages}, {"kernel", r.kernel},
+                {"mean_evaluated_pixels", r.mean_evaluated_pixels}};
+  json flags = json::object();
+  for (size_t b = 0; b < r.flag_frames.size(); ++b) flags[kFlagNames[b]] = r.flag_frames[b];
+  j["flag_frames"] = flags;
+  return j;
+}
+
+void print_report(const EvalReport& r, FILE* out) {
+  std::fprintf(out, "%s blob, %ld frames%s; D_tp = %g %s%s\n", r.method.c_str(), r.frames,
+               r.silhouette ? " (silhouette mode: depth flattened to 2 m)" : "", r.d_tp, r.d_tp_unit.c_str(),
+               r.penalize_occluded ? ", occluded joints penalized" : "");
+  if (!r.joint_names.empty()) {
+    std::fprintf(out, "joint            AP     positives\n");
+    for (size_t k = 0; k < r.joint_names.size(); ++k)
+      std::fprintf(out, "  %-14s %s  %lld\n", r.joint_names[k].c_str(), fmt_ap(r.ap[k]).c_str(),
+                   (long long)r.positives[k]);
+  }
+  std::fprintf(out, "mAP %s\n", fmt_ap(r.mean_ap).c_str());
+  if (!r.dtp_grid.empty() && !r.joint_names.empty()) {
+    std::fprintf(out, "mAP vs D_tp:");
+    for (size_t g = 0; g < r.dtp_grid.size(); ++g)
+      std::fprintf(out, " %g%s=%s", r.dtp_grid[g], r.d_tp_unit.c_str(), fmt_ap(r.map_vs_dtp[g]).c_str());
+    std::fprintf(out, "\n");
+  }
+  if (r.has_confusion) {
+    std::fprintf(out, "per-class segmentation accuracy %s (mean diagonal of the row-normalized confusion matrix)\n",
+                 fmt_ap(r.class_accuracy).c_str());
+    std::fprintf(out, "confusion matrix, %% of each ground-truth row (columns: most likely part, same order):\n");
+    for (int t = 0; t < r.confusion.classes(); ++t) {
+      if (r.confusion.row_total(t) == 0) continue;
+      std::fprintf(out, "  %-12s", r.part_names[size_t(t)].c_str());
+      for (int p = 0; p < r.confusion.classes(); ++p)
+        std::fprintf(out, " %3.0f", 100.0 * r.confusion.row_normalized(t, p));
+      std::fprintf(out, "\n");
+    }
+  }
+  std::fprintf(out, "speed: %.1f fps (%.3f ms/frame, kernel %s, %.0f evaluated pixels/frame);", r.fps, r.ms_per_frame,
+               r.kernel.c_str(), r.mean_evaluated_pixels);
+  for (int s = 0; s < kStageCount; ++s) std::fprintf(out, " %s %.3f ms", stage_name(s), r.stage_ms[size_t(s)]);
+  std::fprintf(out, "\n");
+  for (size_t b = 0; b < r.flag_frames.size(); ++b)
+    if (r.flag_frames[b]) std::fprintf(out, "budget: %ld frames flagged %s\n", r.flag_frames[b], kFlagNames[b]);
+}
+
+}  // namespace dp::tools
