@@ -63,6 +63,33 @@ TEST(TrainDataset, SamplesForegroundPixelsWithExactScale) {
   EXPECT_NE(set.datasets_json.find("fnv1a64"), std::string::npos);
 }
 
+TEST(TrainDataset, CroppedProbeImagesGiveTheFullFrameFeatures) {
+  // The training image keeps only the foreground's bounding box; every feature at every foreground
+  // pixel must equal the one computed on the full frame by the runtime rule.
+  testing_toy::ToyFrame f = testing_toy::make_toy_frame({}, 3);
+  const int w = f.depth.width, h = f.depth.height;
+  const TrainingImage im = make_training_image(f.depth.pixels.data(), f.parts.pixels.data(), w, h,
+                                               CameraIntrinsics{60, 60, 31.5, 23.5}, 45, {}, "toy");
+  ASSERT_LT(im.width * im.height, w * h / 2);
+  const std::vector<uint16_t> full = make_probe_image(f.depth.pixels.data(), f.parts.pixels.data(), w, h);
+  Rng rng(3);
+  size_t compared = 0;
+  for (int k = 0; k < 200; ++k) {
+    const int du1 = rng.range(-90, 90), dv1 = rng.range(-90, 90), du2 = rng.range(-90, 90), dv2 = rng.range(-90, 90);
+    for (int v = 0; v < im.height; ++v)
+      for (int u = 0; u < im.width; ++u) {
+        const int32_t z = im.probe[size_t(v) * im.width + u];
+        if (z == kBackgroundDepthMm) continue;
+        const int U = u + im.origin_u, V = v + im.origin_v;
+        ASSERT_EQ(full[size_t(V) * w + U], z);
+        ASSERT_EQ(depth_feature(im.probe.data(), im.width, im.height, u, v, z, im.focal_factor, du1, dv1, du2, dv2),
+                  depth_feature(full.data(), w, h, U, V, z, im.focal_factor, du1, dv1, du2, dv2));
+        ++compared;
+      }
+  }
+  EXPECT_GT(compared, 100000u);
+}
+
 TEST(TrainDataset, MissingPngNamesFileAndFrame) {
   TempDir tmp;
   write_toy_dataset(tmp.path + "/toy");

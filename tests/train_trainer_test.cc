@@ -102,13 +102,14 @@ TEST(TrainTree, RecoversTheDepthStepSplitExactly) {
   const int left_part = g.pixels[g.leaf_ranges[0].first].label;
   for (size_t f = 0; f < set.images.size(); ++f) {
     testing_toy::ToyFrame frame = testing_toy::make_toy_frame(ToyOptions{}, static_cast<int>(f));
-    const TrainingImage& im = set.images[f];
-    for (int v = 0; v < im.height; ++v)
-      for (int u = 0; u < im.width; ++u) {
-        const uint8_t part = frame.parts.pixels[size_t(v) * im.width + u];
+    const int w = frame.depth.width, h = frame.depth.height;
+    const std::vector<uint16_t> probe = make_probe_image(frame.depth.pixels.data(), frame.parts.pixels.data(), w, h);
+    for (int v = 0; v < h; ++v)
+      for (int u = 0; u < w; ++u) {
+        const uint8_t part = frame.parts.pixels[size_t(v) * w + u];
         if (part == 255) continue;
-        const int leaf = g.tree.nodes[leaf_node_for_pixel(g.tree, im.probe.data(), im.width, im.height, u, v,
-                                                          im.focal_factor)].leaf;
+        const int leaf =
+            g.tree.nodes[leaf_node_for_pixel(g.tree, probe.data(), w, h, u, v, set.images[f].focal_factor)].leaf;
         ASSERT_EQ(leaf == 0 ? left_part : 1 - left_part, part) << "frame " << f << " pixel " << u << "," << v;
       }
   }

@@ -36,8 +36,8 @@ uint64_t Rng::below(uint64_t n) {
 
 std::array<float, 3> pixel_point(const TrainingImage& image, int u, int v, int depth_mm) {
   const double z = depth_mm * 0.001;
-  return {static_cast<float>((u - image.camera.cx) * z / image.camera.fx),
-          static_cast<float>(-(v - image.camera.cy) * z / image.camera.fy), static_cast<float>(z)};
+  return {static_cast<float>((u + image.origin_u - image.camera.cx) * z / image.camera.fx),
+          static_cast<float>(-(v + image.origin_v - image.camera.cy) * z / image.camera.fy), static_cast<float>(z)};
 }
 
 size_t TrainingSet::image_bytes() const {
@@ -56,15 +56,36 @@ TrainingImage make_training_image(const uint16_t* depth, const uint8_t* parts, i
                                   const CameraIntrinsics& camera, float reference_focal_px,
                                   std::vector<float> joints, std::string name) {
   TrainingImage im;
-  im.width = width;
-  im.height = height;
+  im.frame_width = width;
+  im.frame_height = height;
   im.camera = camera;
   im.focal_factor = focal_factor_mm(static_cast<float>(camera.fx), reference_focal_px);
-  im.probe.resize(size_t(width) * height);
-  for (size_t i = 0; i < im.probe.size(); ++i) {
-    const uint16_t z = depth[i];
-    const bool fg = z > 0 && z < kBackgroundDepthMm && (!parts || parts[i] != 255);
-    im.probe[i] = fg ? z : kBackgroundDepthMm;
+  auto foreground = [&](size_t i) {
+    return depth[i] > 0 && depth[i] < kBackgroundDepthMm && (!parts || parts[i] != 255);
+  };
+  int u0 = width, v0 = height, u1 = -1, v1 = -1;
+  for (int v = 0; v < height; ++v)
+    for (int u = 0; u < width; ++u)
+      if (foreground(size_t(v) * width + u)) {
+        u0 = std::min(u0, u);
+        u1 = std::max(u1, u);
+        v0 = std::min(v0, v);
+        v1 = std::max(v1, v);
+      }
+  if (u1 < 0) {  // no foreground: a single background pixel
+    im.width = im.height = 1;
+    im.probe.assign(1, kBackgroundDepthMm);
+  } else {
+    im.origin_u = u0;
+    im.origin_v = v0;
+    im.width = u1 - u0 + 1;
+    im.height = v1 - v0 + 1;
+    im.probe.resize(size_t(im.width) * im.height);
+    for (int v = 0; v < im.height; ++v)
+      for (int u = 0; u < im.width; ++u) {
+        const size_t i = size_t(v + v0) * width + (u + u0);
+        im.probe[size_t(v) * im.width + u] = foreground(i) ? depth[i] : kBackgroundDepthMm;
+      }
   }
   im.joints = std::move(joints);
   im.name = std::move(name);
@@ -89,7 +110,7 @@ void sample_pixels(const TrainingImage& image, const uint8_t* parts, uint32_t im
     p.v = static_cast<uint16_t>(i / image.width);
     p.depth_mm = image.probe[i];
     p.scale_q13 = static_cast<uint16_t>(scale_q13(image.focal_factor, p.depth_mm));
-    p.label = parts ? parts[i] : 0;
+    p.label = parts ? parts[size_t(p.v + image.origin_v) * image.frame_width + p.u + image.origin_u] : 0;
     out.push_back(p);
   }
 }

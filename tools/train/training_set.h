@@ -36,9 +36,15 @@ struct CameraIntrinsics {
   double fx = 0, fy = 0, cx = 0, cy = 0;  // pixels
 };
 
-// One training image. `probe` is the depth of foreground pixels, kBackgroundDepthMm elsewhere.
+// One training image. `probe` covers only the bounding box of the frame's foreground (origin_u,
+// origin_v, width × height): outside it every probe reads kBackgroundDepthMm anyway, so features
+// computed on the crop with crop-relative coordinates equal those on the full frame, while the
+// probe images take a fraction of the memory (and cache). Inside, probe = depth of foreground
+// pixels, kBackgroundDepthMm elsewhere.
 struct TrainingImage {
-  int width = 0, height = 0;
+  int width = 0, height = 0;            // of the crop (≥ 1)
+  int origin_u = 0, origin_v = 0;       // crop position in the frame
+  int frame_width = 0, frame_height = 0;
   CameraIntrinsics camera;
   int32_t focal_factor = 1000;          // dp::focal_factor_mm(camera.fx, reference focal)
   std::vector<uint16_t> probe;
@@ -46,7 +52,7 @@ struct TrainingImage {
   std::string name;                     // "DIR frame ID", for messages
 };
 
-// A sampled training pixel, 16 bytes. scale_q13 = dp::scale_q13(image focal_factor, depth_mm).
+// A sampled training pixel, 16 bytes; u, v relative to the image's crop. scale_q13 = dp::scale_q13(image focal_factor, depth_mm).
 struct TrainingPixel {
   uint32_t image;
   uint16_t u, v;
@@ -57,8 +63,9 @@ struct TrainingPixel {
 };
 static_assert(sizeof(TrainingPixel) == 16, "TrainingPixel is 16 bytes");
 
-// The 3D point of a training pixel in metres, camera frame (x right, y up, z forward):
-// x = (u − cx)·z/fx, y = −(v − cy)·z/fy, z = depth.
+// The 3D point of a training pixel (crop coordinates u, v) in metres, camera frame (x right, y up,
+// z forward), with frame coordinates U = u + origin_u, V = v + origin_v:
+// x = (U − cx)·z/fx, y = −(V − cy)·z/fy, z = depth.
 std::array<float, 3> pixel_point(const TrainingImage& image, int u, int v, int depth_mm);
 
 struct TrainingSet {
@@ -93,12 +100,12 @@ struct SamplingOptions {
 TrainingSet load_training_set(const std::vector<std::string>& dataset_dirs, const SamplingOptions& options);
 
 // Building blocks used by load_training_set, for tests and benchmarks that make images in memory.
-// `parts` may be null (then foreground = valid depth and label 0).
+// `depth` and `parts` are full frames; `parts` may be null (then foreground = valid depth, label 0).
 TrainingImage make_training_image(const uint16_t* depth, const uint8_t* parts, int width, int height,
                                   const CameraIntrinsics& camera, float reference_focal_px,
                                   std::vector<float> joints, std::string name);
 // Samples N_ex foreground pixels of image `image_index` for tree `tree` (key: seed, tree, image),
-// appending them in raster order. `parts` may be null.
+// appending them in raster order. `parts` (full frame, may be null) gives the labels.
 void sample_pixels(const TrainingImage& image, const uint8_t* parts, uint32_t image_index, int tree,
                    int pixels_per_image, uint64_t seed, std::vector<TrainingPixel>& out);
 // Which images tree `tree` uses: all of them, or images_per_tree drawn without replacement

@@ -1,5 +1,7 @@
 #include "tools/train/tree_trainer.h"
 
+#include <emmintrin.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -120,6 +122,7 @@ struct Candidate {
   int thresholds;        // unique, sorted
   int search_top;        // half the padded table size
   int32_t table[kMaxThresholds + 1];  // thresholds, then INT32_MAX
+  alignas(16) int16_t splat[kMaxThresholds][8];  // each threshold in all 8 lanes (SIMD binning)
 };
 
 // Per-block decoded pixels (structure of arrays).
@@ -127,28 +130,61 @@ struct Block {
   int count = 0;
   const uint16_t* image[kBlock];
   int32_t width[kBlock], height[kBlock], u[kBlock], v[kBlock], scale[kBlock];
+  int32_t depth[kBlock];  // the pixel's own probe value
   uint8_t label[kBlock];  // compact label of the node
+  alignas(16) int16_t feature[kBlock];  // |feature| ≤ 32766 fits int16
+  alignas(16) int16_t bin[kBlock];
 };
 
-inline int32_t feature_of(const uint16_t* image, int32_t width, int32_t height, int32_t u, int32_t v,
-                          int32_t scale, const Candidate& c) {
-  const int32_t d1 = probe_depth(image, width, height, u + probe_offset_px(c.du1, scale),
-                                 v + probe_offset_px(c.dv1, scale));
-  const int32_t d2 = probe_depth(image, width, height, u + probe_offset_px(c.du2, scale),
-                                 v + probe_offset_px(c.dv2, scale));
-  return d1 - d2;
+// probe_depth() without branches: off-image probes load element 0 and then select the background
+// constant, so a mispredicted bounds check never flushes the many probe loads in flight.
+inline int32_t probe_depth_select(const uint16_t* image, int32_t width, int32_t height, int32_t u, int32_t v) {
+  const bool inside = (static_cast<uint32_t>(u) < static_cast<uint32_t>(width)) &
+                      (static_cast<uint32_t>(v) < static_cast<uint32_t>(height));
+  const int32_t value = image[inside ? v * width + u : 0];
+  return inside ? value : kBackgroundDepthMm;
 }
 
+// Features of one candidate for a whole block (same values as dp::depth_feature). A separate loop
+// without dependent work lets many probe loads be in flight at once. Unary candidates (δ2 = 0)
+// read the pixel's own depth.
+void block_features(Block& b, const Candidate& c) {
+  if (c.du2 == 0 && c.dv2 == 0) {
+    for (int i = 0; i < b.count; ++i) {
+      const int32_t s = b.scale[i];
+      const int32_t d1 = probe_depth_select(b.image[i], b.width[i], b.height[i], b.u[i] + probe_offset_px(c.du1, s),
+                                            b.v[i] + probe_offset_px(c.dv1, s));
+      b.feature[i] = static_cast<int16_t>(d1 - b.depth[i]);
+    }
+  } else {
+    for (int i = 0; i < b.count; ++i) {
+      const int32_t s = b.scale[i];
+      const int32_t d1 = probe_depth_select(b.image[i], b.width[i], b.height[i], b.u[i] + probe_offset_px(c.du1, s),
+                                            b.v[i] + probe_offset_px(c.dv1, s));
+      const int32_t d2 = probe_depth_select(b.image[i], b.width[i], b.height[i], b.u[i] + probe_offset_px(c.du2, s),
+                                            b.v[i] + probe_offset_px(c.dv2, s));
+      b.feature[i] = static_cast<int16_t>(d1 - d2);
+    }
+  }
+}
+
+// One feature with the runtime's rule (used to partition pixels).
 inline int32_t feature_of_pixel(const TrainingSet& set, const TrainingPixel& p, const Candidate& c) {
   const TrainingImage& im = set.images[p.image];
-  return feature_of(im.probe.data(), im.width, im.height, p.u, p.v, p.scale_q13, c);
+  return depth_feature(im.probe.data(), im.width, im.height, p.u, p.v, p.depth_mm, im.focal_factor, c.du1, c.dv1,
+                       c.du2, c.dv2);
 }
 
-// Number of thresholds below f (thresholds sorted, padded with INT32_MAX).
-inline int bin_of(const Candidate& c, int32_t f) {
-  int b = 0;
-  for (int step = c.search_top; step >= 1; step >>= 1) b += (c.table[b + step - 1] < f) ? step : 0;
-  return b;
+// Bin = number of thresholds below the feature, 8 pixels at a time: a linear scan of the sorted
+// thresholds with SIMD compares (no branches, no dependent loads; lanes past count are ignored).
+void block_bins(Block& b, const Candidate& c) {
+  for (int i = 0; i < b.count; i += 8) {
+    const __m128i f = _mm_load_si128(reinterpret_cast<const __m128i*>(b.feature + i));
+    __m128i count = _mm_setzero_si128();
+    for (int t = 0; t < c.thresholds; ++t)
+      count = _mm_sub_epi16(count, _mm_cmpgt_epi16(f, _mm_load_si128(reinterpret_cast<const __m128i*>(c.splat[t]))));
+    _mm_store_si128(reinterpret_cast<__m128i*>(b.bin + i), count);
+  }
 }
 
 struct NodeInfo {
@@ -169,7 +205,8 @@ struct Best {
 };
 
 struct Scratch {
-  Block block;
+  Block block{};   // zeroed: SIMD lanes past a block's count read defined values
+  Block sample{};
   std::vector<Candidate> candidates;
   std::vector<uint32_t> counts;   // classification histograms
   std::vector<double> sums;       // regression histograms
@@ -237,7 +274,26 @@ class Grower {
     node.splittable = node.splittable && node.level < p_.max_depth && n >= uint32_t(std::max(2, p_.min_samples));
   }
 
-  void make_candidate(const NodeInfo& node, int index, Candidate& c) const {
+  // The node's threshold sample: min(n, |thresholds|) pixels drawn with replacement (key: seed,
+  // tree, node), shared by all candidates of the node.
+  void decode_sample(const NodeInfo& node, Block& b) const {
+    Rng rng = Rng::keyed(p_.seed, 5, uint64_t(tree_), node.heap);
+    const uint32_t n = node.end - node.begin;
+    b.count = static_cast<int>(std::min<uint32_t>(n, std::min(p_.threshold_candidates, kMaxThresholds)));
+    for (int i = 0; i < b.count; ++i) {
+      const TrainingPixel& p = px_[node.begin + rng.below(n)];
+      const TrainingImage& im = set_.images[p.image];
+      b.image[i] = im.probe.data();
+      b.width[i] = im.width;
+      b.height[i] = im.height;
+      b.u[i] = p.u;
+      b.v[i] = p.v;
+      b.scale[i] = p.scale_q13;
+      b.depth[i] = p.depth_mm;
+    }
+  }
+
+  void make_candidate(const NodeInfo& node, int index, Block& sample, Candidate& c) const {
     Rng rng = Rng::keyed(p_.seed, 3, uint64_t(tree_), node.heap, uint64_t(index));
     const int m = p_.max_offset_pxm;
     auto draw = [&](const std::vector<std::array<int16_t, 2>>& chosen, int32_t& du, int32_t& dv) {
@@ -257,19 +313,18 @@ class Grower {
     } else {
       draw(p_.proposal ? p_.proposal->second : std::vector<std::array<int16_t, 2>>{}, c.du2, c.dv2);
     }
-    // Thresholds: feature values of random pixels of the node (the response distribution).
-    const uint32_t n = node.end - node.begin;
-    const int wanted = std::min(p_.threshold_candidates, kMaxThresholds);
-    for (int i = 0; i < wanted; ++i) {
-      const TrainingPixel& q = px_[node.begin + rng.below(n)];
-      c.table[i] = feature_of_pixel(set_, q, c);
-    }
+    // Thresholds: the feature's values at the node's sample pixels (its response distribution).
+    block_features(sample, c);
+    const int wanted = sample.count;
+    for (int i = 0; i < wanted; ++i) c.table[i] = sample.feature[i];
     std::sort(c.table, c.table + wanted);
     c.thresholds = static_cast<int>(std::unique(c.table, c.table + wanted) - c.table);
     int padded = 1;
     while (padded < c.thresholds + 1) padded *= 2;
     for (int i = c.thresholds; i < padded; ++i) c.table[i] = INT32_MAX;
     c.search_top = padded / 2;
+    for (int t = 0; t < c.thresholds; ++t)
+      for (int lane = 0; lane < 8; ++lane) c.splat[t][lane] = static_cast<int16_t>(c.table[t]);
   }
 
   void decode_block(const NodeInfo& node, uint32_t begin, uint32_t end, Block& b) const {
@@ -283,6 +338,7 @@ class Grower {
       b.u[i] = p.u;
       b.v[i] = p.v;
       b.scale[i] = p.scale_q13;
+      b.depth[i] = p.depth_mm;
       b.label[i] = node.class_of[p.label];
     }
   }
@@ -292,30 +348,45 @@ class Grower {
     Scratch& s = scratch_[thread];
     const int nc = c1 - c0;
     s.candidates.resize(nc);
-    for (int c = 0; c < nc; ++c) make_candidate(node, c0 + c, s.candidates[c]);
+    decode_sample(node, s.sample);
+    for (int c = 0; c < nc; ++c) make_candidate(node, c0 + c, s.sample, s.candidates[c]);
     int bins = 1;
     for (const Candidate& c : s.candidates) bins = std::max(bins, c.thresholds + 1);
     const uint32_t n = node.end - node.begin;
     Best best;
     if (p_.objective == Objective::kClassification) {
       const int k = node.classes;
-      s.counts.assign(size_t(nc) * bins * k, 0);
+      // Four interleaved copies of each histogram, so that runs of pixels falling in the same
+      // cell do not serialize on store-to-load forwarding; summed before scoring.
+      const size_t stride = size_t(bins) * k;
+      s.counts.assign(size_t(nc) * 4 * stride, 0);
       for (uint32_t b0 = node.begin; b0 < node.end; b0 += kBlock) {
         decode_block(node, b0, std::min<uint32_t>(node.end, b0 + kBlock), s.block);
-        const Block& b = s.block;
+        Block& b = s.block;
+        const int count = b.count;
         for (int c = 0; c < nc; ++c) {
           const Candidate& cand = s.candidates[c];
-          uint32_t* h = s.counts.data() + size_t(c) * bins * k;
-          for (int i = 0; i < b.count; ++i) {
-            const int32_t f = feature_of(b.image[i], b.width[i], b.height[i], b.u[i], b.v[i], b.scale[i], cand);
-            ++h[bin_of(cand, f) * k + b.label[i]];
+          uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
+          block_features(b, cand);
+          block_bins(b, cand);
+          int i = 0;
+          for (; i + 4 <= count; i += 4) {
+            ++h[b.bin[i] * k + b.label[i]];
+            ++h[stride + b.bin[i + 1] * k + b.label[i + 1]];
+            ++h[2 * stride + b.bin[i + 2] * k + b.label[i + 2]];
+            ++h[3 * stride + b.bin[i + 3] * k + b.label[i + 3]];
           }
+          for (; i < count; ++i) ++h[b.bin[i] * k + b.label[i]];
         }
+      }
+      for (int c = 0; c < nc; ++c) {
+        uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
+        for (size_t j = 0; j < stride; ++j) h[j] += h[stride + j] + h[2 * stride + j] + h[3 * stride + j];
       }
       s.cum.resize(k);
       for (int c = 0; c < nc; ++c) {
         const Candidate& cand = s.candidates[c];
-        const uint32_t* h = s.counts.data() + size_t(c) * bins * k;
+        const uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
         std::fill(s.cum.begin(), s.cum.end(), 0u);
         uint32_t left = 0;
         for (int t = 0; t < cand.thresholds; ++t) {
@@ -352,15 +423,16 @@ class Grower {
       for (uint32_t b0 = node.begin; b0 < node.end; b0 += kBlock) {
         const uint32_t b1 = std::min<uint32_t>(node.end, b0 + kBlock);
         decode_block(node, b0, b1, s.block);
-        const Block& b = s.block;
+        Block& b = s.block;
         for (int i = 0; i < b.count; ++i) pixel_offsets(px_[b0 + i], s.offsets.data() + size_t(i) * J * 4);
         for (int c = 0; c < nc; ++c) {
           const Candidate& cand = s.candidates[c];
           double* h = s.sums.data() + size_t(c) * bins * row;
           uint32_t* pixel_bins = s.counts.data() + size_t(c) * bins;
+          block_features(b, cand);
+          block_bins(b, cand);
           for (int i = 0; i < b.count; ++i) {
-            const int32_t f = feature_of(b.image[i], b.width[i], b.height[i], b.u[i], b.v[i], b.scale[i], cand);
-            const int bin = bin_of(cand, f);
+            const int bin = b.bin[i];
             ++pixel_bins[bin];
             double* hb = h + bin * row;
             const float* o = s.offsets.data() + size_t(i) * J * 4;

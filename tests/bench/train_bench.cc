@@ -1,0 +1,74 @@
+// Training throughput of `depthpose train` on a reference configuration, with its own main.
+// Reference: 1 tree, depth 16, 400 procedural 320×240 stick-body images × 2000 pixels,
+// 200 offset pairs × 20 thresholds per node, classification objective, all cores.
+// Reports wall time and pixel·candidate evaluations per second per core (evaluations / process CPU
+// time, so that other load on the machine does not distort it), where one evaluation =
+// one feature (offset pair) computed at one pixel and binned against the node's thresholds; the
+// paper's |T| candidates are offset pairs × thresholds, so the rate in (pixel·|T|) is ×20.
+// Environment: TRAIN_BENCH_IMAGES, TRAIN_BENCH_DEPTH, TRAIN_BENCH_OFFSETS, TRAIN_BENCH_THREADS
+// override the configuration.
+#include <time.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <thread>
+
+#include "tests/train_stick_bodies.h"
+#include "tools/train/forest_trainer.h"
+
+namespace {
+
+double cpu_seconds() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+int env_int(const char* name, int fallback) {
+  const char* v = std::getenv(name);
+  return v ? std::atoi(v) : fallback;
+}
+
+}  // namespace
+
+int main() {
+  using namespace dp::train;
+  const int images = env_int("TRAIN_BENCH_IMAGES", 400);
+  const int depth = env_int("TRAIN_BENCH_DEPTH", 16);
+  const int offsets = env_int("TRAIN_BENCH_OFFSETS", 200);
+  const int threads = env_int("TRAIN_BENCH_THREADS", std::max(1u, std::thread::hardware_concurrency()));
+  const auto t0 = std::chrono::steady_clock::now();
+  TrainingSet set = testing_bodies::stick_body_set(images, 2000);
+  const double make_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("train_bench: %d images 320x240 x 2000 px = %zu training pixels (made in %.1f s), 1 tree, depth %d, "
+              "%d offsets x 20 thresholds, %d threads\n",
+              images, set.tree_pixels[0].size(), make_s, depth, offsets, threads);
+  std::fflush(stdout);
+
+  ForestOptions fo;
+  fo.method = "bpc";
+  fo.tree.max_depth = depth;
+  fo.tree.offset_candidates = offsets;
+  fo.tree.threshold_candidates = 20;
+  fo.tree.max_offset_pxm = 65;
+  fo.tree.min_samples = 10;
+  fo.tree.threads = threads;
+  ForestStats stats;
+  const auto t1 = std::chrono::steady_clock::now();
+  const double c1 = cpu_seconds();
+  const TrainedForest forest = train_forest(set, fo, {}, &stats);
+  const double cpu = cpu_seconds() - c1;
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  const double rate = stats.feature_evaluations / stats.structure_seconds;
+  const double core_rate = stats.feature_evaluations / cpu;
+  std::printf("train_bench: wall %.2f s (structure %.2f s, leaves %.2f s); %zu nodes, %zu leaves, deepest leaf %d\n", wall,
+              stats.structure_seconds, stats.leaf_seconds, forest.trees[0].nodes.size(), forest.trees[0].leaf_count(),
+              forest.trees[0].max_leaf_level());
+  std::printf("train_bench: %.3g pixel*offset evaluations: %.3g /s wall; per core (CPU time %.2f s, %.0f%% of %d "
+              "threads busy): %.3g /s = %.2f ns each; x20 thresholds = %.3g pixel*candidate /s per core\n",
+              double(stats.feature_evaluations), rate, cpu, 100 * cpu / (wall * threads), threads, core_rate,
+              1e9 / core_rate, 20 * core_rate);
+  std::printf("train_bench: memory %.0f bytes per training pixel\n", stats.bytes_per_pixel);
+  return 0;
+}

@@ -1,0 +1,307 @@
+#include "tools/synth/posing.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "tools/common/error.h"
+
+namespace dp::synth {
+using dp::tools::fail;
+
+namespace {
+int bone_or_fail(const HumanAssets& a, const char* name) {
+  int b = a.bone_index(name);
+  if (b < 0) fail(std::string("rig lacks bone ") + name);
+  return b;
+}
+}  // namespace
+
+BodyPose rest_pose(const HumanAssets& a) {
+  BodyPose p;
+  p.bone_world.assign(a.bones.size(), Mat3::identity());
+  return p;
+}
+
+BodyPose t_pose(const HumanAssets& a) {
+  BodyPose p;
+  p.bone_world = a.tpose_world;
+  return p;
+}
+
+BodyPose retarget_frame(const HumanAssets& a, const Skeleton& rest, const MotionClip& clip, size_t k) {
+  BodyPose pose;
+  pose.bone_world.resize(a.bones.size());
+  const std::vector<Mat3>& frame = clip.frames.at(k);
+  std::vector<Mat3> q(a.bones.size());
+  for (size_t b = 0; b < a.bones.size(); ++b) {
+    int s = clip.segment_index(a.bones[b].name);
+    const Mat3& tb = a.tpose_world[b];
+    if (s < 0) {
+      // Not in the clip: keep the T-pose relation to the parent.
+      int p = a.bones[b].parent;
+      pose.bone_world[b] = p < 0 ? tb : pose.bone_world[p] * a.tpose_world[p].transposed() * tb;
+      continue;
+    }
+    Mat3 align;
+    const Vec3& src = clip.rest_directions[s];
+    Vec3 ours = tb * (rest.tails[b] - rest.heads[b]);
+    if (src.norm() > 0.5 && ours.norm() > 1e-9) align = rotation_between(ours, src);
+    pose.bone_world[b] = frame[s] * align * tb;
+  }
+  // Remove the heading so the body faces +z; keep tilt.
+  const int hips = bone_or_fail(a, "Hips");
+  Vec3 forward = pose.bone_world[hips] * Vec3{0, 0, 1};
+  if (std::hypot(forward.x, forward.z) > 1e-6) {
+    Mat3 unyaw = rot_y(-std::atan2(forward.x, forward.z));
+    for (Mat3& m : pose.bone_world) m = unyaw * m;
+  }
+  return pose;
+}
+
+Skeleton pose_skeleton(const HumanAssets& a, const Skeleton& rest, const BodyPose& pose) {
+  Skeleton s;
+  s.heads.resize(a.bones.size());
+  s.tails.resize(a.bones.size());
+  for (size_t b = 0; b < a.bones.size(); ++b) {
+    int p = a.bones[b].parent;
+    s.heads[b] = p < 0 ? rest.heads[b] : s.heads[p] + pose.bone_world[p] * (rest.heads[b] - rest.heads[p]);
+    s.tails[b] = s.heads[b] + pose.bone_world[b] * (rest.tails[b] - rest.heads[b]);
+  }
+  return s;
+}
+
+JointSet joints_of(const HumanAssets& a, const Skeleton& s) {
+  auto head = [&](const char* n) { return s.heads[bone_or_fail(a, n)]; };
+  auto tail = [&](const char* n) { return s.tails[bone_or_fail(a, n)]; };
+  JointSet j;
+  j[0] = (head("Head") + tail("Head")) * 0.5;
+  j[1] = head("Neck1");
+  j[2] = head("LeftArm");
+  j[3] = head("RightArm");
+  j[4] = head("LeftForeArm");
+  j[5] = head("RightForeArm");
+  j[6] = head("LeftHand");
+  j[7] = head("RightHand");
+  j[8] = (head("LeftHand") + tail("LeftFingerBase")) * 0.5;
+  j[9] = (head("RightHand") + tail("RightFingerBase")) * 0.5;
+  j[10] = head("LeftLeg");
+  j[11] = head("RightLeg");
+  j[12] = head("LeftFoot");
+  j[13] = head("RightFoot");
+  j[14] = head("LeftToeBase");
+  j[15] = head("RightToeBase");
+  return j;
+}
+
+void skin_body(const HumanAssets& a, const std::vector<Vec3f>& shaped, const Skeleton& rest, const Skeleton& posed,
+               const BodyPose& pose, std::vector<Vec3f>& out) {
+  struct Affine {
+    float r[9];
+    float t[3];
+  };
+  std::vector<Affine> bone(a.bones.size());
+  for (size_t b = 0; b < a.bones.size(); ++b) {
+    const Mat3& g = pose.bone_world[b];
+    Vec3 t = posed.heads[b] - g * rest.heads[b];
+    for (int i = 0; i < 9; ++i) bone[b].r[i] = float(g.m[i]);
+    bone[b].t[0] = float(t.x);
+    bone[b].t[1] = float(t.y);
+    bone[b].t[2] = float(t.z);
+  }
+  out.resize(kBodyVertexCount);
+  for (int v = 0; v < kBodyVertexCount; ++v) {
+    float m[12] = {0};
+    for (uint32_t i = a.skin_offsets[v]; i < a.skin_offsets[v + 1]; ++i) {
+      const Affine& A = bone[a.skin_bones[i]];
+      const float w = a.skin_weights[i];
+      for (int k = 0; k < 9; ++k) m[k] += w * A.r[k];
+      for (int k = 0; k < 3; ++k) m[9 + k] += w * A.t[k];
+    }
+    const Vec3f& p = shaped[v];
+    out[v] = {m[0] * p.x + m[1] * p.y + m[2] * p.z + m[9], m[3] * p.x + m[4] * p.y + m[5] * p.z + m[10],
+              m[6] * p.x + m[7] * p.y + m[8] * p.z + m[11]};
+  }
+}
+
+std::vector<uint8_t> vertex_part_labels(const HumanAssets& a) {
+  enum Segment { kHead, kNeck, kTorso, kUpperArm, kForeArm, kHand, kThigh, kShin, kFoot, kSegmentCount };
+  // Segment and side of each bone.
+  struct BoneClass {
+    Segment segment;
+    int side;  // +1 left, -1 right, 0 centre
+  };
+  const std::map<std::string, BoneClass> classes = {
+      {"Head", {kHead, 0}},          {"Neck", {kNeck, 0}},           {"Neck1", {kNeck, 0}},
+      {"Hips", {kTorso, 0}},         {"LowerBack", {kTorso, 0}},     {"Spine", {kTorso, 0}},
+      {"Spine1", {kTorso, 0}},       {"LHipJoint", {kTorso, 1}},     {"RHipJoint", {kTorso, -1}},
+      {"LeftShoulder", {kTorso, 1}}, {"RightShoulder", {kTorso, -1}}, {"LeftArm", {kUpperArm, 1}},
+      {"RightArm", {kUpperArm, -1}}, {"LeftForeArm", {kForeArm, 1}}, {"RightForeArm", {kForeArm, -1}},
+      {"LeftHand", {kHand, 1}},      {"RightHand", {kHand, -1}},     {"LeftFingerBase", {kHand, 1}},
+      {"RightFingerBase", {kHand, -1}}, {"LeftHandFinger1", {kHand, 1}}, {"RightHandFinger1", {kHand, -1}},
+      {"LThumb", {kHand, 1}},        {"RThumb", {kHand, -1}},        {"LeftUpLeg", {kThigh, 1}},
+      {"RightUpLeg", {kThigh, -1}},  {"LeftLeg", {kShin, 1}},        {"RightLeg", {kShin, -1}},
+      {"LeftFoot", {kFoot, 1}},      {"RightFoot", {kFoot, -1}},     {"LeftToeBase", {kFoot, 1}},
+      {"RightToeBase", {kFoot, -1}}};
+  std::vector<BoneClass> bone_class;
+  for (const RigBone& b : a.bones) {
+    auto it = classes.find(b.name);
+    if (it == classes.end()) fail("rig bone " + b.name + " has no part class");
+    bone_class.push_back(it->second);
+  }
+  const Skeleton s = measure_skeleton(a, a.base_vertices);
+  auto head = [&](const char* n) { return s.heads[bone_or_fail(a, n)]; };
+  auto tail = [&](const char* n) { return s.tails[bone_or_fail(a, n)]; };
+  const double head_split_y = head("Head").y + 0.45 * (tail("Head").y - head("Head").y);
+  const double torso_split_y = head("Spine").y + 0.3 * (head("Spine1").y - head("Spine").y);
+
+  // Left-side reference points; the right side mirrors x.
+  struct Limb {
+    Vec3 shoulder, elbow, wrist, hand_dir, upper_dir, fore_dir, hip, knee, ankle, thigh_dir, shin_dir;
+  };
+  auto limb = [&](bool left) {
+    auto n = [&](const char* l, const char* r) { return left ? l : r; };
+    Limb L;
+    L.shoulder = head(n("LeftArm", "RightArm"));
+    L.elbow = head(n("LeftForeArm", "RightForeArm"));
+    L.wrist = head(n("LeftHand", "RightHand"));
+    L.upper_dir = (L.elbow - L.shoulder).normalized();
+    L.fore_dir = (L.wrist - L.elbow).normalized();
+    L.hand_dir = (tail(n("LeftFingerBase", "RightFingerBase")) - L.wrist).normalized();
+    L.hip = head(n("LeftUpLeg", "RightUpLeg"));
+    L.knee = head(n("LeftLeg", "RightLeg"));
+    L.ankle = head(n("LeftFoot", "RightFoot"));
+    L.thigh_dir = (L.knee - L.hip).normalized();
+    L.shin_dir = (L.ankle - L.knee).normalized();
+    return L;
+  };
+  const Limb limbs[2] = {limb(true), limb(false)};
+
+  // Joint-centred part sizes (metres, on the base body).
+  constexpr double kShoulderRadius = 0.085, kElbowHalf = 0.045, kWristHalf = 0.03, kKneeHalf = 0.06,
+                   kAnkleRadius = 0.065, kAnkleHalf = 0.04;
+  using P = int;
+  std::vector<uint8_t> labels(kBodyVertexCount);
+  for (int v = 0; v < kBodyVertexCount; ++v) {
+    double seg_weight[kSegmentCount] = {0};
+    double side_weight = 0;
+    for (uint32_t i = a.skin_offsets[v]; i < a.skin_offsets[v + 1]; ++i) {
+      const BoneClass& c = bone_class[a.skin_bones[i]];
+      seg_weight[c.segment] += a.skin_weights[i];
+      side_weight += c.side * a.skin_weights[i];
+    }
+    int seg = int(std::max_element(seg_weight, seg_weight + kSegmentCount) - seg_weight);
+    const Vec3f& q = a.base_vertices[v];
+    const Vec3 p{q.x, q.y, q.z};
+    int side = a.vertex_side[v] != 0 ? a.vertex_side[v] : (p.x > 0 ? 1 : p.x < 0 ? -1 : (side_weight >= 0 ? 1 : -1));
+    if (seg != kHead && seg != kNeck && seg != kTorso) side = side_weight >= 0 ? 1 : -1;  // limbs by their bones
+    const bool left = side > 0;
+    const Limb& L = limbs[left ? 0 : 1];
+    auto lr = [&](P l) { return uint8_t(left ? l : dp::tools::kPartMirror[l]); };
+    uint8_t label = 0;
+    switch (seg) {
+      case kHead: label = lr(p.y >= head_split_y ? 0 : 2); break;  // head_lu / head_lw
+      case kNeck: label = 4; break;
+      case kTorso:
+        label = lr(p.y >= torso_split_y ? 17 : 19);  // torso_lu / torso_lw
+        if ((p - L.shoulder).norm() < kShoulderRadius) label = lr(5);
+        break;
+      case kUpperArm:
+        label = lr(7);
+        if ((p - L.shoulder).norm() < kShoulderRadius) label = lr(5);
+        if ((p - L.elbow).dot(L.upper_dir) > -kElbowHalf) label = lr(11);
+        break;
+      case kForeArm:
+        label = lr(9);
+        if ((p - L.elbow).dot(L.fore_dir) < kElbowHalf) label = lr(11);
+        if ((p - L.wrist).dot(L.fore_dir) > -kWristHalf) label = lr(13);
+        break;
+      case kHand:
+        label = lr(15);
+        if ((p - L.wrist).dot(L.hand_dir) < kWristHalf * 0.5) label = lr(13);
+        break;
+      case kThigh:
+        label = lr(21);
+        if ((p - L.knee).dot(L.thigh_dir) > -kKneeHalf) label = lr(25);
+        break;
+      case kShin:
+        label = lr(23);
+        if ((p - L.knee).dot(L.shin_dir) < kKneeHalf) label = lr(25);
+        if ((p - L.ankle).dot(L.shin_dir) > -kAnkleHalf) label = lr(27);
+        break;
+      case kFoot:
+        label = lr(29);
+        if ((p - L.ankle).norm() < kAnkleRadius) label = lr(27);
+        break;
+    }
+    labels[v] = label;
+  }
+  return labels;
+}
+
+double pose_distance(const JointSet& a, const JointSet& b) {
+  double m = 0;
+  for (size_t j = 0; j < a.size(); ++j) m = std::max(m, (a[j] - b[j]).norm());
+  return m;
+}
+
+std::vector<size_t> furthest_neighbour_selection(const std::vector<JointSet>& items, double min_distance) {
+  std::vector<size_t> selected;
+  if (items.empty()) return selected;
+  std::vector<double> nearest(items.size(), std::numeric_limits<double>::infinity());
+  size_t next = 0;
+  for (;;) {
+    selected.push_back(next);
+    const JointSet& s = items[next];
+    size_t best = 0;
+    double best_d = -1;
+    for (size_t i = 0; i < items.size(); ++i) {
+      double& n = nearest[i];
+      if (n > 0) {
+        // d >= n as soon as one joint is that far: no update needed, stop early.
+        double d2max = 0, n2 = n * n;
+        for (size_t j = 0; j < s.size() && d2max < n2; ++j) {
+          Vec3 e = items[i][j] - s[j];
+          d2max = std::max(d2max, e.dot(e));
+        }
+        if (d2max < n2) n = std::sqrt(d2max);
+      }
+      if (n > best_d) {
+        best_d = n;
+        best = i;
+      }
+    }
+    if (!(best_d >= min_distance)) break;
+    next = best;
+  }
+  return selected;
+}
+
+PoseLibrary build_pose_library(const HumanAssets& a, const std::vector<MotionClip>& clips, double min_distance) {
+  const Skeleton rest = measure_skeleton(a, a.base_vertices);
+  const int hips = bone_or_fail(a, "Hips");
+  std::vector<BodyPose> candidates;
+  std::vector<std::string> origin;
+  std::vector<JointSet> joints;
+  for (const MotionClip& c : clips) {
+    for (size_t k = 0; k < c.frames.size(); ++k) {
+      BodyPose p = retarget_frame(a, rest, c, k);
+      Skeleton s = pose_skeleton(a, rest, p);
+      JointSet j = joints_of(a, s);
+      for (Vec3& x : j) x = x - s.heads[hips];
+      candidates.push_back(std::move(p));
+      joints.push_back(j);
+      origin.push_back(c.name + ":" + std::to_string(k * c.frame_stride));
+    }
+  }
+  PoseLibrary lib;
+  lib.candidate_count = candidates.size();
+  for (size_t i : furthest_neighbour_selection(joints, min_distance)) {
+    lib.poses.push_back(std::move(candidates[i]));
+    lib.origin.push_back(origin[i]);
+  }
+  return lib;
+}
+
+}  // namespace dp::synth

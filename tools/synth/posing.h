@@ -1,0 +1,67 @@
+// Retargeting CMU motion onto the cmu_mb rig, posing (linear blend skinning), the 16 output
+// joints, the per-vertex part labels, and the pose library (furthest-neighbour pruning).
+//
+// A BodyPose is, per rig bone, the world rotation G_b taking the bone from the A-pose rest to its
+// posed orientation (mesh frame: y up, rest facing +z). Bones rotate about their heads; the Hips
+// head stays at its rest position. G_b = Q_b * K_b * T_b where T_b is the A->T correction
+// (t-pose.json), K_b the smallest rotation taking our T-pose bone direction onto the clip's rest
+// direction (e.g. CMU's 20-degree leg splay), and Q_b the clip's world rotation of that segment.
+// The clip's heading (yaw of the hips) is removed, so every pose faces +z; tilt is kept.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tools/common/body_model.h"
+#include "tools/synth/human_model.h"
+#include "tools/synth/motion.h"
+
+namespace dp::synth {
+
+struct BodyPose {
+  std::vector<Mat3> bone_world;  // one per HumanAssets::bones entry
+};
+
+using JointSet = std::array<Vec3, dp::tools::kJointCount>;  // metres, meta joint order
+
+// The rest pose (all identity), i.e. the A-pose.
+BodyPose rest_pose(const HumanAssets& assets);
+// The T-pose (tpose_world), the neutral pose of the motion data.
+BodyPose t_pose(const HumanAssets& assets);
+
+// Pose for frame k (index into clip.frames) of a clip.
+BodyPose retarget_frame(const HumanAssets& assets, const Skeleton& rest, const MotionClip& clip, size_t k);
+
+// Posed bone heads/tails (Hips head fixed at its rest position).
+Skeleton pose_skeleton(const HumanAssets& assets, const Skeleton& rest, const BodyPose& pose);
+// The 16 joints (definitions in the issue / docs/dataset_format.md) on a posed skeleton.
+JointSet joints_of(const HumanAssets& assets, const Skeleton& posed);
+
+// Linear blend skinning of the body vertices (first kBodyVertexCount of `shaped`). `out` is
+// resized to kBodyVertexCount.
+void skin_body(const HumanAssets& assets, const std::vector<Vec3f>& shaped, const Skeleton& rest,
+               const Skeleton& posed, const BodyPose& pose, std::vector<Vec3f>& out);
+
+// Part id (0..30, body_model.h order) per body vertex, from the rest mesh: our fixed rule
+// (dominant skin-weight segment, the Left/Right groups, planes and radii around the joints;
+// docs/parts.md). The same table serves every shape and pose.
+std::vector<uint8_t> vertex_part_labels(const HumanAssets& assets);
+
+// Furthest-neighbour (farthest-point) selection: starts from item 0 and repeatedly adds the item
+// farthest (d = max over joints of Euclidean distance) from everything selected, until that
+// distance is below `min_distance`. Returns the selected indices in selection order. Every
+// unselected item is then within min_distance of a selected one.
+std::vector<size_t> furthest_neighbour_selection(const std::vector<JointSet>& items, double min_distance);
+double pose_distance(const JointSet& a, const JointSet& b);
+
+struct PoseLibrary {
+  std::vector<BodyPose> poses;
+  std::vector<std::string> origin;   // "02_01:240" (clip, source frame)
+  size_t candidate_count = 0;        // sampled frames before pruning
+};
+// Samples every clip frame present (clips are already stride-sampled), measures joints relative
+// to the hips on the base body, and keeps the furthest-neighbour selection at `min_distance` m.
+PoseLibrary build_pose_library(const HumanAssets& assets, const std::vector<MotionClip>& clips, double min_distance);
+
+}  // namespace dp::synth

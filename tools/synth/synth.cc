@@ -1,0 +1,404 @@
+#include "tools/synth/synth.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "tools/common/body_model.h"
+#include "tools/common/error.h"
+
+namespace dp::synth {
+using dp::tools::fail;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr uint64_t kParamStream = 1, kNoiseStream = 2;
+constexpr double kJointOcclusionMargin = 0.15;  // metres, visibility rule
+
+// MakeHuman's age control from years: 1 -> 0, 11 -> 0.1875, 25 -> 0.5, 90 -> 1.
+double age_control_from_years(double years) {
+  if (years <= 1) return 0;
+  if (years <= 11) return 0.1875 * (years - 1) / 10.0;
+  if (years <= 25) return 0.1875 + (0.5 - 0.1875) * (years - 11) / 14.0;
+  return std::min(1.0, 0.5 + 0.5 * (years - 25) / 65.0);
+}
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
+std::vector<MotionClip> load_clips(const std::string& assets_dir, const std::vector<std::string>& selection,
+                                   int frame_stride) {
+  const std::string root = assets_dir + "/mocap/cmu";
+  std::vector<std::string> names = selection;
+  std::vector<MotionClip> clips;
+  if (names.empty()) {
+    if (!fs::is_directory(root)) fail("mocap directory " + root + " does not exist (pass --assets ../shared/assets)");
+    for (auto& e : fs::directory_iterator(root))
+      if (e.is_directory()) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    if (names.empty()) fail(root + " holds no subjects");
+  }
+  for (const std::string& name : names) {
+    if (ends_with(name, ".bvh")) {
+      clips.push_back(load_bvh(name, frame_stride));
+      continue;
+    }
+    const std::string subject = name.substr(0, 2);
+    const std::string dir = root + "/" + subject;
+    if (subject.size() != 2 || !fs::is_directory(dir))
+      fail("unknown clip '" + name + "': no subject directory " + dir);
+    const std::string asf = dir + "/" + subject + ".asf";
+    if (name.size() == 2) {
+      std::vector<std::string> amcs;
+      for (auto& e : fs::directory_iterator(dir))
+        if (ends_with(e.path().string(), ".amc")) amcs.push_back(e.path().string());
+      std::sort(amcs.begin(), amcs.end());
+      if (amcs.empty()) fail(dir + " holds no .amc clips");
+      for (auto& amc : amcs) clips.push_back(load_asf_amc(asf, amc, frame_stride));
+    } else {
+      const std::string amc = dir + "/" + name + ".amc";
+      if (!fs::exists(amc)) fail("unknown clip '" + name + "': " + amc + " does not exist");
+      clips.push_back(load_asf_amc(asf, amc, frame_stride));
+    }
+  }
+  return clips;
+}
+
+Synthesizer::Synthesizer(const std::string& assets_dir, const SynthConfig& config) : config_(config) {
+  if (config_.width < 16 || config_.height < 16 || config_.width > 4096 || config_.height > 4096)
+    fail("image size " + std::to_string(config_.width) + "x" + std::to_string(config_.height) + " out of range");
+  intrinsics_ = Intrinsics::kinect_like(config_.width, config_.height);
+  intrinsics_.fx = intrinsics_.fy = config_.focal_640 * config_.width / 640.0;
+  assets_ = load_human_assets(assets_dir);
+  vertex_labels_ = vertex_part_labels(assets_);
+  std::vector<MotionClip> clips = load_clips(assets_dir, config_.clips, config_.pose_frame_stride);
+  for (auto& c : clips) clip_names_.push_back(c.name);
+  library_ = build_pose_library(assets_, clips, config_.pose_min_distance_m);
+  if (library_.poses.empty()) fail("no poses from the selected clips");
+}
+
+FrameParams Synthesizer::sample_frame_params(uint64_t seed, uint64_t frame_index) const {
+  Rng rng = Rng::for_frame(seed, frame_index, kParamStream);
+  const SynthConfig& c = config_;
+  FrameParams p;
+  p.frame_index = frame_index;
+  p.noise_seed = Rng::for_frame(seed, frame_index, kNoiseStream).next();
+  p.pose_index = size_t(rng.below(library_.poses.size()));
+  p.mirror = rng.chance(c.mirror_probability);
+  ShapeControls& s = p.shape;
+  s.gender = rng.uniform();
+  s.age = age_control_from_years(rng.uniform(c.age_min_years, c.age_max_years));
+  s.muscle = rng.uniform(0.15, 0.85);
+  s.weight = rng.uniform(0.1, 0.9);
+  s.height = rng.uniform(0.4, 0.6);  // adults ~1.5-1.9 m before the extra scale
+  s.proportions = rng.uniform(0.3, 1.0);
+  s.african = rng.uniform();
+  s.asian = rng.uniform();
+  s.caucasian = rng.uniform();
+  s.extra_height = 1.0 + rng.uniform(-c.extra_scale, c.extra_scale);
+  s.extra_weight = 1.0 + rng.uniform(-c.extra_scale, c.extra_scale);
+  const double rot = std::min(180.0, c.rotation_deg);
+  p.yaw_deg = rng.uniform(-rot, rot);
+  p.camera_height_m = rng.uniform(c.camera_height_min_m, c.camera_height_max_m);
+  p.camera_pitch_deg = rng.uniform(c.camera_pitch_min_deg, c.camera_pitch_max_deg);
+  p.camera_roll_deg = rng.uniform(-c.camera_roll_max_deg, c.camera_roll_max_deg);
+  p.distance_m = rng.uniform(c.distance_min_m, c.distance_max_m);
+  p.image_x = rng.uniform(c.image_x_margin, 1.0 - c.image_x_margin);
+  return p;
+}
+
+namespace {
+
+// World: y up, floor y = 0, camera at (0, h, 0) looking along +z before pitch/roll (right-handed,
+// so the camera's right is -x). Camera frame: x right, y up, z forward.
+struct CameraPose {
+  Mat3 world_to_camera;  // includes the x flip
+  Vec3 position;
+};
+
+CameraPose make_camera(const FrameParams& p) {
+  Mat3 flip;
+  flip.m = {-1, 0, 0, 0, 1, 0, 0, 0, 1};
+  CameraPose c;
+  c.world_to_camera = rot_z(p.camera_roll_deg * kDegToRad) * flip * rot_x(-p.camera_pitch_deg * kDegToRad);
+  c.position = {0, p.camera_height_m, 0};
+  return c;
+}
+
+struct PosedBody {
+  std::vector<Vec3f> vertices;  // camera frame
+  JointSet joints;              // camera frame, meta order
+  std::vector<uint8_t> const* labels = nullptr;
+  bool mirrored = false;
+};
+
+}  // namespace
+
+SynthFrame Synthesizer::render(const FrameParams& p) const {
+  const Intrinsics& k = intrinsics_;
+  if (p.pose_index >= library_.poses.size()) fail("pose index out of range");
+  const BodyPose& pose = library_.poses[p.pose_index];
+
+  // Shape, skeleton, pose, skin.
+  const std::vector<Vec3f> shaped = shaped_vertices(assets_, p.shape);
+  const Skeleton rest = measure_skeleton(assets_, shaped);
+  const Skeleton posed = pose_skeleton(assets_, rest, pose);
+  thread_local std::vector<Vec3f> verts;
+  skin_body(assets_, shaped, rest, posed, pose, verts);
+  JointSet joints = joints_of(assets_, posed);
+
+  // Mirror (in body space): x -> -x, swap left/right labels and joints.
+  thread_local std::vector<uint8_t> mirrored_labels;
+  const std::vector<uint8_t>* labels = &vertex_labels_;
+  if (p.mirror) {
+    for (Vec3f& v : verts) v.x = -v.x;
+    for (Vec3& j : joints) j.x = -j.x;
+    JointSet swapped;
+    for (int j = 0; j < dp::tools::kJointCount; ++j) swapped[dp::tools::kJointMirror[j]] = joints[j];
+    joints = swapped;
+    mirrored_labels.resize(vertex_labels_.size());
+    for (size_t i = 0; i < vertex_labels_.size(); ++i) mirrored_labels[i] = dp::tools::kPartMirror[vertex_labels_[i]];
+    labels = &mirrored_labels;
+  }
+
+  // Stand on the floor: lowest vertex at y = 0, hips above the placement point.
+  const int hips = assets_.bone_index("Hips");
+  Vec3 hip = posed.heads[hips];
+  if (p.mirror) hip.x = -hip.x;
+  float min_y = verts[0].y;
+  for (const Vec3f& v : verts) min_y = std::min(min_y, v.y);
+  // Body -> world: turn to face the camera (-z) and by yaw; place at distance along the view.
+  const CameraPose cam = make_camera(p);
+  const double lateral = (p.image_x * k.width - k.cx) / k.fx;  // tan of the horizontal angle
+  const Vec3 place{-p.distance_m * lateral, 0, p.distance_m};     // camera right is -x
+  const Mat3 body_rot = rot_y(M_PI + p.yaw_deg * kDegToRad);
+  const Mat3 m = cam.world_to_camera * body_rot;
+  const Vec3 offset = cam.world_to_camera * (place - cam.position) - m * Vec3{hip.x, double(min_y), hip.z};
+  float mf[9];
+  for (int i = 0; i < 9; ++i) mf[i] = float(m.m[i]);
+  const float ox = float(offset.x), oy = float(offset.y), oz = float(offset.z);
+  for (Vec3f& v : verts) {
+    const float x = v.x, y = v.y, z = v.z;
+    v = {mf[0] * x + mf[1] * y + mf[2] * z + ox, mf[3] * x + mf[4] * y + mf[5] * z + oy,
+         mf[6] * x + mf[7] * y + mf[8] * z + oz};
+  }
+  for (Vec3& j : joints) j = m * j + offset;
+
+  SynthFrame f;
+  f.clean.reset(k.width, k.height);
+  rasterize(k, verts, assets_.body_triangles, *labels, f.clean);
+  if (config_.floor) {
+    const Vec3 n = cam.world_to_camera * Vec3{0, 1, 0};
+    rasterize_plane(k, n, -p.camera_height_m, config_.noise.max_range_m, f.clean);
+  }
+
+  Rng noise_rng(p.noise_seed);
+  apply_sensor_noise(k, config_.noise, f.clean.depth, noise_rng, f.depth);
+  f.parts.width = k.width;
+  f.parts.height = k.height;
+  f.parts.pixels.assign(size_t(k.width) * k.height, dp::tools::kNotBodyLabel);
+  for (size_t i = 0; i < f.parts.pixels.size(); ++i)
+    if (f.depth.pixels[i] != 0) f.parts.pixels[i] = f.clean.label[i];
+
+  f.joints.resize(dp::tools::kJointCount);
+  for (int j = 0; j < dp::tools::kJointCount; ++j) {
+    dp::tools::JointTruth& t = f.joints[j];
+    t.x = float(joints[j].x);
+    t.y = float(joints[j].y);
+    t.z = float(joints[j].z);
+    t.visible = false;
+    if (joints[j].z > kNearPlane) {
+      const int u = int(std::lround(k.cx + k.fx * joints[j].x / joints[j].z));
+      const int v = int(std::lround(k.cy - k.fy * joints[j].y / joints[j].z));
+      if (u >= 0 && v >= 0 && u < k.width && v < k.height) {
+        const float d = f.clean.depth[size_t(v) * k.width + u];
+        t.visible = d == 0 || d >= joints[j].z - kJointOcclusionMargin;
+      }
+    }
+  }
+
+  nlohmann::json extra;
+  extra["pose"] = library_.origin[p.pose_index];
+  extra["mirror"] = p.mirror;
+  extra["shape"] = {{"gender", p.shape.gender},        {"age", p.shape.age},
+                    {"muscle", p.shape.muscle},        {"weight", p.shape.weight},
+                    {"height", p.shape.height},        {"proportions", p.shape.proportions},
+                    {"extra_height", p.shape.extra_height}, {"extra_weight", p.shape.extra_weight}};
+  extra["rotation"] = p.yaw_deg;
+  extra["camera"] = {{"height", p.camera_height_m}, {"pitch", p.camera_pitch_deg}, {"roll", p.camera_roll_deg}};
+  extra["distance"] = p.distance_m;
+  f.extra_json = extra.dump();
+  return f;
+}
+
+dp::tools::DatasetMeta Synthesizer::dataset_meta() const {
+  dp::tools::DatasetMeta m;
+  m.width = intrinsics_.width;
+  m.height = intrinsics_.height;
+  m.fx = intrinsics_.fx;
+  m.fy = intrinsics_.fy;
+  m.cx = intrinsics_.cx;
+  m.cy = intrinsics_.cy;
+  for (const char* n : dp::tools::kPartNames) m.parts.push_back(n);
+  for (const char* n : dp::tools::kJointNames) m.joints.push_back(n);
+  nlohmann::json extra;
+  extra["generator"] = "depthpose synth";
+  extra["pose_count"] = library_.poses.size();
+  extra["clips"] = clip_names_;
+  extra["floor"] = config_.floor;
+  extra["noise"] = config_.noise.enabled;
+  m.extra_json = extra.dump();
+  return m;
+}
+
+void part_colour(uint8_t part, uint8_t rgb[3]) {
+  if (part >= dp::tools::kPartCount) {
+    rgb[0] = rgb[1] = rgb[2] = 0;
+    return;
+  }
+  // Hues spread by the golden angle; left/right partners get clearly different hues.
+  const double h = std::fmod(part * 0.618033988749895 * 360.0, 360.0);
+  const double s = (part % 3 == 0) ? 0.95 : (part % 3 == 1 ? 0.7 : 0.55);
+  const double v = (part % 2 == 0) ? 0.95 : 0.8;
+  const double c = v * s, x = c * (1 - std::fabs(std::fmod(h / 60.0, 2) - 1)), m = v - c;
+  double r = 0, g = 0, b = 0;
+  if (h < 60) { r = c; g = x; } else if (h < 120) { r = x; g = c; } else if (h < 180) { g = c; b = x; }
+  else if (h < 240) { g = x; b = c; } else if (h < 300) { r = x; b = c; } else { r = c; b = x; }
+  rgb[0] = uint8_t(255 * (r + m));
+  rgb[1] = uint8_t(255 * (g + m));
+  rgb[2] = uint8_t(255 * (b + m));
+}
+
+namespace {
+void colourize_depth(uint16_t mm, uint16_t lo, uint16_t hi, uint8_t rgb[3]) {
+  if (mm == 0) {
+    rgb[0] = rgb[1] = rgb[2] = 0;
+    return;
+  }
+  const double t = hi > lo ? std::clamp(double(mm - lo) / double(hi - lo), 0.0, 1.0) : 0.5;
+  // near = warm, far = cool
+  rgb[0] = uint8_t(255 * std::clamp(1.5 - 2.0 * t, 0.0, 1.0));
+  rgb[1] = uint8_t(255 * std::clamp(1.0 - std::fabs(2.0 * t - 0.8), 0.15, 1.0));
+  rgb[2] = uint8_t(255 * std::clamp(2.0 * t - 0.3, 0.0, 1.0));
+}
+
+void draw_line(dp::tools::ImageRgb& img, int xa, int ya, int xb, int yb, int x_lo, int x_hi, const uint8_t c[3]) {
+  const int n = std::max(std::abs(xb - xa), std::abs(yb - ya));
+  for (int i = 0; i <= n; ++i) {
+    const int x = n ? xa + (xb - xa) * i / n : xa, y = n ? ya + (yb - ya) * i / n : ya;
+    if (x >= x_lo && x < x_hi) img.set(x, y, c[0], c[1], c[2]);
+  }
+}
+}  // namespace
+
+void draw_preview_row(const SynthFrame& f, const Intrinsics& k, dp::tools::ImageRgb& sheet, int x0, int y0) {
+  const int W = f.depth.width, H = f.depth.height;
+  uint16_t lo = 65535, hi = 0;
+  for (uint16_t d : f.depth.pixels)
+    if (d) {
+      lo = std::min(lo, d);
+      hi = std::max(hi, d);
+    }
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t i = size_t(y) * W + x;
+      uint8_t c[3];
+      colourize_depth(f.depth.pixels[i], lo, hi, c);
+      sheet.set(x0 + x, y0 + y, c[0], c[1], c[2]);
+      part_colour(f.parts.pixels[i], c);
+      sheet.set(x0 + W + x, y0 + y, c[0], c[1], c[2]);
+      const uint8_t g = f.depth.pixels[i] ? uint8_t(60 + 160 * (hi > lo ? double(hi - f.depth.pixels[i]) / (hi - lo) : 0.5)) : 0;
+      sheet.set(x0 + 2 * W + x, y0 + y, g, g, g);
+    }
+  // Joints and bones over the third panel; left side blue, right side red, centre green.
+  static const int bones[][2] = {{0, 1}, {1, 2}, {1, 3}, {2, 4}, {3, 5}, {4, 6}, {5, 7}, {6, 8}, {7, 9},
+                                 {2, 10}, {3, 11}, {10, 12}, {11, 13}, {12, 14}, {13, 15}};
+  auto project = [&](int j, int& u, int& v) {
+    const auto& t = f.joints[j];
+    if (t.z <= kNearPlane) return false;
+    u = int(std::lround(k.cx + k.fx * t.x / t.z));
+    v = int(std::lround(k.cy - k.fy * t.y / t.z));
+    return true;
+  };
+  auto colour_of = [](int j, uint8_t c[3]) {
+    const bool left = j >= 2 && j % 2 == 0, right = j >= 2 && j % 2 == 1;
+    c[0] = right ? 255 : 40;
+    c[1] = (!left && !right) ? 230 : 60;
+    c[2] = left ? 255 : 40;
+  };
+  for (auto& b : bones) {
+    int ua, va, ub, vb;
+    if (!project(b[0], ua, va) || !project(b[1], ub, vb)) continue;
+    uint8_t c[3];
+    colour_of(b[1], c);
+    draw_line(sheet, x0 + 2 * W + ua, y0 + va, x0 + 2 * W + ub, y0 + vb, x0 + 2 * W, x0 + 3 * W, c);
+  }
+  for (int j = 0; j < int(f.joints.size()); ++j) {
+    int u, v;
+    if (!project(j, u, v)) continue;
+    uint8_t c[3];
+    colour_of(j, c);
+    if (!f.joints[j].visible) c[0] = c[1] = c[2] = 255;
+    for (int dy = -2; dy <= 2; ++dy)
+      for (int dx = -2; dx <= 2; ++dx) {
+        const int x = u + dx, y = v + dy;
+        if (x >= 0 && y >= 0 && x < W && y < H && (std::abs(dx) == 2 || std::abs(dy) == 2))
+          sheet.set(x0 + 2 * W + x, y0 + y, c[0], c[1], c[2]);
+      }
+  }
+}
+
+DepthLabelImage Synthesizer::render_body_view(const BodyPose& pose, double yaw_deg, int width, int height) const {
+  // A long lens far away: nearly orthographic, so part borders appear at their true heights.
+  Intrinsics k = Intrinsics::kinect_like(width, height);
+  k.fx = k.fy = k.fx * 10;
+  const std::vector<Vec3f> shaped = shaped_vertices(assets_, ShapeControls{});
+  const Skeleton rest = measure_skeleton(assets_, shaped);
+  const Skeleton posed = pose_skeleton(assets_, rest, pose);
+  std::vector<Vec3f> verts;
+  skin_body(assets_, shaped, rest, posed, pose, verts);
+  float min_y = verts[0].y, max_y = verts[0].y, min_x = verts[0].x, max_x = verts[0].x;
+  for (const Vec3f& v : verts) {
+    min_y = std::min(min_y, v.y);
+    max_y = std::max(max_y, v.y);
+    min_x = std::min(min_x, v.x);
+    max_x = std::max(max_x, v.x);
+  }
+  // Frontal, orthogonal-ish view: body centred, distance so that it fills ~90 % of the height.
+  const double extent = std::max(double(max_y - min_y), double(max_x - min_x) * height / width);
+  const double distance = k.fy * extent / (0.9 * height);
+  const Mat3 rot = rot_y(M_PI + yaw_deg * kDegToRad);
+  Mat3 flip;
+  flip.m = {-1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const Mat3 m = flip * rot;
+  const Vec3 centre{0.5 * (min_x + max_x), 0.5 * (min_y + max_y), rest.heads[assets_.bone_index("Hips")].z};
+  for (Vec3f& v : verts) {
+    Vec3 q = m * (Vec3{v.x, v.y, v.z} - centre) + Vec3{0, 0, distance};
+    v = {float(q.x), float(q.y), float(q.z)};
+  }
+  DepthLabelImage img;
+  img.reset(width, height);
+  rasterize(k, verts, assets_.body_triangles, vertex_labels_, img);
+  return img;
+}
+
+dp::tools::ImageRgb Synthesizer::render_parts_figure(const BodyPose& pose, double yaw_deg, int width, int height) const {
+  const DepthLabelImage img = render_body_view(pose, yaw_deg, width, height);
+  dp::tools::ImageRgb out;
+  out.resize(width, height);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      uint8_t c[3];
+      part_colour(img.label[size_t(y) * width + x], c);
+      if (img.label[size_t(y) * width + x] == kNoLabel) c[0] = c[1] = c[2] = 255;
+      out.set(x, y, c[0], c[1], c[2]);
+    }
+  return out;
+}
+
+}  // namespace dp::synth

@@ -1,0 +1,119 @@
+// depthpose synth as a library: render labelled synthetic depth frames into memory.
+// Other tools' tests (training, eval, recordings) use this to make frames without files:
+//
+//   dp::synth::SynthConfig config;               // 320x240, defaults of docs/synthetic_data.md
+//   config.clips = {"02_01"};                    // optional: fewer clips load faster
+//   dp::synth::Synthesizer synth("../shared/assets", config);   // loads assets, builds poses
+//   dp::synth::SynthFrame f = synth.render_frame(/*seed=*/1, /*frame_index=*/0);
+//   // f.depth (mm, 0 = none), f.parts (0..30, 255 = not body), f.joints (camera frame, metres)
+//
+// Frame i of seed s is a pure function of (assets, config, s, i): its random stream is seeded
+// from (s, i), so any thread may render any frame. Synthesizer is immutable after construction;
+// render_frame may be called concurrently. Throws dp::tools::ToolError for missing/malformed
+// assets or clips (naming the file).
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tools/common/dataset.h"
+#include "tools/common/png_io.h"
+#include "tools/synth/depth_noise.h"
+#include "tools/synth/human_model.h"
+#include "tools/synth/posing.h"
+#include "tools/synth/rasterizer.h"
+
+namespace dp::synth {
+
+struct SynthConfig {
+  int width = 320, height = 240;
+  double focal_640 = 525.0;          // fx = fy = focal_640 * width / 640
+  double rotation_deg = 60;          // body yaw uniform in [-rotation, +rotation] (180+ = full turn)
+  bool floor = false;                // render a floor plane behind the body (label 255)
+  NoiseConfig noise;
+  // Clips: "02" (all clips of subject 02), "02_01" (one clip), or a path to a .bvh file. Empty =
+  // every ASF/AMC clip under assets/mocap/cmu.
+  std::vector<std::string> clips;
+  int pose_frame_stride = 4;         // sample every 4th mocap frame (30 Hz of 120 Hz) before pruning
+  double pose_min_distance_m = 0.05; // D_pose of the furthest-neighbour pruning
+  double mirror_probability = 0.5;
+  // Scene ranges (see docs/synthetic_data.md).
+  double distance_min_m = 1.2, distance_max_m = 4.0;     // camera to body, along the floor
+  double camera_height_min_m = 0.5, camera_height_max_m = 1.9;
+  double camera_pitch_min_deg = -5, camera_pitch_max_deg = 25;  // positive = looking down
+  double camera_roll_max_deg = 6;
+  double image_x_margin = 0.05;      // hips project within [margin, 1 - margin] of the width
+  // Body shape ranges.
+  double age_min_years = 13, age_max_years = 75;
+  double extra_scale = 0.10;         // +-10 % extra height and weight (paper)
+};
+
+// Everything that varies per frame; sample_frame_params draws it from the frame's stream, tests
+// may edit it (e.g. fix yaw, mirror) before render.
+struct FrameParams {
+  uint64_t frame_index = 0;
+  uint64_t noise_seed = 0;
+  size_t pose_index = 0;
+  bool mirror = false;
+  ShapeControls shape;
+  double yaw_deg = 0;               // 0 = facing the camera; positive turns the body to its left
+  double camera_height_m = 1.0, camera_pitch_deg = 0, camera_roll_deg = 0;
+  double distance_m = 2.5;          // along the floor, camera to hips
+  double image_x = 0.5;             // where the hips project horizontally, fraction of width
+};
+
+struct SynthFrame {
+  dp::tools::ImageU16 depth;        // millimetres after noise, 0 = no reading
+  dp::tools::ImageU8 parts;         // 0..30 where the body has a reading, 255 elsewhere
+  DepthLabelImage clean;            // noise-free render (metres, labels incl. dropped pixels)
+  std::vector<dp::tools::JointTruth> joints;  // 16, camera frame, metres, with visibility
+  std::string extra_json;           // per-frame metadata for frames.jsonl
+};
+
+class Synthesizer {
+ public:
+  Synthesizer(const std::string& assets_dir, const SynthConfig& config);
+
+  const SynthConfig& config() const { return config_; }
+  const Intrinsics& intrinsics() const { return intrinsics_; }
+  const HumanAssets& assets() const { return assets_; }
+  const PoseLibrary& pose_library() const { return library_; }
+  const std::vector<uint8_t>& vertex_labels() const { return vertex_labels_; }
+  const std::vector<std::string>& clip_names() const { return clip_names_; }
+
+  FrameParams sample_frame_params(uint64_t seed, uint64_t frame_index) const;
+  SynthFrame render(const FrameParams& params) const;
+  SynthFrame render_frame(uint64_t seed, uint64_t frame_index) const {
+    return render(sample_frame_params(seed, frame_index));
+  }
+  // meta.json content for a dataset made with this synthesizer.
+  dp::tools::DatasetMeta dataset_meta() const;
+
+  // Noise-free render of the base-shape body in `pose`, seen from the front (yaw 0) or back
+  // (yaw 180) through a long lens (10x the Kinect focal length, nearly orthographic), centred and
+  // filling ~90 % of the image. For figures and tests.
+  DepthLabelImage render_body_view(const BodyPose& pose, double yaw_deg, int width, int height) const;
+  // Renders one labelled body (base shape, given pose, no noise) from the front (yaw 0) or back
+  // (yaw 180), camera at hip height, as an image of part colours (docs/parts.md figures).
+  dp::tools::ImageRgb render_parts_figure(const BodyPose& pose, double yaw_deg, int width, int height) const;
+
+ private:
+  SynthConfig config_;
+  Intrinsics intrinsics_;
+  HumanAssets assets_;
+  std::vector<uint8_t> vertex_labels_;
+  PoseLibrary library_;
+  std::vector<std::string> clip_names_;
+};
+
+// Loads the clips named by config.clips (see SynthConfig::clips) from assets_dir/mocap/cmu.
+std::vector<MotionClip> load_clips(const std::string& assets_dir, const std::vector<std::string>& selection,
+                                   int frame_stride);
+
+// Part colours (31 distinct RGB) for figures and previews; index kNoLabel = black.
+void part_colour(uint8_t part, uint8_t rgb[3]);
+// Contact sheet row: colourized depth | coloured parts | joints over depth. Appends to `sheet`
+// at row `row` (sheet must be 3*w wide and at least (row+1)*h tall).
+void draw_preview_row(const SynthFrame& frame, const Intrinsics& k, dp::tools::ImageRgb& sheet, int x0, int y0);
+
+}  // namespace dp::synth

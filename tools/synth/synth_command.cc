@@ -1,0 +1,215 @@
+// `depthpose synth`: writes a synthetic dataset (layout v1, docs/dataset_format.md) rendered from
+// the MakeHuman body and CMU motion; see docs/synthetic_data.md.
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <thread>
+#include <unistd.h>
+
+#include "tools/cli/command.h"
+#include "tools/common/args.h"
+#include "tools/common/dataset.h"
+#include "tools/common/error.h"
+#include "tools/synth/synth.h"
+
+namespace dp::synth {
+namespace {
+using dp::tools::fail;
+namespace fs = std::filesystem;
+
+const char* kUsage =
+    "usage: depthpose synth --out DIR --frames N [options]\n"
+    "Renders labelled synthetic depth frames (MakeHuman body, CMU motion) into a dataset (layout v1).\n"
+    "  --assets DIR        shared assets (default ../shared/assets)\n"
+    "  --out DIR           dataset directory to create\n"
+    "  --frames N          number of frames\n"
+    "  --seed S            random seed (default 1); same arguments + seed = identical dataset\n"
+    "  --width W --height H  image size (default 320x240; 640x480 works; fx=fy=525*W/640)\n"
+    "  --clips LIST        comma list: subject (02), clip (02_01) or path.bvh (default: all)\n"
+    "  --threads N         worker threads (default: all cores); output does not depend on it\n"
+    "  --preview FILE.png  contact sheet of the first frames (depth | parts | joints)\n"
+    "  --rotation DEG      body yaw uniform in [-DEG, DEG] (default 60; 180 or 360 = any)\n"
+    "  --floor             render a floor plane (label 255) instead of empty background\n"
+    "  --no-noise          clean depth (no shadows, dropouts, quantization)\n"
+    "  --pose-distance M   D_pose of the pose pruning in metres (default 0.05)\n"
+    "  --pose-stride N     use every N-th mocap frame before pruning (default 4)\n"
+    "  --ages A-B          age range in years (default 13-75)\n"
+    "  --parts-figure PREFIX  write PREFIX_front.png and PREFIX_back.png (labelled body, docs/parts.md)\n"
+    "  --pose-sheet FILE.png  contact sheet of pose-library samples (to check retargeting)\n";
+
+std::string format_seconds(double s) {
+  char buf[32];
+  if (s < 120) std::snprintf(buf, sizeof buf, "%.0fs", s);
+  else std::snprintf(buf, sizeof buf, "%dm%02ds", int(s) / 60, int(s) % 60);
+  return buf;
+}
+
+void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream f(path, std::ios::binary);
+  f.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+  if (!f) fail("cannot write " + path);
+}
+
+int run_synth(int argc, char** argv) {
+  dp::tools::Args args(argc, argv, kUsage,
+                       {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
+                        "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
+                        "--pose-sheet"},
+                       {"--floor", "--no-noise"});
+  if (args.help_requested()) {
+    std::printf("%s", kUsage);
+    return 0;
+  }
+  SynthConfig config;
+  config.width = int(args.get_int("--width", 320));
+  config.height = int(args.get_int("--height", 240));
+  config.rotation_deg = args.get_double("--rotation", 60);
+  config.floor = args.flag("--floor");
+  config.noise.enabled = !args.flag("--no-noise");
+  config.pose_min_distance_m = args.get_double("--pose-distance", 0.05);
+  config.pose_frame_stride = int(args.get_int("--pose-stride", 4));
+  if (config.pose_frame_stride < 1) fail("--pose-stride must be >= 1");
+  if (!(config.pose_min_distance_m >= 0)) fail("--pose-distance must be >= 0");
+  if (!(config.rotation_deg >= 0)) fail("--rotation must be >= 0");
+  if (args.has("--clips")) config.clips = dp::tools::split_list(args.get("--clips"));
+  if (args.has("--ages")) {
+    const std::string a = args.get("--ages");
+    char* end = nullptr;
+    config.age_min_years = std::strtod(a.c_str(), &end);
+    if (*end != '-') fail("--ages wants A-B in years, got '" + a + "'");
+    config.age_max_years = std::strtod(end + 1, &end);
+    if (*end || !(config.age_min_years >= 1) || !(config.age_max_years >= config.age_min_years) ||
+        config.age_max_years > 90)
+      fail("--ages wants A-B with 1 <= A <= B <= 90, got '" + a + "'");
+  }
+  const std::string assets = args.get("--assets", "../shared/assets");
+  const bool figures_only = (args.has("--parts-figure") || args.has("--pose-sheet")) && !args.has("--out");
+
+  const auto t0 = std::chrono::steady_clock::now();
+  Synthesizer synth(assets, config);
+  const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::fprintf(stderr, "synth: %zu clips, %zu sampled frames -> %zu poses after pruning at D_pose = %.0f mm (%.1fs)\n",
+               synth.clip_names().size(), synth.pose_library().candidate_count, synth.pose_library().poses.size(),
+               config.pose_min_distance_m * 1000, load_s);
+
+  if (args.has("--parts-figure")) {
+    const std::string prefix = args.get("--parts-figure");
+    const BodyPose pose = rest_pose(synth.assets());
+    dp::tools::write_png_rgb(prefix + "_front.png", synth.render_parts_figure(pose, 0, 480, 640));
+    dp::tools::write_png_rgb(prefix + "_back.png", synth.render_parts_figure(pose, 180, 480, 640));
+    std::fprintf(stderr, "synth: wrote %s_front.png and %s_back.png\n", prefix.c_str(), prefix.c_str());
+  }
+  if (args.has("--pose-sheet")) {
+    const int cols = 8, rows = 4, cw = 160, ch = 240;
+    dp::tools::ImageRgb sheet;
+    sheet.resize(cols * cw, rows * ch);
+    const size_t n = synth.pose_library().poses.size();
+    for (int i = 0; i < cols * rows; ++i) {
+      const size_t pi = (n * size_t(i)) / size_t(cols * rows);
+      dp::tools::ImageRgb cell = synth.render_parts_figure(synth.pose_library().poses[pi], 20, cw, ch);
+      for (int y = 0; y < ch; ++y)
+        for (int x = 0; x < cw; ++x) {
+          const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
+          sheet.set((i % cols) * cw + x, (i / cols) * ch + y, c[0], c[1], c[2]);
+        }
+    }
+    dp::tools::write_png_rgb(args.get("--pose-sheet"), sheet);
+    std::fprintf(stderr, "synth: wrote %s\n", args.get("--pose-sheet").c_str());
+  }
+  if (figures_only) return 0;
+
+  const std::string out = args.get("--out");
+  const long long frames = args.get_int("--frames", -1);
+  if (frames < 1) fail("--frames N (N >= 1) is required");
+  const uint64_t seed = uint64_t(args.get_int("--seed", 1));
+  int threads = int(args.get_int("--threads", std::max(1u, std::thread::hardware_concurrency())));
+  if (threads < 1) fail("--threads must be >= 1");
+  threads = int(std::min<long long>(threads, frames));
+
+  dp::tools::create_dataset(out, synth.dataset_meta(), true);
+  std::vector<dp::tools::FrameRecord> records(static_cast<size_t>(frames));
+  const size_t preview_count = args.has("--preview") ? size_t(std::min<long long>(frames, 12)) : 0;
+  std::vector<SynthFrame> preview(preview_count);
+
+  std::atomic<long long> next{0}, done{0};
+  std::mutex error_mutex;
+  std::string error;
+  const auto start = std::chrono::steady_clock::now();
+  auto worker = [&]() {
+    for (;;) {
+      const long long i = next.fetch_add(1);
+      if (i >= frames) return;
+      try {
+        SynthFrame f = synth.render_frame(seed, uint64_t(i));
+        const std::string id = dp::tools::frame_id(size_t(i));
+        write_bytes(out + "/depth/" + id + ".png", dp::tools::encode_png_u16(f.depth));
+        write_bytes(out + "/parts/" + id + ".png", dp::tools::encode_png_u8(f.parts));
+        dp::tools::FrameRecord& r = records[size_t(i)];
+        r.id = id;
+        r.joints = f.joints;
+        r.extra_json = f.extra_json;
+        if (size_t(i) < preview_count) preview[size_t(i)] = std::move(f);
+      } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (error.empty()) error = e.what();
+        next.store(frames);
+        return;
+      }
+      done.fetch_add(1);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
+  const bool tty = isatty(fileno(stderr));
+  auto last_print = std::chrono::steady_clock::now() - std::chrono::hours(1);
+  for (;;) {
+    const long long d = done.load();
+    bool stop = d >= frames || next.load() > frames;
+    {
+      std::lock_guard<std::mutex> lock(error_mutex);
+      stop = stop || !error.empty();
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (stop || now - last_print > std::chrono::milliseconds(tty ? 200 : 5000)) {
+      last_print = now;
+      const double el = std::chrono::duration<double>(now - start).count();
+      const double rate = el > 0 ? d / el : 0;
+      const int bar = int(30.0 * d / frames);
+      std::fprintf(stderr, "%s[%.*s%*s] %lld/%lld  %.1f frames/s  ETA %s%s", tty ? "\r" : "", bar,
+                   "##############################", 30 - bar, "", d, frames, rate,
+                   rate > 0 ? format_seconds((frames - d) / rate).c_str() : "?", tty ? "" : "\n");
+      std::fflush(stderr);
+    }
+    if (stop) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  for (auto& t : pool) t.join();
+  if (tty) std::fprintf(stderr, "\n");
+  if (!error.empty()) fail(error);
+  dp::tools::write_frames_jsonl(out, records);
+  const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::fprintf(stderr, "synth: wrote %lld frames to %s in %.1fs (%.1f frames/s with %d threads)\n", frames,
+               out.c_str(), el, frames / el, threads);
+
+  if (preview_count) {
+    const int W = config.width, H = config.height, cols = 2;
+    const int rows = int((preview_count + cols - 1) / cols);
+    dp::tools::ImageRgb sheet;
+    sheet.resize(cols * 3 * W + (cols - 1) * 8, rows * H + (rows - 1) * 4);
+    for (size_t i = 0; i < preview_count; ++i)
+      draw_preview_row(preview[i], synth.intrinsics(), sheet, int(i % cols) * (3 * W + 8), int(i / cols) * (H + 4));
+    dp::tools::write_png_rgb(args.get("--preview"), sheet);
+    std::fprintf(stderr, "synth: preview %s\n", args.get("--preview").c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace dp::synth
+
+DP_REGISTER_COMMAND(synth, "synth", "render a labelled synthetic depth dataset (MakeHuman body, CMU mocap)",
+                    dp::synth::run_synth);
