@@ -124,6 +124,15 @@ class Pipeline {
   // kFrameTooLarge; on error `result` is zeroed and no proposals are reported.
   Status process(const DepthFrame& frame, FrameResult* result);
 
+  // Per-user joints (runtime/segmentation/segmenter.h). After process() on a frame whose
+  // foreground_mask holds user ids (0 = background, 1..255 = user; e.g. Segmenter labels), casts
+  // and aggregates only the votes of the evaluated pixels labelled `user_id` into `result`; the
+  // forest is not run again. `frame` must be the frame (and mask) of the last process() call.
+  // `result` gets that user's proposals, evaluated_pixels = its evaluated pixels, flags, and the
+  // cycles of this call in stage_cycles[kStageVotes], [kStageMeanShift] and total_cycles.
+  // kBadArgument for a null result, a null mask or user_id 0; kNotInitialized before init.
+  Status process_user(const DepthFrame& frame, uint8_t user_id, FrameResult* result);
+
   // Chooses the forest kernel (tests and benchmarks compare them). kKernelUnavailable if the CPU
   // lacks it. kBest picks the widest available.
   Status set_kernel(KernelIsa isa);
@@ -177,6 +186,13 @@ class Pipeline {
   void rebuild_joint_mass();
   int32_t evaluated_count_ = 0;
   bool initialized_ = false;
+  // process_user: only evaluated pixels whose mask value equals user_filter_id_ cast votes.
+  const uint8_t* user_filter_ = nullptr;
+  int32_t user_filter_stride_ = 0;
+  uint8_t user_filter_id_ = 0;
+  bool skipped_by_user_filter(const EvaluatedPixel& px) const {
+    return user_filter_ && user_filter_[size_t(px.v) * size_t(user_filter_stride_) + px.u] != user_filter_id_;
+  }
 
   void cast_bpc_votes(const DepthFrame& frame, FrameResult* result);
   void cast_ojr_votes(const DepthFrame& frame, FrameResult* result);

@@ -400,6 +400,45 @@ void Pipeline::plan_budget(int32_t frame_pixels, int32_t fg, int32_t pixel_cap, 
   r->predicted_cycles = total();
 }
 
+Status Pipeline::process_user(const DepthFrame& f, uint8_t user_id, FrameResult* r) {
+  if (!r) return Status::kBadArgument;
+  memset(r, 0, sizeof *r);
+  if (!initialized_) return Status::kNotInitialized;
+  if (!f.foreground_mask || user_id == 0 || f.stride_px < f.width || f.width > max_width_ || f.height > max_height_)
+    return Status::kBadArgument;
+  r->joint_count = blob_.meta->joint_count;
+  const uint64_t t0 = cycles_now();
+  int32_t mine = 0;
+  for (int32_t i = 0; i < evaluated_count_; ++i)
+    mine += f.foreground_mask[size_t(pixels_[i].v) * size_t(f.stride_px) + pixels_[i].u] == user_id;
+  r->evaluated_pixels = mine;
+  if (mine == 0) {
+    r->flags |= kFlagNoForeground;
+    r->total_cycles = cycles_now() - t0;
+    return Status::kOk;
+  }
+  user_filter_ = f.foreground_mask;
+  user_filter_stride_ = f.stride_px;
+  user_filter_id_ = user_id;
+  // No cycle-budget plan here: the frame's own process() already planned; its limits apply as configured.
+  r->votes_per_joint_used = config_->max_votes_per_joint;
+  r->starts_per_joint_used = config_->max_starts_per_joint;
+  r->iterations_used = config_->mean_shift_iterations;
+  for (int j = 0; j < blob::kMaxJoints; ++j) vote_counts_[j] = 0;
+  if (blob_.method() == blob::Method::kBpc)
+    cast_bpc_votes(f, r);
+  else
+    cast_ojr_votes(f, r);
+  user_filter_ = nullptr;
+  const uint64_t t1 = cycles_now();
+  aggregate(r);
+  const uint64_t t2 = cycles_now();
+  r->stage_cycles[kStageVotes] = t1 - t0;
+  r->stage_cycles[kStageMeanShift] = t2 - t1;
+  r->total_cycles = t2 - t0;
+  return Status::kOk;
+}
+
 Status Pipeline::aggregate_from_leaves(const CameraIntrinsics& intr, const EvaluatedPixel* pixels,
                                        const uint32_t* leaves, int32_t count, FrameResult* r) {
   if (!r) return Status::kBadArgument;
@@ -452,6 +491,7 @@ void Pipeline::cast_bpc_votes(const DepthFrame& f, FrameResult* r) {
   for (int j = 0; j < blob::kMaxJoints; ++j) floor_weight[j] = -1.0f;
   for (int32_t i = 0; i < evaluated_count_; ++i) {
     const EvaluatedPixel px = pixels_[i];
+    if (skipped_by_user_filter(px)) continue;
     uint32_t mass[blob::kMaxJoints] = {};
     if (joint_mass_) {
       for (int t = 0; t < trees; ++t) {
@@ -502,9 +542,9 @@ void Pipeline::cast_ojr_votes(const DepthFrame& f, FrameResult* r) {
     const int64_t len = cfg.joints[j].vote_length_mm;
     len2[j] = len == 0 ? INT64_MAX : len * len;
   }
-  uint32_t order = 0;
   for (int32_t i = 0; i < evaluated_count_; ++i) {
     const EvaluatedPixel px = pixels_[i];
+    if (skipped_by_user_filter(px)) continue;
     const float z = float(px.z_mm) * 0.001f;
     const float z2 = z * z;
     const float x = (float(px.u) - f.intrinsics.cx) * z * inv_fx;
@@ -517,14 +557,16 @@ void Pipeline::cast_ojr_votes(const DepthFrame& f, FrameResult* r) {
           if (ov.weight == 0) continue;
           const int64_t d2 = int64_t(ov.dx_mm) * ov.dx_mm + int64_t(ov.dy_mm) * ov.dy_mm + int64_t(ov.dz_mm) * ov.dz_mm;
           if (d2 > len2[j]) continue;
-          const uint32_t this_order = order++;
           const float weight = float(ov.weight) * z2;
           if (weight < floor_weight[j]) {
             r->flags |= kFlagVotesTruncated;
             continue;
           }
+          // The order depends on (pixel, tree, k) only, never on other joints' vote-length filters:
+          // each joint's proposals depend only on its own JointConfig (tune relies on this).
+          const uint32_t order = (uint32_t(i) * uint32_t(trees) + uint32_t(t)) * uint32_t(k_votes) + uint32_t(k);
           Vote v{x + float(ov.dx_mm) * 0.001f, y + float(ov.dy_mm) * 0.001f, z + float(ov.dz_mm) * 0.001f, weight,
-                 this_order, 1};
+                 order, 1};
           Vote* heap = votes_ + size_t(j) * blob::kMaxVotesCap;
           if (push_top_n(heap, &vote_counts_[j], cap, v)) r->flags |= kFlagVotesTruncated;
           if (vote_counts_[j] == cap) floor_weight[j] = heap[0].weight;

@@ -166,3 +166,31 @@ TEST(EvalTune, CommandWritesATunedBlob) {
   EXPECT_GT(j.at("gain").get<double>(), 0.1);
   EXPECT_NEAR(j.at("mAP_end_to_end").get<double>(), 1.0, 1e-9);
 }
+
+TEST(EvalTune, OneJointsConfigNeverChangesAnotherJointsProposals) {
+  // Two joints, each leaf voting a short and a long offset of equal weight; Nsub small so the
+  // top-N tie-breaking decides which votes survive. Dropping joint 1's long votes must leave joint
+  // 0 bit-identical (tune's per-joint search relies on this).
+  blob::BlobContents c = two_vote_ojr();
+  for (blob::OjrVote& v : c.ojr_leaves) v.weight = 1;
+  c.config.max_votes_per_joint = 40;
+  const std::vector<uint8_t> bytes = blob::write_blob(c);
+  const blob::LoadedBlob b = load(bytes);
+  const size_t need = required_arena_bytes(b, 160, 120);
+  std::unique_ptr<uint8_t, decltype(&std::free)> arena(static_cast<uint8_t*>(std::aligned_alloc(64, (need + 63) / 64 * 64)), &std::free);
+  Pipeline p;
+  ASSERT_EQ(p.init(b, 160, 120, arena.get(), need), Status::kOk);
+  const tools::SyntheticFrame f = tools::make_disc_frame(160, 120, 80, 60, 20, 2000);
+  FrameResult a, bres;
+  ASSERT_EQ(p.process(f.view(), &a), Status::kOk);
+  ASSERT_NE(a.flags & kFlagVotesTruncated, 0u);
+  blob::RuntimeConfig cfg = *b.config;
+  cfg.joints[1].vote_length_mm = 100;
+  ASSERT_EQ(p.set_config(cfg), Status::kOk);
+  ASSERT_EQ(p.process(f.view(), &bres), Status::kOk);
+  ASSERT_GT(a.proposal_count[0], 0);
+  ASSERT_EQ(a.proposal_count[0], bres.proposal_count[0]);
+  EXPECT_EQ(std::memcmp(a.proposals[0], bres.proposals[0], sizeof(JointProposal) * size_t(a.proposal_count[0])), 0);
+  // ...while joint 1 did change.
+  EXPECT_NE(std::memcmp(a.proposals[1], bres.proposals[1], sizeof(JointProposal) * kMaxProposals), 0);
+}

@@ -62,7 +62,7 @@ void plot_pr(const EvalReport& r, const std::string& path, std::vector<std::stri
   const int cols = std::min(4, std::max(1, n)), rows = (n + cols - 1) / cols;
   const int pw = 230, ph = 200;
   Canvas c(cols * pw, rows * ph + 30);
-  c.text(10, 8, "RECALL-PRECISION PER JOINT, " + r.method + ", D_TP " + num(r.d_tp, 2) + " " + r.d_tp_unit +
+  c.text(10, 8, "RECALL (X) - PRECISION (Y) PER JOINT, " + r.method + ", D_TP " + num(r.d_tp, 2) + " " + r.d_tp_unit +
                     ", MAP " + ap_text(r.mean_ap), kBlack, 1);
   for (int k = 0; k < n; ++k) {
     const int ox = (k % cols) * pw, oy = 30 + (k / cols) * ph;
@@ -153,7 +153,9 @@ void plot_overlay(const EvalReport& r, const OverlayFrame& o, const std::string&
       const size_t i = size_t(v) * o.width + u;
       Rgb col{0, 0, 0};
       if (o.part[i] >= 0) {
-        col = palette_colour(o.part[i]);
+        // Parts dimmed so the proposals (same palette, full brightness) stand out on them.
+        const Rgb p = palette_colour(o.part[i]);
+        col = Rgb{uint8_t(p.r * 0.6), uint8_t(p.g * 0.6), uint8_t(p.b * 0.6)};
       } else if (o.depth_mm[i]) {
         const double t = zmax > zmin ? double(o.depth_mm[i] - zmin) / double(zmax - zmin) : 0.0;
         const uint8_t g = uint8_t(200 - 150 * t);
@@ -170,6 +172,7 @@ void plot_overlay(const EvalReport& r, const OverlayFrame& o, const std::string&
     c.cross(int(t.position.x * scale), int(t.position.y * scale), 4, t.visible ? kWhite : kGrey);
     for (const ScoredPoint& p : o.proposals[k]) {
       const double rad = 2.0 + 10.0 * (max_conf > 0 ? std::sqrt(p.confidence / max_conf) : 0.0);
+      c.circle(p.position.x * scale, p.position.y * scale, rad * scale / 1.5, kBlack, 4);
       c.circle(p.position.x * scale, p.position.y * scale, rad * scale / 1.5, col, 2);
     }
     c.fill_rect(o.width * scale + 8, 30 + 12 * int(k), o.width * scale + 18, 36 + 12 * int(k), col);

@@ -124,6 +124,7 @@ int run_train(int argc, char** argv) {
   fo.leaf.bandwidth_m = static_cast<float>(args.get_double("--bandwidth", 0.05));
   fo.leaf.votes_per_joint = static_cast<int>(args.get_int("--votes-per-leaf", 2));
   fo.leaf.seed = so.seed;
+  fo.leaf.vote_length_m.clear();  // replaces LeafParams' default, not appended to it
   for (const std::string& v : tools::split_list(args.get("--vote-length", "0.5"))) {
     char* end = nullptr;
     const double x = std::strtod(v.c_str(), &end);

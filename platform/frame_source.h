@@ -1,0 +1,103 @@
+// Depth frame sources for the app: files, datasets, .oni recordings, OpenNI2 devices, V4L2.
+//
+// Contract:
+//   - open_source(spec) parses a source spec, opens the source and checks it (geometry, pixel
+//     format, presence of the device). Every problem throws dp::tools::ToolError with one line
+//     naming the problem and the file/device. After a successful open, width()/height() and
+//     intrinsics() are fixed for the source's lifetime.
+//   - next() fills a caller-owned buffer of width()·height() uint16 millimetres (row-major, no
+//     padding, 0 = no reading) and never throws. It returns:
+//       kFrame       a frame was written; `info` describes it
+//       kEnd         the stream is over (files: after the last frame); every later call says kEnd
+//       kNoFrame     live sources: nothing arrived within the poll timeout (try again)
+//       kDeviceLost  live sources: the device went away; later calls try to reconnect and return
+//                    kDeviceLost (still away) or kFrame (back). The frame buffer is untouched.
+//       kError       unrecoverable; last_error() says why; later calls say kError
+//   - Corrupt frames (unreadable PNG, raw file of the wrong size, short V4L2 buffer) are skipped
+//     and counted in stats().corrupt_frames; next() moves on to the following frame.
+//   - Not thread safe: one thread calls next().
+//
+// Specs:
+//   raw:GLOB:WxH        uint16 little-endian millimetre files, sorted by name (e.g.
+//                       ../shared/data/skeltrack-frames/*.raw:640x480)
+//   dataset:DIR         dataset layout v1 (tools/common/dataset.h), depth/NNNNNN.png in order
+//   oni:FILE            OpenNI2 recording, each frame once, as fast as it can be read
+//   openni              first OpenNI2 device;  openni:URI  a given device URI
+//   v4l2:/dev/videoN    V4L2 depth capture (mmap streaming, Z16 preferred, Y16 accepted)
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "runtime/depthpose.h"
+
+namespace dp::platform {
+
+enum class NextStatus { kFrame, kEnd, kNoFrame, kDeviceLost, kError };
+const char* next_status_name(NextStatus status);
+
+struct FrameInfo {
+  int64_t index = 0;          // 0-based position in the source's stream (skipped frames count)
+  uint64_t timestamp_us = 0;  // source clock; files without one: index · frame period
+};
+
+struct SourceStats {
+  int64_t frames = 0;          // frames delivered by next()
+  int64_t corrupt_frames = 0;  // skipped because unreadable / wrong size
+  int64_t dropped_frames = 0;  // live sources: frames the device produced that we never read
+  int64_t device_lost = 0;     // times the device went away
+  int64_t reconnects = 0;      // times it came back
+};
+
+// Kinect v1 depth camera defaults (fx = fy = 525, principal point at the image centre).
+CameraIntrinsics kinect_v1_intrinsics(int width, int height);
+
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  virtual int width() const = 0;
+  virtual int height() const = 0;
+  virtual CameraIntrinsics intrinsics() const = 0;
+  virtual bool live() const { return false; }
+  // Frame count when known in advance (files), else −1.
+  virtual int64_t frame_count() const { return -1; }
+  // See the contract above. `depth_mm` holds width()·height() elements.
+  virtual NextStatus next(uint16_t* depth_mm, FrameInfo* info) = 0;
+  const std::string& last_error() const { return error_; }
+  // Last non-fatal problem (a skipped corrupt frame, a lost device), for logs. Empty if none.
+  const std::string& last_warning() const { return warning_; }
+  const SourceStats& stats() const { return stats_; }
+  // Overrides the intrinsics the source reports (e.g. a user-calibrated camera).
+  void set_intrinsics_override(const CameraIntrinsics& k) { override_ = k; has_override_ = true; }
+
+ protected:
+  CameraIntrinsics resolve(const CameraIntrinsics& own) const { return has_override_ ? override_ : own; }
+  std::string error_, warning_;
+  SourceStats stats_;
+
+ private:
+  CameraIntrinsics override_{};
+  bool has_override_ = false;
+};
+
+struct SourceOptions {
+  bool has_intrinsics = false;
+  CameraIntrinsics intrinsics{};  // used when has_intrinsics
+  int poll_timeout_ms = 500;      // live sources: how long next() waits before kNoFrame
+  int reconnect_interval_ms = 500;// live sources: how often a lost device is looked for
+  // V4L2: requested size (0 = keep the device's current one).
+  int v4l2_width = 0, v4l2_height = 0;
+};
+
+// Opens a source from its spec (see above). Throws ToolError naming the problem.
+std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOptions& options = {});
+
+// The individual sources, for tests and tools that already parsed the spec.
+std::unique_ptr<FrameSource> open_raw_source(const std::string& glob_pattern, int width, int height);
+std::unique_ptr<FrameSource> open_dataset_source(const std::string& dir);
+
+// Parses "WxH" (e.g. "640x480"); throws ToolError naming `what` on malformed text.
+void parse_size(const std::string& text, const std::string& what, int* width, int* height);
+
+}  // namespace dp::platform

@@ -1,0 +1,671 @@
+#include "runtime/segmentation/segmenter.h"
+
+#include <math.h>
+#include <string.h>
+#include <x86intrin.h>
+
+#include "runtime/arena.h"
+
+namespace dp {
+
+namespace {
+
+inline uint64_t cycles_now() { return __rdtsc(); }
+
+inline uint32_t xorshift32(uint32_t* s) {
+  uint32_t x = *s;
+  x ^= x << 13;
+  x ^= x >> 17;
+  x ^= x << 5;
+  *s = x;
+  return x;
+}
+
+struct Plane {
+  float nx, ny, nz, d;
+};
+
+// Orients the plane so the camera (origin) is on its positive side, then checks it can be a floor
+// seen by this camera: normal near the camera's up axis, camera height in range.
+bool orient_and_check(Plane* p, float min_up, float h_min, float h_max) {
+  if (p->d < 0.0f) {
+    p->nx = -p->nx; p->ny = -p->ny; p->nz = -p->nz; p->d = -p->d;
+  }
+  return p->ny >= min_up && p->d >= h_min && p->d <= h_max;
+}
+
+bool plane_from_points(const float* a, const float* b, const float* c, Plane* p) {
+  const float ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+  const float vx = c[0] - a[0], vy = c[1] - a[1], vz = c[2] - a[2];
+  float nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+  const float len = sqrtf(nx * nx + ny * ny + nz * nz);
+  if (!(len > 1e-6f)) return false;  // collinear or repeated points
+  nx /= len; ny /= len; nz /= len;
+  *p = Plane{nx, ny, nz, -(nx * a[0] + ny * a[1] + nz * a[2])};
+  return true;
+}
+
+int32_t count_inliers(const Plane& p, const float* pts, int32_t n, float tol_m, uint8_t* mark) {
+  int32_t count = 0;
+  for (int32_t i = 0; i < n; ++i) {
+    const float* q = pts + 3 * i;
+    const float s = p.nx * q[0] + p.ny * q[1] + p.nz * q[2] + p.d;
+    const bool in = s <= tol_m && s >= -tol_m;
+    if (mark) mark[i] = in;
+    count += in;
+  }
+  return count;
+}
+
+// Eigenvector of the smallest eigenvalue of a symmetric 3×3 matrix (cyclic Jacobi, ≤ 16 sweeps).
+void smallest_eigenvector(const double in[3][3], double out[3]) {
+  double a[3][3], v[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  memcpy(a, in, sizeof a);
+  static const int kPairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+  for (int sweep = 0; sweep < 16; ++sweep) {
+    const double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+    const double diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+    if (off <= 1e-30 * (diag + 1e-300)) break;
+    for (const auto& pq : kPairs) {
+      const int p = pq[0], q = pq[1];
+      if (a[p][q] == 0.0) continue;
+      const double theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+      const double t = (theta >= 0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1.0));
+      const double c = 1.0 / sqrt(t * t + 1.0), s = t * c;
+      // a ← Jᵀ a J, v ← v J with J the rotation in the (p, q) plane.
+      for (int k = 0; k < 3; ++k) {
+        const double akp = a[k][p], akq = a[k][q];
+        a[k][p] = c * akp - s * akq;
+        a[k][q] = s * akp + c * akq;
+      }
+      for (int k = 0; k < 3; ++k) {
+        const double apk = a[p][k], aqk = a[q][k];
+        a[p][k] = c * apk - s * aqk;
+        a[q][k] = s * apk + c * aqk;
+      }
+      for (int k = 0; k < 3; ++k) {
+        const double vkp = v[k][p], vkq = v[k][q];
+        v[k][p] = c * vkp - s * vkq;
+        v[k][q] = s * vkp + c * vkq;
+      }
+    }
+  }
+  int m = 0;
+  if (a[1][1] < a[m][m]) m = 1;
+  if (a[2][2] < a[m][m]) m = 2;
+  for (int k = 0; k < 3; ++k) out[k] = v[k][m];
+}
+
+// Orthogonal least-squares plane through the marked points.
+bool refine_plane(const float* pts, const uint8_t* mark, int32_t n, Plane* p) {
+  double c[3] = {0, 0, 0};
+  int32_t m = 0;
+  for (int32_t i = 0; i < n; ++i) {
+    if (!mark[i]) continue;
+    for (int k = 0; k < 3; ++k) c[k] += pts[3 * i + k];
+    ++m;
+  }
+  if (m < 3) return false;
+  for (int k = 0; k < 3; ++k) c[k] /= m;
+  double cov[3][3] = {};
+  for (int32_t i = 0; i < n; ++i) {
+    if (!mark[i]) continue;
+    const double d[3] = {pts[3 * i] - c[0], pts[3 * i + 1] - c[1], pts[3 * i + 2] - c[2]};
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k) cov[r][k] += d[r] * d[k];
+  }
+  double nrm[3];
+  smallest_eigenvector(cov, nrm);
+  const double len = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+  if (!(len > 0.5)) return false;
+  *p = Plane{float(nrm[0] / len), float(nrm[1] / len), float(nrm[2] / len), 0.0f};
+  p->d = float(-(p->nx * c[0] + p->ny * c[1] + p->nz * c[2]));
+  return true;
+}
+
+inline float tolerance_mm(float base_mm, float per_m2_mm, float z_mm) {
+  const float zm = z_mm * 0.001f;
+  return base_mm + per_m2_mm * zm * zm;
+}
+
+}  // namespace
+
+const char* segmentation_stage_name(int32_t stage) {
+  static const char* const names[kSegStageCount] = {"seg_floor", "seg_background", "seg_components", "seg_users"};
+  return stage >= 0 && stage < kSegStageCount ? names[stage] : "?";
+}
+
+SegmenterConfig default_segmenter_config(bool live_source) {
+  SegmenterConfig c;
+  c.background_enabled = live_source;
+  return c;
+}
+
+static bool config_valid(const SegmenterConfig& c) {
+  return c.near_mm >= 1 && c.far_mm > c.near_mm && c.floor_sample_fraction > 0.0f && c.floor_sample_fraction <= 1.0f &&
+         c.floor_samples >= 16 && c.floor_samples <= kMaxFloorSamples && c.floor_iterations >= 1 &&
+         c.floor_iterations <= kMaxFloorIterations && c.floor_tracked_iterations >= 0 &&
+         c.floor_tracked_iterations <= kMaxFloorIterations && c.floor_fit_mm > 0.0f && c.floor_margin_mm >= 0.0f &&
+         c.floor_margin_per_m2_mm >= 0.0f && c.floor_max_tilt_deg > 0.0f && c.floor_max_tilt_deg < 90.0f &&
+         c.floor_min_inlier_fraction > 0.0f && c.floor_min_inlier_fraction <= 1.0f && c.camera_height_min_m > 0.0f &&
+         c.camera_height_max_m > c.camera_height_min_m && c.floor_keep_frames >= 0 &&
+         c.background_learn_frames >= 1 && c.background_learn_frames <= 65535 && c.background_tolerance_mm > 0.0f &&
+         c.background_tolerance_per_m2_mm >= 0.0f && c.background_update_shift >= 0 &&
+         c.background_update_shift <= 12 && c.background_reveal_frames >= 1 && c.background_reveal_frames <= 65535 &&
+         c.background_absorb_frames >= 0 && c.background_absorb_frames <= 65535 && c.join_mm > 0.0f &&
+         c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
+         c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
+         c.tracked_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
+}
+
+bool Segmenter::carve(ArenaCarver& c, int32_t w, int32_t h, Segmenter* into) {
+  const size_t pixels = size_t(w) * size_t(h);
+  SegmenterConfig* config = c.tail<SegmenterConfig>(1);
+  BackgroundCell* background = c.tail<BackgroundCell>(pixels);
+  Track* tracks = c.tail<Track>(kMaxUsers);
+  FloorPlane* floor = c.tail<FloorPlane>(1);
+  State* state = c.tail<State>(1);
+  int32_t* parent = c.head<int32_t>(pixels);
+  int32_t* aux = c.head<int32_t>(pixels);
+  float* samples = c.head<float>(size_t(kMaxFloorSamples) * 3);
+  uint8_t* inlier = c.head<uint8_t>(kMaxFloorSamples);
+  Candidate* candidates = c.head<Candidate>(kMaxCandidates);
+  if (!c.ok()) return false;
+  if (into) {
+    into->config_ = config;
+    into->background_ = background;
+    into->tracks_ = tracks;
+    into->floor_ = floor;
+    into->state_ = state;
+    into->parent_ = parent;
+    into->aux_ = aux;
+    into->samples_ = samples;
+    into->inlier_ = inlier;
+    into->candidates_ = candidates;
+  }
+  return true;
+}
+
+size_t segmenter_required_bytes(int32_t max_width, int32_t max_height) {
+  if (max_width < 1 || max_height < 1 || max_width > blob::kMaxFrameDimension ||
+      max_height > blob::kMaxFrameDimension)
+    return 0;
+  ArenaCarver counter(nullptr, size_t(-1) / 2);
+  Segmenter::carve(counter, max_width, max_height, nullptr);
+  return counter.used();
+}
+
+Status Segmenter::init(const SegmenterConfig& config, int32_t max_width, int32_t max_height, uint8_t* arena,
+                       size_t arena_bytes) {
+  initialized_ = false;
+  if (!arena || max_width < 1 || max_height < 1 || max_width > blob::kMaxFrameDimension ||
+      max_height > blob::kMaxFrameDimension)
+    return Status::kBadArgument;
+  if (reinterpret_cast<uintptr_t>(arena) % kArenaAlignment != 0) return Status::kArenaMisaligned;
+  if (arena_bytes < segmenter_required_bytes(max_width, max_height)) return Status::kArenaTooSmall;
+  if (!config_valid(config)) return Status::kBadConfig;
+  ArenaCarver c(arena, arena_bytes);
+  if (!carve(c, max_width, max_height, this)) return Status::kArenaTooSmall;
+  *config_ = config;
+  max_width_ = max_width;
+  max_height_ = max_height;
+  arena_used_ = c.used();
+  initialized_ = true;
+  reset();
+  return Status::kOk;
+}
+
+Status Segmenter::set_config(const SegmenterConfig& config) {
+  if (!initialized_) return Status::kNotInitialized;
+  if (!config_valid(config)) return Status::kBadConfig;
+  *config_ = config;
+  return Status::kOk;
+}
+
+void Segmenter::reset() {
+  if (!initialized_) return;
+  memset(background_, 0, sizeof(BackgroundCell) * size_t(max_width_) * size_t(max_height_));
+  memset(tracks_, 0, sizeof(Track) * kMaxUsers);
+  memset(floor_, 0, sizeof *floor_);
+  memset(state_, 0, sizeof *state_);
+}
+
+Status Segmenter::process(const DepthFrame& f, SegmentationResult* r) {
+  if (!r) return Status::kBadArgument;
+  uint8_t* labels = r->labels;
+  memset(r, 0, sizeof *r);
+  r->labels = labels;
+  if (!initialized_) return Status::kNotInitialized;
+  if (!labels || !f.depth_mm || f.width < 1 || f.height < 1 || f.stride_px < f.width ||
+      !(f.intrinsics.fx > 0.0f) || !(f.intrinsics.fy > 0.0f))
+    return Status::kBadArgument;
+  if (f.width > max_width_ || f.height > max_height_) return Status::kFrameTooLarge;
+  if (state_->width != f.width || state_->height != f.height) {
+    reset();
+    state_->width = f.width;
+    state_->height = f.height;
+  }
+  const uint64_t t0 = cycles_now();
+  fit_floor(f, r);
+  const uint64_t t1 = cycles_now();
+  r->candidate_pixels = classify_pixels(f);
+  const uint64_t t2 = cycles_now();
+  const int32_t candidates = label_components(f, r);
+  const uint64_t t3 = cycles_now();
+  assign_users(f, candidates, r);
+  if (config_->background_enabled) update_background(f, labels);
+  if (state_->frames < config_->background_learn_frames && config_->background_enabled)
+    r->flags |= kSegFlagBackgroundLearning;
+  if (state_->frames < 0x7fffffff) ++state_->frames;
+  const uint64_t t4 = cycles_now();
+  r->stage_cycles[kSegStageFloor] = t1 - t0;
+  r->stage_cycles[kSegStageBackground] = t2 - t1;
+  r->stage_cycles[kSegStageComponents] = t3 - t2;
+  r->stage_cycles[kSegStageUsers] = t4 - t3;
+  r->total_cycles = t4 - t0;
+  return Status::kOk;
+}
+
+void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
+  const SegmenterConfig& cfg = *config_;
+  if (!cfg.floor_enabled) {
+    memset(floor_, 0, sizeof *floor_);
+    r->floor = *floor_;
+    return;
+  }
+  const int32_t w = f.width, h = f.height;
+  const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
+  // Bounded grid sample of the lower image part.
+  int32_t rows = int32_t(ceilf(cfg.floor_sample_fraction * float(h)));
+  if (rows < 1) rows = 1;
+  if (rows > h) rows = h;
+  const int32_t v0 = h - rows;
+  int32_t step = int32_t(ceilf(sqrtf(float(rows) * float(w) / float(cfg.floor_samples))));
+  if (step < 1) step = 1;
+  int32_t n = 0;
+  for (int32_t v = v0 + step / 2; v < h; v += step) {
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    for (int32_t u = step / 2; u < w && n < cfg.floor_samples; u += step) {
+      const uint16_t z = row[u];
+      if (z < cfg.near_mm || z > cfg.far_mm) continue;
+      const float zm = float(z) * 0.001f;
+      float* p = samples_ + 3 * n++;
+      p[0] = (float(u) - f.intrinsics.cx) * zm * inv_fx;
+      p[1] = -(float(v) - f.intrinsics.cy) * zm * inv_fy;
+      p[2] = zm;
+    }
+  }
+  const float tol = cfg.floor_fit_mm * 0.001f;
+  const float min_up = cosf(cfg.floor_max_tilt_deg * 3.14159265f / 180.0f);
+  const bool had_plane = floor_->valid != 0;
+  Plane best{0, 0, 0, 0};
+  int32_t best_count = 0;
+  if (had_plane) {
+    best = Plane{floor_->nx, floor_->ny, floor_->nz, floor_->d};
+    best_count = count_inliers(best, samples_, n, tol, nullptr);
+  }
+  const int32_t iterations = had_plane ? cfg.floor_tracked_iterations : cfg.floor_iterations;
+  uint32_t rng = 0x9E3779B9u ^ (uint32_t(state_->frames) * 0x85EBCA77u);
+  if (rng == 0) rng = 1;
+  for (int32_t it = 0; it < iterations && n >= 3; ++it) {
+    const int32_t a = int32_t(xorshift32(&rng) % uint32_t(n));
+    const int32_t b = int32_t(xorshift32(&rng) % uint32_t(n));
+    const int32_t c = int32_t(xorshift32(&rng) % uint32_t(n));
+    if (a == b || b == c || a == c) continue;
+    Plane p;
+    if (!plane_from_points(samples_ + 3 * a, samples_ + 3 * b, samples_ + 3 * c, &p)) continue;
+    if (!orient_and_check(&p, min_up, cfg.camera_height_min_m, cfg.camera_height_max_m)) continue;
+    const int32_t count = count_inliers(p, samples_, n, tol, nullptr);
+    if (count > best_count) {
+      best = p;
+      best_count = count;
+    }
+  }
+  int32_t needed = int32_t(ceilf(cfg.floor_min_inlier_fraction * float(n)));
+  if (needed < 3) needed = 3;
+  bool fitted = false;
+  if (best_count >= needed) {
+    // Least-squares refinement on the inliers with a shrinking band: objects standing on the floor
+    // put points just above it inside the RANSAC band and would tilt the plane; a symmetric band
+    // around the refined plane keeps the fit unbiased under noise.
+    static const float kBand[3] = {1.0f, 0.5f, 0.3f};
+    for (float band : kBand) {
+      if (count_inliers(best, samples_, n, tol * band, inlier_) < 3) break;
+      Plane p;
+      if (!refine_plane(samples_, inlier_, n, &p)) break;
+      if (!orient_and_check(&p, min_up, cfg.camera_height_min_m, cfg.camera_height_max_m)) break;
+      best = p;
+    }
+    best_count = count_inliers(best, samples_, n, tol, nullptr);
+    fitted = true;
+  }
+  if (fitted) {
+    *floor_ = FloorPlane{best.nx, best.ny, best.nz, best.d, 1, best_count, n, 0};
+    r->flags |= kSegFlagFloorFitted;
+  } else if (had_plane && floor_->held_frames < cfg.floor_keep_frames) {
+    ++floor_->held_frames;
+    floor_->inliers = best_count;
+    floor_->samples = n;
+    r->flags |= kSegFlagFloorHeld;
+  } else {
+    memset(floor_, 0, sizeof *floor_);
+    floor_->samples = n;
+    floor_->inliers = best_count;
+  }
+  r->floor = *floor_;
+}
+
+int32_t Segmenter::classify_pixels(const DepthFrame& f) {
+  const SegmenterConfig& cfg = *config_;
+  const int32_t w = f.width, h = f.height;
+  const bool use_floor = floor_->valid != 0;
+  const bool use_background = cfg.background_enabled && state_->frames > 0;
+  // Signed height above the floor of pixel (u, v) at depth z metres: z·(a·u + b_v) + d.
+  const float a = use_floor ? floor_->nx / f.intrinsics.fx : 0.0f;
+  const float a0 = use_floor ? -floor_->nx * f.intrinsics.cx / f.intrinsics.fx + floor_->nz : 0.0f;
+  int32_t count = 0;
+  for (int32_t v = 0; v < h; ++v) {
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    const BackgroundCell* bg = background_ + size_t(v) * w;
+    int32_t* parent = parent_ + size_t(v) * w;
+    int32_t* aux = aux_ + size_t(v) * w;
+    const float bv = use_floor ? a0 - floor_->ny * (float(v) - f.intrinsics.cy) / f.intrinsics.fy : 0.0f;
+    // A pixel the model has never seen without a user on it (someone stood there from the start)
+    // is compared with the nearest known model depth to its left in the row: where that person
+    // has walked away, the wall behind matches its neighbours and is background at once.
+    uint16_t last_known = 0;
+    for (int32_t u = 0; u < w; ++u) {
+      const uint16_t z = row[u];
+      bool keep = z >= cfg.near_mm && z <= cfg.far_mm;
+      if (keep && use_floor) {
+        const float height_mm = (float(z) * (a * float(u) + bv) + floor_->d * 1000.0f);
+        keep = height_mm > tolerance_mm(cfg.floor_margin_mm, cfg.floor_margin_per_m2_mm, float(z));
+      }
+      if (use_background) {
+        if (bg[u].depth_mm != 0) last_known = bg[u].depth_mm;
+        if (keep && last_known != 0) {
+          const float diff = float(z) - float(last_known);
+          keep = diff < -tolerance_mm(cfg.background_tolerance_mm, cfg.background_tolerance_per_m2_mm, float(z));
+        }
+      }
+      const int32_t i = v * w + u;
+      parent[u] = keep ? i : -1;
+      aux[u] = 1;
+      count += keep;
+    }
+  }
+  return count;
+}
+
+static inline int32_t find_root(int32_t* parent, int32_t i) {
+  while (parent[i] != i) {  // path halving; union by size keeps depth ≤ log2(W·H)
+    parent[i] = parent[parent[i]];
+    i = parent[i];
+  }
+  return i;
+}
+
+static inline void unite(int32_t* parent, int32_t* size, int32_t a, int32_t b) {
+  a = find_root(parent, a);
+  b = find_root(parent, b);
+  if (a == b) return;
+  if (size[a] < size[b] || (size[a] == size[b] && b < a)) {
+    const int32_t t = a; a = b; b = t;
+  }
+  parent[b] = a;
+  size[a] += size[b];
+}
+
+int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) {
+  const SegmenterConfig& cfg = *config_;
+  const int32_t w = f.width, h = f.height;
+  const float join_per_mm = cfg.join_mm_per_m * 0.001f;
+  for (int32_t v = 0; v < h; ++v) {
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    const uint16_t* above = v > 0 ? row - f.stride_px : nullptr;
+    for (int32_t u = 0; u < w; ++u) {
+      const int32_t i = v * w + u;
+      if (parent_[i] < 0) continue;
+      const int32_t z = row[u];
+      if (u > 0 && parent_[i - 1] >= 0) {
+        const int32_t zn = row[u - 1];
+        const int32_t zmax = z > zn ? z : zn;
+        if (float(z > zn ? z - zn : zn - z) <= cfg.join_mm + join_per_mm * float(zmax)) unite(parent_, aux_, i, i - 1);
+      }
+      if (above && parent_[i - w] >= 0) {
+        const int32_t zn = above[u];
+        const int32_t zmax = z > zn ? z : zn;
+        if (float(z > zn ? z - zn : zn - z) <= cfg.join_mm + join_per_mm * float(zmax)) unite(parent_, aux_, i, i - w);
+      }
+    }
+  }
+  // Keep the kMaxCandidates largest components (replace-smallest keeps it independent of
+  // raster order); every other root is marked −1.
+  const int32_t total = w * h;
+  int32_t kept = 0, components = 0;
+  for (int32_t i = 0; i < total; ++i) {
+    if (parent_[i] != i) continue;
+    const int32_t size = aux_[i];
+    aux_[i] = -1;
+    if (size < cfg.min_component_pixels) continue;
+    ++components;
+    if (kept < kMaxCandidates) {
+      candidates_[kept++].root = i;
+      candidates_[kept - 1].pixels = size;
+      continue;
+    }
+    r->flags |= kSegFlagCandidatesTruncated;
+    int32_t smallest = 0;
+    for (int32_t k = 1; k < kept; ++k)
+      if (candidates_[k].pixels < candidates_[smallest].pixels) smallest = k;
+    if (size > candidates_[smallest].pixels) {
+      candidates_[smallest].root = i;
+      candidates_[smallest].pixels = size;
+    }
+  }
+  r->component_count = components;
+  for (int32_t k = 0; k < kept; ++k) {
+    Candidate& c = candidates_[k];
+    aux_[c.root] = k;
+    c.pixels = 0;
+    c.sx = c.sy = c.sz = 0.0;
+    c.x_min = c.y_min = c.z_min = 1e30f;
+    c.x_max = c.y_max = c.z_max = c.top = -1e30f;
+    c.u_min = c.v_min = 32767;
+    c.u_max = c.v_max = -1;
+    c.user = 0;
+  }
+  // Statistics. With a floor, x_min/x_max run along the floor's horizontal axis nearest camera x
+  // and `top` is the height above the floor; without one, camera x and the y extent.
+  const bool use_floor = floor_->valid != 0;
+  float hx = 1.0f, hy = 0.0f, hz = 0.0f;
+  if (use_floor) {
+    const float dot = floor_->nx;
+    hx = 1.0f - dot * floor_->nx; hy = -dot * floor_->ny; hz = -dot * floor_->nz;
+    const float len = sqrtf(hx * hx + hy * hy + hz * hz);
+    if (len > 1e-3f) { hx /= len; hy /= len; hz /= len; } else { hx = 1.0f; hy = hz = 0.0f; }
+  }
+  const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
+  for (int32_t v = 0; v < h; ++v) {
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    for (int32_t u = 0; u < w; ++u) {
+      const int32_t i = v * w + u;
+      if (parent_[i] < 0) continue;
+      const int32_t root = find_root(parent_, i);
+      parent_[i] = root;
+      const int32_t k = aux_[root];
+      if (k < 0) continue;
+      Candidate& c = candidates_[k];
+      const float z = float(row[u]) * 0.001f;
+      const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
+      const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
+      ++c.pixels;
+      c.sx += x; c.sy += y; c.sz += z;
+      const float horizontal = x * hx + y * hy + z * hz;
+      if (horizontal < c.x_min) c.x_min = horizontal;
+      if (horizontal > c.x_max) c.x_max = horizontal;
+      if (y < c.y_min) c.y_min = y;
+      if (y > c.y_max) c.y_max = y;
+      if (z < c.z_min) c.z_min = z;
+      if (z > c.z_max) c.z_max = z;
+      if (use_floor) {
+        const float up = floor_->nx * x + floor_->ny * y + floor_->nz * z + floor_->d;
+        if (up > c.top) c.top = up;
+      }
+      if (u < c.u_min) c.u_min = int16_t(u);
+      if (u > c.u_max) c.u_max = int16_t(u);
+      if (v < c.v_min) c.v_min = int16_t(v);
+      if (v > c.v_max) c.v_max = int16_t(v);
+    }
+  }
+  if (!use_floor)
+    for (int32_t k = 0; k < kept; ++k) candidates_[k].top = candidates_[k].y_max - candidates_[k].y_min;
+  return kept;
+}
+
+void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult* r) {
+  const SegmenterConfig& cfg = *config_;
+  bool strict[kMaxCandidates], relaxed[kMaxCandidates];
+  float cx[kMaxCandidates], cy[kMaxCandidates], cz[kMaxCandidates];
+  const float focal2 = f.intrinsics.fx * f.intrinsics.fy;
+  for (int32_t k = 0; k < n; ++k) {
+    const Candidate& c = candidates_[k];
+    cx[k] = float(c.sx / c.pixels);
+    cy[k] = float(c.sy / c.pixels);
+    cz[k] = float(c.sz / c.pixels);
+    const float need = cfg.min_person_area_m2 * focal2 / (cz[k] * cz[k]);
+    const bool narrow = c.x_max - c.x_min <= cfg.max_person_width_m;
+    strict[k] = narrow && float(c.pixels) >= need && c.top >= cfg.min_person_height_m;
+    relaxed[k] = narrow && float(c.pixels) >= cfg.tracked_area_fraction * need;
+  }
+  // Greedy nearest-centroid association: repeatedly the closest (track, component) pair.
+  bool track_matched[kMaxUsers] = {};
+  float predicted[kMaxUsers][3], reach[kMaxUsers];
+  for (int32_t t = 0; t < kMaxUsers; ++t) {
+    const Track& tr = tracks_[t];
+    const float steps = float(tr.lost_frames + 1);
+    for (int k = 0; k < 3; ++k) predicted[t][k] = tr.centroid[k] + tr.velocity[k] * steps;
+    reach[t] = cfg.association_distance_m + cfg.association_growth_m * float(tr.lost_frames);
+  }
+  for (int round = 0; round < kMaxUsers; ++round) {
+    int32_t best_t = -1, best_k = -1;
+    float best_ratio = 1.0f;  // distance / reach: a lost track's wider reach does not win ties
+    for (int32_t t = 0; t < kMaxUsers; ++t) {
+      if (!tracks_[t].active || track_matched[t]) continue;
+      for (int32_t k = 0; k < n; ++k) {
+        if (!relaxed[k] || candidates_[k].user) continue;
+        const float dx = cx[k] - predicted[t][0], dy = cy[k] - predicted[t][1], dz = cz[k] - predicted[t][2];
+        const float ratio = sqrtf(dx * dx + dy * dy + dz * dz) / reach[t];
+        if (ratio <= best_ratio) { best_ratio = ratio; best_t = t; best_k = k; }
+      }
+    }
+    if (best_t < 0) break;
+    track_matched[best_t] = true;
+    candidates_[best_k].user = best_t + 1;
+  }
+  // New users: unmatched components passing the full person test, largest first, lowest free id.
+  for (int round = 0; round < kMaxCandidates; ++round) {
+    int32_t best_k = -1;
+    for (int32_t k = 0; k < n; ++k)
+      if (strict[k] && !candidates_[k].user && (best_k < 0 || candidates_[k].pixels > candidates_[best_k].pixels))
+        best_k = k;
+    if (best_k < 0) break;
+    int32_t slot = -1;
+    for (int32_t t = 0; t < cfg.max_users && slot < 0; ++t)
+      if (!tracks_[t].active) slot = t;
+    if (slot < 0) {
+      r->flags |= kSegFlagUsersTruncated;
+      break;
+    }
+    tracks_[slot] = Track{1, 0, 0, {cx[best_k], cy[best_k], cz[best_k]}, {0, 0, 0}};
+    track_matched[slot] = true;
+    candidates_[best_k].user = slot + 1;
+  }
+  // Tracks and the visible users, by id.
+  for (int32_t t = 0; t < kMaxUsers; ++t) {
+    Track& tr = tracks_[t];
+    if (!tr.active) continue;
+    if (!track_matched[t]) {
+      tr.frames_tracked = 0;
+      if (++tr.lost_frames > cfg.track_keep_frames) tr.active = 0;
+      continue;
+    }
+    int32_t k = 0;
+    while (candidates_[k].user != t + 1) ++k;
+    const Candidate& c = candidates_[k];
+    // Velocity: smoothed displacement per frame (a reappearing user spreads it over the gap).
+    const float now[3] = {cx[k], cy[k], cz[k]};
+    const float gap = float(tr.lost_frames + 1);
+    for (int a = 0; a < 3; ++a) {
+      tr.velocity[a] = tr.frames_tracked > 0 || tr.lost_frames > 0
+                           ? 0.5f * tr.velocity[a] + 0.5f * (now[a] - tr.centroid[a]) / gap
+                           : 0.0f;
+      tr.centroid[a] = now[a];
+    }
+    tr.lost_frames = 0;
+    if (tr.frames_tracked < 0x7fffffff) ++tr.frames_tracked;
+    UserInfo& u = r->users[r->user_count++];
+    u.id = t + 1;
+    u.pixel_count = c.pixels;
+    u.centroid_m[0] = cx[k]; u.centroid_m[1] = cy[k]; u.centroid_m[2] = cz[k];
+    u.u_min = c.u_min; u.v_min = c.v_min; u.u_max = c.u_max; u.v_max = c.v_max;
+    u.top_height_m = c.top;
+    u.frames_tracked = tr.frames_tracked;
+    r->user_pixels += c.pixels;
+  }
+  // The label image.
+  const int32_t w = f.width;
+  for (int32_t v = 0; v < f.height; ++v) {
+    uint8_t* out = r->labels + size_t(v) * f.stride_px;
+    const int32_t* parent = parent_ + size_t(v) * w;
+    for (int32_t u = 0; u < w; ++u) {
+      const int32_t root = parent[u];
+      const int32_t k = root >= 0 ? aux_[root] : -1;
+      out[u] = k >= 0 ? uint8_t(candidates_[k].user) : 0;
+    }
+  }
+}
+
+void Segmenter::update_background(const DepthFrame& f, const uint8_t* labels) {
+  const SegmenterConfig& cfg = *config_;
+  const int32_t w = f.width;
+  const bool learning = state_->frames < cfg.background_learn_frames;
+  const int32_t reveal = learning ? 1 : cfg.background_reveal_frames;
+  for (int32_t v = 0; v < f.height; ++v) {
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    const uint8_t* lab = labels + size_t(v) * f.stride_px;
+    BackgroundCell* bg = background_ + size_t(v) * w;
+    for (int32_t u = 0; u < w; ++u) {
+      const uint16_t z = row[u];
+      if (z == 0 || lab[u] != 0) continue;  // users never enter the model
+      BackgroundCell& c = bg[u];
+      if (c.depth_mm == 0) {
+        c = BackgroundCell{z, 0, 0, 1};
+        continue;
+      }
+      const int32_t diff = int32_t(z) - int32_t(c.depth_mm);
+      const float tol = tolerance_mm(cfg.background_tolerance_mm, cfg.background_tolerance_per_m2_mm, float(z));
+      if (float(diff < 0 ? -diff : diff) <= tol) {
+        if (c.learned < cfg.background_learn_frames) {
+          c.depth_mm = uint16_t(int32_t(c.depth_mm) + diff / int32_t(c.learned + 1));
+          ++c.learned;
+        } else {
+          c.depth_mm = uint16_t(int32_t(c.depth_mm) + diff / (1 << cfg.background_update_shift));
+        }
+        c.far_frames = c.near_frames = 0;
+      } else if (diff > 0) {  // farther than the model: something that stood there moved away
+        c.near_frames = 0;
+        if (c.far_frames < 65535) ++c.far_frames;
+        if (c.far_frames >= reveal) c = BackgroundCell{z, 0, 0, 1};
+      } else {                // nearer and not a user: an object placed (absorbed only if asked)
+        c.far_frames = 0;
+        if (c.near_frames < 65535) ++c.near_frames;
+        if (cfg.background_absorb_frames > 0 && c.near_frames >= cfg.background_absorb_frames)
+          c = BackgroundCell{z, 0, 0, 1};
+      }
+    }
+  }
+}
+
+}  // namespace dp

@@ -1,0 +1,225 @@
+// dp::Segmenter: finds the people in a depth frame before the forest runs (the paper assumes
+// background subtraction, section 1.2). One frame in, a per-pixel user-id mask out:
+//
+//   floor plane      RANSAC over a bounded grid sample of the lower image part, refined by least
+//                    squares (orthogonal fit), tracked frame to frame; pitch and roll unknown.
+//                    Pixels within a margin of the plane (or below it) are background.
+//   background model per-pixel depth learned over the first frames, updated slowly (optional;
+//                    on in default_segmenter_config(true) for live sources, off for independent
+//                    frames). Pixels near the learned depth are background.
+//   components       4-connected components in 3D: neighbours join when their depth difference
+//                    is ≤ join_mm + join_mm_per_m · z. Components too small or too low for a
+//                    person at their distance are dropped.
+//   users            stable ids 1..max_users by greedy nearest-centroid association; a user who
+//                    disappears keeps the id for track_keep_frames frames (short occlusions).
+//
+// Contract (same pattern as dp::Pipeline, docs/segmentation.md):
+//   - The caller owns all memory: segmenter_required_bytes() says how much; init() takes a 64-byte
+//     aligned arena. Persistent state (config, background model, tracks, floor) sits at the arena
+//     tail, per-frame scratch at its head. Nothing allocates or throws.
+//   - Every loop is bounded by the frame size and the caps below (validated by init/set_config);
+//     a frame full of clutter costs O(W·H·log(W·H)) for the components plus
+//     O(kMaxCandidates · W·H) at worst for the candidate selection, never more.
+//   - process() is deterministic for the same config and frame sequence.
+// Units: depth uint16 mm (0 = no reading); 3D points in metres, camera frame x right, y up,
+// z forward (runtime/depthpose.h). Labels: uint8, 0 = background, 1..max_users = user id.
+#pragma once
+#include <stddef.h>
+#include <stdint.h>
+
+#include "runtime/depthpose.h"
+
+namespace dp {
+
+class ArenaCarver;
+
+constexpr int kMaxUsers = 15;             // ids 1..15
+constexpr int kMaxFloorSamples = 4096;    // RANSAC sample points
+constexpr int kMaxFloorIterations = 1024; // RANSAC hypotheses per frame
+constexpr int kMaxCandidates = 64;        // largest components examined per frame
+
+struct SegmenterConfig {
+  // Readings outside [near_mm, far_mm] are background.
+  uint16_t near_mm = 400;
+  uint16_t far_mm = 6000;
+
+  // Floor. floor_enabled = false skips the fit; no pixel is then removed as floor.
+  bool floor_enabled = true;
+  float floor_sample_fraction = 0.5f;   // sample rows v ≥ (1 − fraction)·height, (0, 1]
+  int32_t floor_samples = 800;          // grid sample size, 16..kMaxFloorSamples
+  int32_t floor_iterations = 160;       // hypotheses without a tracked plane, 1..kMaxFloorIterations
+  int32_t floor_tracked_iterations = 32;// hypotheses when last frame's plane is tried first, 0..max
+  float floor_fit_mm = 30.0f;           // inlier distance for fitting, > 0
+  float floor_margin_mm = 25.0f;        // pixels closer than margin + margin_per_m2·z² to the
+  float floor_margin_per_m2_mm = 2.0f;  //   plane, or below it, are floor (z in metres), ≥ 0
+  float floor_max_tilt_deg = 60.0f;     // plane normal within this of the camera's up axis, (0, 90)
+  float floor_min_inlier_fraction = 0.15f;  // of the sample, (0, 1]
+  float camera_height_min_m = 0.15f;    // camera above the floor, 0 < min < max
+  float camera_height_max_m = 5.0f;
+  int32_t floor_keep_frames = 15;       // a plane not found again is kept this many frames, ≥ 0
+
+  // Background model. learn_frames: frames averaged before the model is called learned (it is
+  // applied from the second frame on). Newly revealed farther depth replaces the model after
+  // reveal_frames consecutive frames; nearer non-user depth is absorbed after absorb_frames
+  // (0 = never, the default: a chair moved in stays foreground unless the person test drops it).
+  bool background_enabled = true;
+  int32_t background_learn_frames = 30;   // 1..65535
+  float background_tolerance_mm = 40.0f;  // |z − model| ≤ tol + tol_per_m2·z² ⇒ background, > 0
+  float background_tolerance_per_m2_mm = 6.0f;
+  int32_t background_update_shift = 5;    // model += (z − model) / 2^shift after learning, 0..12
+  int32_t background_reveal_frames = 3;   // 1..65535
+  int32_t background_absorb_frames = 0;   // 0..65535
+
+  // Components and the person test. A component is a user when it has at least
+  // min_person_area_m2 · fx·fy / z̄² pixels (z̄ its mean depth), its top is at least
+  // min_person_height_m above the floor (its vertical extent when there is no floor) and it is
+  // at most max_person_width_m wide. A component associated with a tracked user needs only
+  // tracked_area_fraction of that area and no height.
+  float join_mm = 30.0f;                  // > 0
+  float join_mm_per_m = 30.0f;            // ≥ 0
+  int32_t min_component_pixels = 24;      // smaller components are never examined, ≥ 1
+  float min_person_area_m2 = 0.10f;       // > 0
+  float min_person_height_m = 0.9f;       // ≥ 0
+  float max_person_width_m = 1.8f;        // > 0
+  float tracked_area_fraction = 0.35f;    // (0, 1]
+
+  // Users.
+  int32_t max_users = 8;                  // 1..kMaxUsers
+  // A user keeps its id when a component's centroid is within association_distance_m (plus
+  // association_growth_m per frame it has been lost) of the track's position predicted from its
+  // last velocity.
+  float association_distance_m = 0.6f;    // > 0
+  float association_growth_m = 0.08f;     // ≥ 0
+  int32_t track_keep_frames = 30;         // frames a lost user keeps its id, 0..65535
+};
+
+// Live sources (static camera, frames in sequence): everything on. Independent frames (datasets
+// of unrelated frames): background model off.
+SegmenterConfig default_segmenter_config(bool live_source);
+
+struct FloorPlane {
+  // n·p + d = signed height of p above the floor (metres); n unit, pointing up; d = camera height.
+  float nx, ny, nz, d;
+  int32_t valid;        // 1 when a plane is known this frame (found, tracked or held)
+  int32_t inliers;      // sample points within floor_fit_mm of the plane
+  int32_t samples;      // sample points this frame
+  int32_t held_frames;  // frames since the plane was last fitted (0 = fitted this frame)
+};
+
+struct UserInfo {
+  int32_t id;              // 1..max_users, stable across frames
+  int32_t pixel_count;
+  float centroid_m[3];     // mean 3D point (x, y, z)
+  int16_t u_min, v_min, u_max, v_max;  // bounding box, inclusive
+  float top_height_m;      // highest point above the floor (camera y extent without floor)
+  int32_t frames_tracked;  // consecutive frames this id has been seen (1 = new)
+};
+
+enum SegmentationStage : int32_t {
+  kSegStageFloor = 0,     // sample, RANSAC, refinement
+  kSegStageBackground,    // per-pixel floor/background/band test
+  kSegStageComponents,    // union-find, candidate selection, statistics
+  kSegStageUsers,         // person test, association, labelling, model update
+  kSegStageCount
+};
+const char* segmentation_stage_name(int32_t stage);
+
+enum SegmentationFlag : uint32_t {
+  kSegFlagFloorFitted = 1u << 0,        // a plane was fitted this frame
+  kSegFlagFloorHeld = 1u << 1,          // no fit this frame; last plane kept (floor_keep_frames)
+  kSegFlagBackgroundLearning = 1u << 2, // fewer than background_learn_frames frames seen
+  kSegFlagCandidatesTruncated = 1u << 3,// more than kMaxCandidates components: smallest ignored
+  kSegFlagUsersTruncated = 1u << 4,     // more people than free ids: smallest dropped
+};
+
+struct SegmentationResult {
+  // Caller-owned output, set before process(): height × frame.stride_px bytes, written with the
+  // frame's stride so it can serve directly as DepthFrame::foreground_mask. process() keeps it.
+  uint8_t* labels;
+  int32_t user_count;
+  UserInfo users[kMaxUsers];   // visible users, by increasing id
+  FloorPlane floor;
+  int32_t candidate_pixels;    // valid, in band, not floor, not background
+  int32_t user_pixels;         // labelled with a user id
+  int32_t component_count;     // components ≥ min_component_pixels
+  uint64_t stage_cycles[kSegStageCount];  // TSC cycles
+  uint64_t total_cycles;
+  uint32_t flags;              // SegmentationFlag bits
+};
+
+// Arena bytes for frames up to max_width × max_height (0 for sizes outside 1..kMaxFrameDimension).
+size_t segmenter_required_bytes(int32_t max_width, int32_t max_height);
+
+class Segmenter {
+ public:
+  // kOk, kBadArgument (null arena, bad size), kArenaMisaligned, kArenaTooSmall, kBadConfig.
+  Status init(const SegmenterConfig& config, int32_t max_width, int32_t max_height, uint8_t* arena,
+              size_t arena_bytes);
+  // kOk; kBadArgument (null result or labels, bad frame or intrinsics); kFrameTooLarge;
+  // kNotInitialized. A frame of another size than the previous one restarts the background model
+  // and the tracks. On error the labels are untouched and the result (except labels) zeroed.
+  Status process(const DepthFrame& frame, SegmentationResult* result);
+  // Replaces the config (kBadConfig when invalid); keeps the learned state.
+  Status set_config(const SegmenterConfig& config);
+  // Forgets the floor, the background model and the tracks (e.g. after the camera moved).
+  void reset();
+
+  const SegmenterConfig& config() const { return *config_; }
+  size_t arena_used_bytes() const { return arena_used_; }
+
+ private:
+  struct Track {
+    int32_t active;        // slot in use (visible or lost ≤ track_keep_frames)
+    int32_t lost_frames;
+    int32_t frames_tracked;
+    float centroid[3];
+    float velocity[3];     // metres per frame, smoothed
+  };
+  struct BackgroundCell {
+    uint16_t depth_mm;     // 0 = unknown
+    uint16_t far_frames;   // consecutive frames seen farther than the model
+    uint16_t near_frames;  // consecutive frames seen nearer (not a user)
+    uint16_t learned;      // frames averaged into depth_mm (saturating)
+  };
+  struct Candidate {
+    int32_t root, pixels;
+    double sx, sy, sz;
+    float x_min, x_max, y_min, y_max, z_min, z_max, top;
+    int16_t u_min, v_min, u_max, v_max;
+    int32_t user;          // id or 0
+  };
+
+  struct State {
+    int32_t frames;        // frames processed since init/reset (saturating)
+    int32_t width, height; // geometry of the model and tracks
+  };
+
+  // Carves the arena (counting only when `into` is null); shared by init and
+  // segmenter_required_bytes so both agree.
+  static bool carve(ArenaCarver& carver, int32_t max_width, int32_t max_height, Segmenter* into);
+  friend size_t segmenter_required_bytes(int32_t max_width, int32_t max_height);
+
+  SegmenterConfig* config_ = nullptr;
+  int32_t max_width_ = 0, max_height_ = 0;
+  size_t arena_used_ = 0;
+  bool initialized_ = false;
+  // persistent
+  BackgroundCell* background_ = nullptr;
+  Track* tracks_ = nullptr;          // [kMaxUsers], slot i ↔ id i + 1
+  FloorPlane* floor_ = nullptr;
+  State* state_ = nullptr;
+  // scratch
+  int32_t* parent_ = nullptr;        // union-find over pixels (−1 = not a candidate pixel)
+  int32_t* aux_ = nullptr;           // root: component size, then candidate index or −1
+  float* samples_ = nullptr;         // [kMaxFloorSamples][3]
+  uint8_t* inlier_ = nullptr;        // [kMaxFloorSamples]
+  Candidate* candidates_ = nullptr;  // [kMaxCandidates]
+
+  void fit_floor(const DepthFrame& frame, SegmentationResult* result);
+  int32_t classify_pixels(const DepthFrame& frame);
+  int32_t label_components(const DepthFrame& frame, SegmentationResult* result);
+  void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
+  void update_background(const DepthFrame& frame, const uint8_t* labels);
+};
+
+}  // namespace dp

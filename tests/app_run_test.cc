@@ -1,0 +1,311 @@
+// `depthpose run`: JSON schema per frame, proposals where the analytic answer says, overlays,
+// summary counts, --every/--frames, bad inputs, and the CLI subcommands end to end.
+#include <gtest/gtest.h>
+#include <png.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "forest_blob/blob_writer.h"
+#include "platform/oni_recorder.h"
+#include "tests/app_test_support.h"
+#include "tools/app/overlay.h"
+#include "tools/app/run.h"
+#include "tools/cli/command.h"
+#include "tools/common/error.h"
+#include "tools/demo/fixtures.h"
+
+using namespace dp;
+using namespace dp::tools;
+using dp::apptest::TempDir;
+using nlohmann::json;
+
+namespace {
+
+constexpr int16_t kPushBackMm = 55;
+constexpr int kPart = 2;
+
+// Blob: depth-1 BPC tree, every leaf all mass on part 2, 3 joints reading part 2.
+std::string write_test_blob(const TempDir& dir) {
+  const std::string path = dir / "test.blob";
+  blob::BlobContents c = single_part_bpc(4, kPart, 3, kPushBackMm);
+  c.joint_names = {"head", "neck", "hand_l"};
+  blob::save_blob_file(path, blob::write_blob(c));
+  return path;
+}
+
+struct Captured {
+  RunSummary summary;
+  std::vector<json> lines;
+  std::string log;
+};
+
+Captured run_captured(const RunOptions& o) {
+  Captured c;
+  FILE* out = std::tmpfile();
+  FILE* log = std::tmpfile();
+  c.summary = run_app(o, out, log);
+  auto slurp = [](FILE* f) {
+    std::string s;
+    std::rewind(f);
+    char buf[4096];
+    size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) s.append(buf, n);
+    std::fclose(f);
+    return s;
+  };
+  std::istringstream lines(slurp(out));
+  c.log = slurp(log);
+  for (std::string line; std::getline(lines, line);) c.lines.push_back(json::parse(line));
+  return c;
+}
+
+// Mean camera-frame point of the nonzero pixels.
+void centroid(const SyntheticFrame& f, double* x, double* y, double* z) {
+  double sx = 0, sy = 0, sz = 0;
+  int n = 0;
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u) {
+      const uint16_t d = f.depth_mm[size_t(v) * f.width + u];
+      if (!d) continue;
+      const double zm = d * 0.001;
+      sx += (u - f.intrinsics.cx) * zm / f.intrinsics.fx;
+      sy += -(v - f.intrinsics.cy) * zm / f.intrinsics.fy;
+      sz += zm;
+      ++n;
+    }
+  *x = sx / n;
+  *y = sy / n;
+  *z = sz / n;
+}
+
+// Reads an RGB PNG through libpng's simplified API.
+std::vector<uint8_t> read_rgb_png(const std::string& path, int* w, int* h) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&image, path.c_str())) return {};
+  image.format = PNG_FORMAT_RGB;
+  std::vector<uint8_t> pixels(PNG_IMAGE_SIZE(image));
+  if (!png_image_finish_read(&image, nullptr, pixels.data(), 0, nullptr)) return {};
+  *w = int(image.width);
+  *h = int(image.height);
+  return pixels;
+}
+
+}  // namespace
+
+TEST(AppRun, JsonLinePerFrameWithTheDocumentedSchema) {
+  TempDir dir;
+  const std::string blob = write_test_blob(dir);
+  auto frames = apptest::write_disc_dataset(dir / "ds", 4);
+  RunOptions o;
+  o.blob_path = blob;
+  o.source_spec = "dataset:" + (dir / "ds");
+  o.json = true;
+  o.all_proposals = true;
+  Captured c = run_captured(o);
+  ASSERT_EQ(c.lines.size(), 4u) << c.log;
+  EXPECT_EQ(c.summary.frames_processed, 4);
+  EXPECT_EQ(c.summary.frames_read, 4);
+  EXPECT_EQ(c.summary.corrupt, 0);
+  EXPECT_FALSE(c.summary.source_failed);
+  EXPECT_GT(c.summary.max_ms, 0.0);
+  EXPECT_LE(c.summary.p50_ms, c.summary.p99_ms);
+  EXPECT_LE(c.summary.p99_ms, c.summary.max_ms + 1e-9);
+  EXPECT_NE(c.log.find("summary: 4 frames processed"), std::string::npos) << c.log;
+  for (size_t i = 0; i < c.lines.size(); ++i) {
+    const json& j = c.lines[i];
+    EXPECT_EQ(j.at("frame").get<int>(), int(i));
+    EXPECT_EQ(j.at("source_index").get<int>(), int(i));
+    EXPECT_EQ(j.at("timestamp_us").get<uint64_t>(), uint64_t(i) * 33333u);
+    EXPECT_TRUE(j.at("frame_ms").is_number());
+    EXPECT_TRUE(j.at("kernel").is_string());
+    ASSERT_EQ(j.at("joints").size(), 3u);
+    EXPECT_EQ(j["joints"][0].at("name"), "head");
+    EXPECT_EQ(j["joints"][2].at("name"), "hand_l");
+    double cx, cy, cz;
+    centroid(frames[i], &cx, &cy, &cz);
+    for (const json& joint : j["joints"]) {
+      // All pixels vote for every joint: the best proposal is the disc's centroid pushed back.
+      EXPECT_NEAR(joint.at("x").get<double>(), cx, 0.004);
+      EXPECT_NEAR(joint.at("y").get<double>(), cy, 0.004);
+      EXPECT_NEAR(joint.at("z").get<double>(), cz + kPushBackMm / 1000.0, 0.002);
+      EXPECT_GT(joint.at("confidence").get<double>(), 0.0);
+    }
+    ASSERT_EQ(j.at("proposals").size(), 3u);
+    ASSERT_GE(j["proposals"][0].size(), 1u);
+    EXPECT_EQ(j["proposals"][0][0].size(), 4u);
+    EXPECT_NEAR(j["proposals"][0][0][0].get<double>(), j["joints"][0]["x"].get<double>(), 1e-4);
+    for (const char* stage : {"foreground", "forest", "votes", "mean_shift"})
+      EXPECT_TRUE(j.at("stage_cycles").at(stage).is_number_unsigned()) << stage;
+    EXPECT_TRUE(j.at("total_cycles").is_number_unsigned());
+    EXPECT_TRUE(j.at("flags").is_array());
+    EXPECT_TRUE(j.at("over_budget").is_boolean());
+    EXPECT_GT(j.at("foreground_pixels").get<int>(), 80);
+    EXPECT_GT(j.at("evaluated_pixels").get<int>(), 0);
+    EXPECT_GE(j.at("pixel_stride").get<int>(), 1);
+  }
+}
+
+TEST(AppRun, EveryFramesAndCorruptFramesAreCounted) {
+  TempDir dir;
+  const std::string blob = write_test_blob(dir);
+  apptest::write_disc_dataset(dir / "ds", 7);
+  // Frame 3 corrupt, frame 5 missing: skipped and counted, not fatal.
+  { std::ofstream(dir / "ds/depth/000003.png") << "not a png"; }
+  std::remove((dir / "ds/depth/000005.png").c_str());
+  RunOptions o;
+  o.blob_path = blob;
+  o.source_spec = "dataset:" + (dir / "ds");
+  o.json = true;
+  o.every = 2;
+  Captured c = run_captured(o);
+  // Readable frames 0 1 2 4 6 → processed the 1st, 3rd, 5th of them.
+  EXPECT_EQ(c.summary.frames_read, 5);
+  EXPECT_EQ(c.summary.frames_processed, 3);
+  EXPECT_EQ(c.summary.skipped_by_every, 2);
+  EXPECT_EQ(c.summary.corrupt, 2);
+  ASSERT_EQ(c.lines.size(), 3u);
+  EXPECT_EQ(c.lines[0]["source_index"], 0);
+  EXPECT_EQ(c.lines[1]["source_index"], 2);
+  EXPECT_EQ(c.lines[2]["source_index"], 6);
+  EXPECT_NE(c.log.find("000003.png"), std::string::npos) << c.log;
+  EXPECT_NE(c.log.find("000005.png"), std::string::npos) << c.log;
+
+  o.every = 1;
+  o.max_frames = 2;
+  Captured limited = run_captured(o);
+  EXPECT_EQ(limited.lines.size(), 2u);
+}
+
+TEST(AppRun, OverlaysShowPartsJointsAndAreWritten) {
+  TempDir dir;
+  const std::string blob = write_test_blob(dir);
+  auto frames = apptest::write_disc_dataset(dir / "ds", 2);
+  RunOptions o;
+  o.blob_path = blob;
+  o.source_spec = "dataset:" + (dir / "ds");
+  o.overlay_dir = dir / "overlay";
+  Captured c = run_captured(o);
+  EXPECT_TRUE(c.lines.empty());  // no --json: nothing on stdout
+  ASSERT_EQ(c.summary.frames_processed, 2);
+  for (int i = 0; i < 2; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "/%06d.png", i);
+    int w = 0, h = 0;
+    std::vector<uint8_t> rgb = read_rgb_png(o.overlay_dir + name, &w, &h);
+    ASSERT_EQ(w, 160) << name;
+    ASSERT_EQ(h, 120);
+    const SyntheticFrame& f = frames[size_t(i)];
+    uint8_t part[3];
+    part_colour(kPart, part);
+    // A disc pixel away from the joint dots has the part colour; background stays black.
+    const int u = 50 + 7 * i + 5, v = 40 + 3 * i;
+    ASSERT_NE(f.depth_mm[size_t(v) * 160 + u], 0);
+    const uint8_t* p = &rgb[(size_t(v) * 160 + u) * 3];
+    EXPECT_EQ(p[0], part[0]);
+    EXPECT_EQ(p[1], part[1]);
+    EXPECT_EQ(p[2], part[2]);
+    const uint8_t* bg = &rgb[(size_t(110) * 160 + 150) * 3];
+    EXPECT_EQ(bg[0] + bg[1] + bg[2], 0);
+    // The joints sit at the disc centroid: a red dot there.
+    double cx, cy, cz;
+    centroid(f, &cx, &cy, &cz);
+    float ju, jv;
+    ASSERT_TRUE(project(f.intrinsics, float(cx), float(cy), float(cz + 0.055), &ju, &jv));
+    const uint8_t* dot = &rgb[(size_t(std::lround(jv)) * 160 + size_t(std::lround(ju))) * 3];
+    EXPECT_EQ(dot[0], 255);
+    EXPECT_EQ(dot[1], 40);
+  }
+}
+
+TEST(AppRun, RunsOnSkeltrackRawFrames) {
+  TempDir dir;
+  const std::string blob = write_test_blob(dir);
+  RunOptions o;
+  o.blob_path = blob;
+  o.source_spec = "raw:../shared/data/skeltrack-frames/*.raw:640x480";
+  o.json = true;
+  o.max_frames = 3;
+  Captured c = run_captured(o);
+  ASSERT_EQ(c.lines.size(), 3u) << "needs ../shared/data/skeltrack-frames (12 files): " << c.log;
+  EXPECT_NE(c.log.find("640x480, fx 525.0 fy 525.0 cx 319.5 cy 239.5"), std::string::npos) << c.log;
+  for (const json& j : c.lines) EXPECT_GT(j["foreground_pixels"].get<int>(), 1000);
+}
+
+TEST(AppRun, ReplaysARecordingMadeByRecord) {
+  TempDir dir;
+  const std::string blob = write_test_blob(dir);
+  apptest::write_disc_dataset(dir / "ds", 3);
+  RunOptions direct;
+  direct.blob_path = blob;
+  direct.source_spec = "dataset:" + (dir / "ds");
+  direct.json = true;
+  Captured a = run_captured(direct);
+  const std::string spec = direct.source_spec;
+  platform::record_oni([&] { return platform::open_source(spec); }, true, dir / "x.oni", {});
+  RunOptions replay = direct;
+  replay.source_spec = "oni:" + (dir / "x.oni");
+  Captured b = run_captured(replay);
+  ASSERT_EQ(a.lines.size(), 3u);
+  ASSERT_EQ(b.lines.size(), 3u);
+  for (size_t i = 0; i < 3; ++i)
+    for (size_t j = 0; j < 3; ++j) {
+      // Same depth and focal length (written as field of view) → the same joints.
+      EXPECT_NEAR(a.lines[i]["joints"][j]["x"].get<double>(), b.lines[i]["joints"][j]["x"].get<double>(), 1e-3);
+      EXPECT_NEAR(a.lines[i]["joints"][j]["z"].get<double>(), b.lines[i]["joints"][j]["z"].get<double>(), 1e-4);
+    }
+}
+
+TEST(AppRun, BadInputsGiveOneLineErrors) {
+  TempDir dir;
+  const std::string blob = write_test_blob(dir);
+  auto error_of = [](const RunOptions& o) {
+    try {
+      FILE* null_out = std::fopen("/dev/null", "w");
+      run_app(o, null_out, null_out);
+      std::fclose(null_out);
+    } catch (const ToolError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  RunOptions o;
+  o.blob_path = dir / "missing.blob";
+  o.source_spec = "raw:../shared/data/skeltrack-frames/*.raw:640x480";
+  EXPECT_NE(error_of(o).find("missing.blob"), std::string::npos);
+  { std::ofstream(dir / "junk.blob") << "junk junk junk junk junk junk junk junk junk junk junk junk"; }
+  o.blob_path = dir / "junk.blob";
+  EXPECT_NE(error_of(o).find("junk.blob"), std::string::npos);
+  o.blob_path = blob;
+  o.source_spec = "raw:../shared/data/skeltrack-frames/*.raw:320x240";
+  EXPECT_NE(error_of(o).find("wrong resolution"), std::string::npos) << error_of(o);
+  o.source_spec = "raw:" + (dir / "*.nothing") + ":640x480";
+  EXPECT_NE(error_of(o).find("no file matches"), std::string::npos);
+  o.source_spec = "raw:frames:64zx48";
+  EXPECT_NE(error_of(o).find("bad frame size"), std::string::npos);
+  o.source_spec = "kinect:0";
+  EXPECT_NE(error_of(o).find("unknown source"), std::string::npos);
+  o.source_spec = "dataset:" + (dir / "nodataset");
+  EXPECT_NE(error_of(o).find("nodataset"), std::string::npos);
+  o.source_spec = "v4l2:/dev/video-does-not-exist";
+  EXPECT_NE(error_of(o).find("no such device"), std::string::npos) << error_of(o);
+  for (const RunOptions* p : {&o}) EXPECT_EQ(error_of(*p).find('\n'), std::string::npos);
+}
+
+TEST(AppCli, SubcommandsAreRegisteredWithHelp) {
+  for (const char* name : {"run", "record", "devices"}) {
+    const cli::Command* c = cli::find_command(name);
+    ASSERT_NE(c, nullptr) << name;
+    char arg0[16], help[] = "--help";
+    std::snprintf(arg0, sizeof arg0, "%s", name);
+    char* argv[] = {arg0, help};
+    testing::internal::CaptureStdout();
+    EXPECT_EQ(c->run(2, argv), 0);
+    std::string out = testing::internal::GetCapturedStdout();
+    EXPECT_NE(out.find(std::string("depthpose ") + name), std::string::npos) << out;
+  }
+}

@@ -1,0 +1,143 @@
+// Floor fits against planes whose normal and height are known (camera pitch and roll included).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "tests/segmentation_test_util.h"
+
+using namespace dp;
+using dp::testing_seg::SegmenterHarness;
+using dp::testing_seg::person_at;
+
+namespace {
+
+struct Pose {
+  float height, pitch, roll;
+};
+
+void expect_plane(const FloorPlane& p, const tools::SceneCamera& cam, float tol_normal, float tol_d) {
+  float n[3], d;
+  tools::floor_plane_in_camera(cam, n, &d);
+  ASSERT_EQ(p.valid, 1);
+  EXPECT_NEAR(p.nx, n[0], tol_normal);
+  EXPECT_NEAR(p.ny, n[1], tol_normal);
+  EXPECT_NEAR(p.nz, n[2], tol_normal);
+  EXPECT_NEAR(p.d, d, tol_d);
+}
+
+}  // namespace
+
+TEST(SegmentationFloor, FitsKnownPlanesAcrossPitchRollAndHeight) {
+  const Pose poses[] = {{1.0f, 0.0f, 0.0f}, {1.6f, 20.0f, 0.0f}, {0.8f, 10.0f, 8.0f},
+                        {2.2f, 35.0f, -10.0f}, {0.5f, -3.0f, 5.0f}, {1.2f, 15.0f, -20.0f}};
+  for (const Pose& pose : poses) {
+    SCOPED_TRACE(::testing::Message() << "height " << pose.height << " pitch " << pose.pitch << " roll " << pose.roll);
+    tools::Scene s;
+    s.camera.height_m = pose.height;
+    s.camera.pitch_deg = pose.pitch;
+    s.camera.roll_deg = pose.roll;
+    s.cylinders.push_back(person_at(0.3f, 3.0f, 1));
+    s.boxes.push_back({-1.2f, -0.6f, 0.0f, 0.7f, 2.0f, 2.6f, 0});
+    SegmenterHarness h(default_segmenter_config(false));
+    ASSERT_EQ(h.run(tools::render_scene(s)), Status::kOk);
+    EXPECT_TRUE(h.result.flags & kSegFlagFloorFitted);
+    // Millimetre rounding of exact depths: the least-squares plane is within a few millimetres.
+    expect_plane(h.result.floor, s.camera, 0.01f, 0.01f);
+  }
+}
+
+TEST(SegmentationFloor, FitsThroughDepthNoiseAndClutter) {
+  tools::Scene s;
+  s.camera.height_m = 1.3f;
+  s.camera.pitch_deg = 18.0f;
+  s.camera.roll_deg = -6.0f;
+  for (int i = 0; i < 6; ++i) s.boxes.push_back({-1.5f + 0.5f * i, -1.2f + 0.5f * i, 0.0f, 0.4f, 1.8f, 2.1f, 0});
+  s.cylinders.push_back(person_at(0.0f, 2.5f, 1));
+  tools::RenderedScene frame = tools::render_scene(s);
+  std::mt19937 rng(7);
+  for (uint16_t& z : frame.depth_mm) {
+    if (!z) continue;
+    const double sigma = 1.5 * (z / 1000.0) * (z / 1000.0);  // mm, Kinect-like growth with depth
+    z = uint16_t(std::lround(z + std::normal_distribution<double>(0.0, sigma)(rng)));
+  }
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(frame), Status::kOk);
+  expect_plane(h.result.floor, s.camera, 0.02f, 0.02f);
+}
+
+TEST(SegmentationFloor, RejectsAWallAndTracksAcrossFrames) {
+  // Lower image part: only a wall (no floor visible) → no floor, the wall is not taken for one.
+  tools::Scene wall;
+  wall.floor = false;
+  wall.wall_z = 2.0f;
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(tools::render_scene(wall)), Status::kOk);
+  EXPECT_EQ(h.result.floor.valid, 0);
+
+  // A floor, then the camera tilts a little each frame: the tracked plane follows.
+  SegmenterHarness t(default_segmenter_config(false));
+  for (int frame = 0; frame < 6; ++frame) {
+    tools::Scene s;
+    s.camera.height_m = 1.1f;
+    s.camera.pitch_deg = 10.0f + 2.0f * frame;
+    s.camera.roll_deg = 1.0f * frame;
+    s.cylinders.push_back(person_at(0.0f, 2.8f, 1));
+    ASSERT_EQ(t.run(tools::render_scene(s)), Status::kOk);
+    SCOPED_TRACE(frame);
+    expect_plane(t.result.floor, s.camera, 0.01f, 0.01f);
+  }
+}
+
+TEST(SegmentationFloor, HoldsThePlaneWhenTheFloorIsBrieflyHidden) {
+  SegmenterConfig cfg = default_segmenter_config(false);
+  cfg.floor_keep_frames = 2;
+  SegmenterHarness h(cfg);
+  tools::Scene s;
+  s.camera.height_m = 1.0f;
+  s.camera.pitch_deg = 12.0f;
+  ASSERT_EQ(h.run(tools::render_scene(s)), Status::kOk);
+  ASSERT_EQ(h.result.floor.valid, 1);
+  tools::Scene hidden = s;
+  hidden.floor = false;
+  hidden.wall_z = 1.5f;
+  for (int i = 1; i <= 2; ++i) {
+    ASSERT_EQ(h.run(tools::render_scene(hidden)), Status::kOk);
+    EXPECT_TRUE(h.result.flags & kSegFlagFloorHeld);
+    EXPECT_EQ(h.result.floor.held_frames, i);
+    expect_plane(h.result.floor, s.camera, 0.01f, 0.01f);
+  }
+  ASSERT_EQ(h.run(tools::render_scene(hidden)), Status::kOk);
+  EXPECT_EQ(h.result.floor.valid, 0);
+}
+
+TEST(SegmentationFloor, FloorPixelsAreBackgroundAndFeetStayWithThePerson) {
+  tools::Scene s;
+  s.camera.height_m = 1.4f;
+  s.camera.pitch_deg = 20.0f;
+  s.camera.roll_deg = 4.0f;
+  s.cylinders.push_back(person_at(0.0f, 2.6f, 1));
+  const tools::RenderedScene frame = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(frame), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  const int person = dp::testing_seg::count_pixels(h.labels, frame, 1, 1);
+  const int truth = dp::testing_seg::count_pixels(std::vector<uint8_t>(frame.truth.size(), 1), frame, 1, 1);
+  EXPECT_EQ(dp::testing_seg::count_pixels(h.labels, frame, 1, 0), 0) << "floor pixels labelled as the person";
+  // Only the bottom few centimetres of a 1.7 m person fall within the floor margin.
+  EXPECT_GE(person, int(0.97 * truth));
+}
+
+TEST(SegmentationFloor, DisabledFloorRemovesNothing) {
+  SegmenterConfig cfg = default_segmenter_config(false);
+  cfg.floor_enabled = false;
+  SegmenterHarness h(cfg);
+  tools::Scene s;
+  s.camera.pitch_deg = 15.0f;
+  const tools::RenderedScene frame = tools::render_scene(s);
+  ASSERT_EQ(h.run(frame), Status::kOk);
+  EXPECT_EQ(h.result.floor.valid, 0);
+  int in_band = 0;
+  for (uint16_t z : frame.depth_mm) in_band += z >= cfg.near_mm && z <= cfg.far_mm;
+  EXPECT_EQ(h.result.candidate_pixels, in_band);
+}

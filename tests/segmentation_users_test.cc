@@ -1,0 +1,261 @@
+// Components, the person test and stable ids on hand-made frames.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "tests/segmentation_test_util.h"
+#include "tools/demo/fixtures.h"
+
+using namespace dp;
+using dp::testing_seg::SegmenterHarness;
+using dp::testing_seg::count_pixels;
+using dp::testing_seg::person_at;
+
+namespace {
+
+tools::Scene room() {
+  tools::Scene s;
+  s.camera.height_m = 1.3f;
+  s.camera.pitch_deg = 12.0f;
+  s.camera.roll_deg = 3.0f;
+  return s;
+}
+
+int truth_pixels(const tools::RenderedScene& f, uint8_t truth) {
+  int n = 0;
+  for (uint8_t t : f.truth) n += t == truth;
+  return n;
+}
+
+}  // namespace
+
+TEST(SegmentationComponents, TwoPeopleAndFurnitureOnTheFloor) {
+  tools::Scene s = room();
+  s.cylinders.push_back(person_at(-0.8f, 3.0f, 1));
+  s.cylinders.push_back(person_at(0.9f, 2.2f, 2));
+  s.boxes.push_back({-0.2f, 0.4f, 0.0f, 0.75f, 3.6f, 4.2f, 0});   // table behind, between them
+  s.cylinders.push_back({1.6f, 3.5f, 0.25f, 0.0f, 0.5f, 0});      // bin
+  s.boxes.push_back({-2.0f, -1.5f, 0.0f, 0.45f, 2.0f, 2.5f, 0});  // stool
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 2);
+  EXPECT_GE(h.result.component_count, 4);
+  // Ids by size: the nearer person (truth 2) is larger and gets id 1.
+  const UserInfo* near_user = h.user(1);
+  const UserInfo* far_user = h.user(2);
+  ASSERT_TRUE(near_user && far_user);
+  for (uint8_t id = 1; id <= 2; ++id) {
+    const uint8_t truth = id == 1 ? 2 : 1;
+    SCOPED_TRACE(int(id));
+    EXPECT_EQ(count_pixels(h.labels, f, id, 0), 0) << "background labelled as a user";
+    EXPECT_EQ(count_pixels(h.labels, f, id, 3 - truth), 0) << "the other person labelled as this one";
+    EXPECT_GE(count_pixels(h.labels, f, id, truth), int(0.97 * truth_pixels(f, truth)));
+  }
+  EXPECT_NEAR(near_user->centroid_m[2], 2.2 - 0.0, 0.35);
+  EXPECT_NEAR(near_user->top_height_m, 1.7, 0.03);
+  EXPECT_EQ(near_user->pixel_count, count_pixels(h.labels, f, 1, 2));
+  EXPECT_EQ(h.result.user_pixels, near_user->pixel_count + far_user->pixel_count);
+  // Bounding box matches the labelled pixels.
+  int u0 = 9999, u1 = -1;
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u)
+      if (h.labels[size_t(v) * f.width + u] == 1) { u0 = std::min(u0, u); u1 = std::max(u1, u); }
+  EXPECT_EQ(near_user->u_min, u0);
+  EXPECT_EQ(near_user->u_max, u1);
+}
+
+TEST(SegmentationComponents, DepthJumpsSplitAndSmoothSurfacesJoin) {
+  // Without a floor: two discs overlapping in the image, 40 cm apart in depth → two components;
+  // a steep but smooth tilted plane stays one component.
+  tools::SyntheticFrame f = tools::make_disc_frame(320, 240, 140, 120, 60, 2000);
+  const tools::SyntheticFrame g = tools::make_disc_frame(320, 240, 200, 120, 60, 2400);
+  for (size_t i = 0; i < f.depth_mm.size(); ++i)
+    if (!f.depth_mm[i]) f.depth_mm[i] = g.depth_mm[i];
+  SegmenterConfig cfg = default_segmenter_config(false);
+  cfg.floor_enabled = false;
+  cfg.min_person_height_m = 0.0f;  // discs are no people; this test is about components
+  SegmenterHarness h(cfg);
+  ASSERT_EQ(h.run(f.view()), Status::kOk);
+  EXPECT_EQ(h.result.component_count, 2);
+  ASSERT_EQ(h.result.user_count, 2);
+  // Every disc pixel belongs to exactly the user of its depth.
+  const uint8_t near_id = h.labels[120 * 320 + 100], far_id = h.labels[120 * 320 + 250];
+  EXPECT_NE(near_id, 0);
+  EXPECT_NE(far_id, 0);
+  EXPECT_NE(near_id, far_id);
+  for (size_t i = 0; i < f.depth_mm.size(); ++i) {
+    const uint8_t want = f.depth_mm[i] == 2000 ? near_id : f.depth_mm[i] == 2400 ? far_id : 0;
+    ASSERT_EQ(h.labels[i], want) << "pixel " << i;
+  }
+  // 6 mm per pixel along u at 2.5 m: well inside the join threshold → a single component.
+  tools::SyntheticFrame plane = tools::make_plane_frame(160, 120, 2500.0f, 6.0f, 0.0f);
+  SegmenterHarness p(cfg, 160, 120);
+  ASSERT_EQ(p.run(plane.view()), Status::kOk);
+  EXPECT_EQ(p.result.component_count, 1);
+}
+
+TEST(SegmentationComponents, TooSmallOrTooLowForAPersonIsDropped) {
+  tools::Scene s = room();
+  s.cylinders.push_back(person_at(0.0f, 2.5f, 1, 0.6f));           // a bin-sized "person": too low
+  s.cylinders.push_back({1.0f, 3.0f, 0.02f, 0.0f, 1.8f, 0});        // a thin pole: too few pixels
+  s.boxes.push_back({-2.5f, 0.6f, 0.0f, 1.6f, 4.0f, 4.3f, 0});      // a 3 m wide cupboard: too wide
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_EQ(h.result.user_count, 0);
+  EXPECT_GE(h.result.component_count, 3);
+  for (uint8_t l : h.labels) ASSERT_EQ(l, 0);
+}
+
+TEST(SegmentationUsers, IdsStayThroughAShortOcclusion) {
+  SegmenterConfig cfg = default_segmenter_config(false);
+  cfg.track_keep_frames = 8;
+  SegmenterHarness h(cfg);
+  // Person A walks right to left at 3 m, behind a wardrobe-sized occluder for several frames;
+  // person B stands at 2 m. A keeps its id when it reappears.
+  int id_a = 0, id_b = 0;
+  bool hidden_seen = false;
+  for (int frame = 0; frame < 24; ++frame) {
+    tools::Scene s = room();
+    const float ax = 1.2f - 0.1f * frame;
+    s.cylinders.push_back(person_at(ax, 3.2f, 1));
+    s.cylinders.push_back(person_at(-1.0f, 2.0f, 2));
+    s.boxes.push_back({-0.35f, 0.35f, 0.0f, 2.0f, 2.4f, 2.5f, 0});  // occluder, 2 m tall, 70 cm wide
+    const tools::RenderedScene f = tools::render_scene(s);
+    ASSERT_EQ(h.run(f), Status::kOk);
+    SCOPED_TRACE(::testing::Message() << "frame " << frame << " ax " << ax);
+    // The occluder is wider than a person would look... but it is 2 m tall and 0.7 m wide: a
+    // person-like box. It stands from frame 0 and is found as a user too; identify users by truth.
+    int label_a = 0, label_b = 0;
+    for (size_t i = 0; i < f.truth.size(); ++i) {
+      if (f.truth[i] == 1 && h.labels[i]) label_a = h.labels[i];
+      if (f.truth[i] == 2 && h.labels[i]) label_b = h.labels[i];
+    }
+    ASSERT_NE(label_b, 0);
+    if (id_b == 0) id_b = label_b;
+    EXPECT_EQ(label_b, id_b);
+    const int visible_a = truth_pixels(f, 1);
+    if (visible_a > 400) {
+      ASSERT_NE(label_a, 0) << visible_a << " visible pixels of A";
+      if (id_a == 0) id_a = label_a;
+      EXPECT_EQ(label_a, id_a) << "A changed id";
+    } else if (visible_a == 0) {
+      hidden_seen = true;
+    }
+  }
+  EXPECT_TRUE(hidden_seen) << "the scene never hid person A completely";
+  EXPECT_NE(id_a, id_b);
+}
+
+TEST(SegmentationUsers, NewIdAfterTheKeepWindowAndLowestFreeIdReused) {
+  SegmenterConfig cfg = default_segmenter_config(false);
+  cfg.track_keep_frames = 2;
+  SegmenterHarness h(cfg);
+  tools::Scene two = room();
+  two.cylinders.push_back(person_at(-0.8f, 2.5f, 1));
+  two.cylinders.push_back(person_at(0.8f, 3.5f, 2));
+  ASSERT_EQ(h.run(tools::render_scene(two)), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 2);
+  EXPECT_EQ(h.result.users[0].id, 1);
+  EXPECT_EQ(h.result.users[1].id, 2);
+  EXPECT_EQ(h.result.users[0].frames_tracked, 1);
+  tools::Scene one = room();
+  one.cylinders.push_back(person_at(0.8f, 3.5f, 2));
+  for (int i = 0; i < 3; ++i) {  // id 1 lost for 3 frames > keep (2): freed
+    ASSERT_EQ(h.run(tools::render_scene(one)), Status::kOk);
+    ASSERT_EQ(h.result.user_count, 1);
+    EXPECT_EQ(h.result.users[0].id, 2);
+    EXPECT_EQ(h.result.users[0].frames_tracked, 2 + i);
+  }
+  tools::Scene back = room();
+  back.cylinders.push_back(person_at(0.8f, 3.5f, 2));
+  back.cylinders.push_back(person_at(-0.7f, 2.0f, 3));  // someone else, elsewhere
+  ASSERT_EQ(h.run(tools::render_scene(back)), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 2);
+  EXPECT_EQ(h.result.users[0].id, 1);  // the lowest free id
+  EXPECT_EQ(h.result.users[0].frames_tracked, 1);
+  EXPECT_EQ(h.result.users[1].id, 2);
+}
+
+TEST(SegmentationUsers, MaxUsersCapsTheCount) {
+  SegmenterConfig cfg = default_segmenter_config(false);
+  cfg.max_users = 2;
+  SegmenterHarness h(cfg);
+  tools::Scene s = room();
+  for (int i = 0; i < 4; ++i) s.cylinders.push_back(person_at(-1.5f + 1.0f * i, 3.0f + 0.2f * i, uint8_t(i + 1)));
+  ASSERT_EQ(h.run(tools::render_scene(s)), Status::kOk);
+  EXPECT_EQ(h.result.user_count, 2);
+  EXPECT_TRUE(h.result.flags & kSegFlagUsersTruncated);
+  for (uint8_t l : h.labels) ASSERT_LE(l, 2);
+}
+
+TEST(SegmentationUsers, BoundedOnAFrameFullOfClutter) {
+  // Every pixel its own component (random depths far apart) and a grid of 192 small boxes: the
+  // candidate list saturates at kMaxCandidates, the largest components are kept, nothing overflows.
+  SegmenterConfig cfg = default_segmenter_config(false);
+  cfg.min_component_pixels = 1;
+  SegmenterHarness h(cfg, 640, 480);
+  std::vector<uint16_t> noise(640 * 480);
+  std::mt19937 rng(3);
+  for (auto& z : noise) z = uint16_t(500 + 500 * (rng() % 11));
+  const DepthFrame nf{noise.data(), 640, 480, 640, tools::kinect_intrinsics(640, 480), nullptr};
+  ASSERT_EQ(h.run(nf), Status::kOk);
+  EXPECT_TRUE(h.result.flags & kSegFlagCandidatesTruncated);
+  EXPECT_GT(h.result.component_count, kMaxCandidates);
+  EXPECT_LE(h.result.user_count, cfg.max_users);
+
+  tools::Scene s = room();
+  for (int i = 0; i < 16; ++i)
+    for (int j = 0; j < 12; ++j) {
+      const float x = -3.0f + 0.38f * i, z = 1.5f + 0.3f * j;
+      s.boxes.push_back({x, x + 0.12f, 0.0f, 0.3f + 0.02f * float((i * 7 + j) % 9), z, z + 0.1f, 0});
+    }
+  s.cylinders.push_back(person_at(0.1f, 2.0f, 1));
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness c(default_segmenter_config(false));
+  ASSERT_EQ(c.run(f), Status::kOk);
+  EXPECT_TRUE(c.result.flags & kSegFlagCandidatesTruncated);
+  // The person is among the largest components and is still found.
+  ASSERT_GE(c.result.user_count, 1);
+  EXPECT_GT(count_pixels(c.labels, f, 1, 1), truth_pixels(f, 1) / 2);
+}
+
+TEST(SegmentationUsers, LabelsUseTheFrameStrideAndBadArgumentsAreRefused) {
+  tools::Scene s = room();
+  s.cylinders.push_back(person_at(0.0f, 2.5f, 1));
+  const tools::RenderedScene f = tools::render_scene(s);
+  const int stride = f.width + 13;
+  std::vector<uint16_t> padded(size_t(stride) * f.height, 7);  // padding holds junk depth
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u) padded[size_t(v) * stride + u] = f.depth_mm[size_t(v) * f.width + u];
+  SegmenterHarness h(default_segmenter_config(false));
+  std::vector<uint8_t> labels(size_t(stride) * f.height, 0xAB);
+  h.result.labels = labels.data();
+  const DepthFrame pf{padded.data(), f.width, f.height, stride, f.intrinsics, nullptr};
+  ASSERT_EQ(h.segmenter.process(pf, &h.result), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  for (int v = 0; v < f.height; ++v) {
+    for (int u = 0; u < f.width; ++u)
+      ASSERT_EQ(labels[size_t(v) * stride + u] != 0, f.truth[size_t(v) * f.width + u] == 1 &&
+                                                         labels[size_t(v) * stride + u] == 1);
+    for (int u = f.width; u < stride; ++u) ASSERT_EQ(labels[size_t(v) * stride + u], 0xAB) << "padding written";
+  }
+  SegmentationResult r{};
+  EXPECT_EQ(h.segmenter.process(pf, &r), Status::kBadArgument);  // no label buffer
+  r.labels = labels.data();
+  DepthFrame big = pf;
+  big.width = 400;
+  big.stride_px = 400;
+  EXPECT_EQ(h.segmenter.process(big, &r), Status::kFrameTooLarge);
+  Segmenter fresh;
+  EXPECT_EQ(fresh.process(pf, &r), Status::kNotInitialized);
+  SegmenterConfig bad = default_segmenter_config(false);
+  bad.max_users = kMaxUsers + 1;
+  EXPECT_EQ(h.segmenter.set_config(bad), Status::kBadConfig);
+  std::vector<uint8_t> small(64 + 64);
+  uint8_t* aligned = small.data() + (64 - reinterpret_cast<uintptr_t>(small.data()) % 64) % 64;
+  EXPECT_EQ(fresh.init(default_segmenter_config(true), 320, 240, aligned, 64), Status::kArenaTooSmall);
+  EXPECT_EQ(segmenter_required_bytes(0, 10), 0u);
+}

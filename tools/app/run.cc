@@ -1,0 +1,329 @@
+#include "tools/app/run.h"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdarg>
+#include <cstdlib>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include "forest_blob/blob_loader.h"
+#include "forest_blob/blob_writer.h"
+#include "platform/hotplug_source.h"
+#include "platform/usb_devices.h"
+#include "tools/app/overlay.h"
+#include "tools/common/error.h"
+#include "tools/common/png_io.h"
+
+namespace dp::tools {
+
+namespace {
+
+volatile std::sig_atomic_t g_stop = 0;
+
+using Clock = std::chrono::steady_clock;
+
+// A line of JSON in a buffer allocated once.
+class LineBuffer {
+ public:
+  explicit LineBuffer(size_t capacity) : data_(capacity) {}
+  void clear() { size_ = 0; }
+  void add(const char* format, ...) __attribute__((format(printf, 2, 3))) {
+    if (size_ >= data_.size()) return;
+    va_list args;
+    va_start(args, format);
+    int n = std::vsnprintf(data_.data() + size_, data_.size() - size_, format, args);
+    va_end(args);
+    if (n > 0) size_ = std::min(data_.size() - 1, size_ + size_t(n));
+  }
+  void number(double v, const char* format = "%.4f") {
+    if (std::isfinite(v)) add(format, v);
+    else add("null");
+  }
+  // Names from the blob are printable ASCII (checked by the loader); escape quotes anyway.
+  void string(const char* s, size_t max) {
+    add("\"");
+    for (size_t i = 0; i < max && s[i]; ++i) {
+      if (s[i] == '"' || s[i] == '\\') add("\\%c", s[i]);
+      else add("%c", s[i]);
+    }
+    add("\"");
+  }
+  void write(FILE* out) {
+    add("\n");
+    std::fwrite(data_.data(), 1, size_, out);
+    std::fflush(out);
+  }
+
+ private:
+  std::vector<char> data_;
+  size_t size_ = 0;
+};
+
+// Frame times in 10 µs bins up to 5 s (longer frames land in the last bin; max is exact).
+class TimeHistogram {
+ public:
+  TimeHistogram() : bins_(kBins, 0) {}
+  void add(double ms) {
+    size_t bin = size_t(std::max(0.0, ms) * 100.0);
+    ++bins_[std::min(bin, kBins - 1)];
+    ++count_;
+    max_ = std::max(max_, ms);
+  }
+  double quantile(double q) const {
+    if (!count_) return 0;
+    const uint64_t rank = uint64_t(std::ceil(q * double(count_)));
+    uint64_t seen = 0;
+    for (size_t i = 0; i < kBins; ++i) {
+      seen += bins_[i];
+      if (seen >= std::max<uint64_t>(rank, 1)) return std::min(max_, (double(i) + 1.0) / 100.0);
+    }
+    return max_;
+  }
+  double max() const { return max_; }
+
+ private:
+  static constexpr size_t kBins = 500000;
+  std::vector<uint32_t> bins_;
+  uint64_t count_ = 0;
+  double max_ = 0;
+};
+
+void write_frame_json(LineBuffer& line, const RunOptions& options, const blob::LoadedBlob& b, const Pipeline& pipeline,
+                      int64_t frame, const platform::FrameInfo& info, double frame_ms, const FrameResult& r) {
+  line.clear();
+  line.add("{\"frame\":%lld,\"source_index\":%lld,\"timestamp_us\":%llu,\"frame_ms\":", (long long)frame,
+           (long long)info.index, (unsigned long long)info.timestamp_us);
+  line.number(frame_ms, "%.3f");
+  line.add(",\"kernel\":\"%s\",\"joints\":[", kernel_isa_name(pipeline.kernel()));
+  for (int j = 0; j < r.joint_count; ++j) {
+    line.add(j ? ",{\"name\":" : "{\"name\":");
+    line.string(b.meta->joint_names[j], blob::kNameBytes);
+    if (r.proposal_count[j] > 0) {
+      const JointProposal& p = r.proposals[j][0];
+      line.add(",\"x\":");
+      line.number(p.x_m);
+      line.add(",\"y\":");
+      line.number(p.y_m);
+      line.add(",\"z\":");
+      line.number(p.z_m);
+      line.add(",\"confidence\":");
+      line.number(p.confidence, "%.5g");
+    } else {
+      line.add(",\"x\":null,\"y\":null,\"z\":null,\"confidence\":0");
+    }
+    line.add("}");
+  }
+  line.add("]");
+  if (options.all_proposals) {
+    line.add(",\"proposals\":[");
+    for (int j = 0; j < r.joint_count; ++j) {
+      line.add(j ? ",[" : "[");
+      for (int k = 0; k < r.proposal_count[j]; ++k) {
+        const JointProposal& p = r.proposals[j][k];
+        line.add(k ? ",[" : "[");
+        line.number(p.x_m);
+        line.add(",");
+        line.number(p.y_m);
+        line.add(",");
+        line.number(p.z_m);
+        line.add(",");
+        line.number(p.confidence, "%.5g");
+        line.add("]");
+      }
+      line.add("]");
+    }
+    line.add("]");
+  }
+  line.add(",\"stage_cycles\":{");
+  for (int s = 0; s < kStageCount; ++s)
+    line.add("%s\"%s\":%llu", s ? "," : "", stage_name(s), (unsigned long long)r.stage_cycles[s]);
+  line.add("},\"total_cycles\":%llu,\"flags\":[", (unsigned long long)r.total_cycles);
+  bool first = true;
+  for (int bit = 0; bit < 32; ++bit)
+    if (r.flags & (1u << bit)) {
+      line.add("%s\"%s\"", first ? "" : ",", frame_flag_name(bit));
+      first = false;
+    }
+  line.add("],\"over_budget\":%s,\"foreground_pixels\":%d,\"evaluated_pixels\":%d,\"pixel_stride\":%d}",
+           (r.flags & kFlagOverCycleBudget) ? "true" : "false", r.foreground_pixels, r.evaluated_pixels,
+           r.pixel_stride);
+}
+
+struct AlignedFree {
+  void operator()(uint8_t* p) const { std::free(p); }
+};
+
+}  // namespace
+
+const char* frame_flag_name(int bit) {
+  static const char* const names[] = {"no_foreground", "pixels_strided", "votes_truncated",
+                                      "starts_truncated", "proposals_truncated", "over_cycle_budget"};
+  return bit >= 0 && bit < int(sizeof names / sizeof names[0]) ? names[bit] : "unknown_flag";
+}
+
+void request_stop() { g_stop = 1; }
+
+RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
+  g_stop = 0;
+  if (options.every < 1) fail("--every must be at least 1");
+  // ---- setup: everything the loop needs, allocated once ----
+  std::vector<uint8_t> blob_bytes = blob::read_blob_file(options.blob_path);
+  blob::LoadedBlob b;
+  if (blob::BlobStatus s = blob::load_blob(blob_bytes.data(), blob_bytes.size(), &b); s != blob::BlobStatus::kOk)
+    fail(options.blob_path + ": not a usable blob: " + blob::blob_status_message(s));
+  std::unique_ptr<platform::FrameSource> source = platform::open_source(options.source_spec, options.source_options);
+  if (source->live() && options.usb_watch) {
+    // With a depth camera on the bus, its disappearance is noticed even when the driver says
+    // nothing. (Which camera a /dev/videoN or OpenNI2 URI is cannot be told portably: the first
+    // depth camera is watched.)
+    try {
+      std::unique_ptr<platform::UsbLister> lister = platform::make_libusb_lister();
+      std::vector<platform::UsbDevice> cameras = platform::depth_cameras(lister->list());
+      if (!cameras.empty()) {
+        std::fprintf(log, "run: watching %s for hotplug\n", platform::describe(cameras[0]).c_str());
+        const std::string spec = options.source_spec;
+        const platform::SourceOptions source_options = options.source_options;
+        source = platform::watch_hotplug(std::move(source), [spec, source_options] { return platform::open_source(spec, source_options); },
+                                         std::move(lister), cameras[0]);
+      }
+    } catch (const std::exception& e) {
+      std::fprintf(log, "run: no USB hotplug watch (%s)\n", e.what());
+    }
+  }
+  const int w = source->width(), h = source->height();
+  const size_t arena_bytes = required_arena_bytes(b, w, h);
+  if (!arena_bytes) fail("blob " + options.blob_path + " cannot run on " + std::to_string(w) + "x" + std::to_string(h) + " frames");
+  std::unique_ptr<uint8_t, AlignedFree> arena(static_cast<uint8_t*>(std::aligned_alloc(64, (arena_bytes + 63) / 64 * 64)));
+  if (!arena) fail("cannot allocate the " + std::to_string(arena_bytes) + "-byte arena");
+  Pipeline pipeline;
+  if (Status s = pipeline.init(b, w, h, arena.get(), arena_bytes); s != Status::kOk)
+    fail(std::string("pipeline init: ") + status_message(s));
+  if (Status s = pipeline.set_kernel(options.kernel); s != Status::kOk)
+    fail(std::string("kernel ") + kernel_isa_name(options.kernel) + ": " + status_message(s));
+  if (!options.overlay_dir.empty()) {
+    ::mkdir(options.overlay_dir.c_str(), 0755);
+    struct stat st{};
+    if (::stat(options.overlay_dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+      fail("--overlay " + options.overlay_dir + ": cannot create the directory");
+  }
+  std::vector<uint16_t> depth(size_t(w) * h);
+  const CameraIntrinsics intrinsics = source->intrinsics();
+  const DepthFrame frame{depth.data(), w, h, w, intrinsics, nullptr};
+  auto result = std::make_unique<FrameResult>();
+  ImageRgb overlay;
+  if (!options.overlay_dir.empty()) overlay.resize(w, h);
+  std::vector<char> overlay_path(options.overlay_dir.size() + 32);
+  LineBuffer line(1 << 16);
+  TimeHistogram times;
+  RunSummary summary;
+
+  std::fprintf(log, "run: %s on %s (%dx%d, fx %.1f fy %.1f cx %.1f cy %.1f), kernel %s, arena %zu bytes\n",
+               options.blob_path.c_str(), options.source_spec.c_str(), w, h, intrinsics.fx, intrinsics.fy, intrinsics.cx,
+               intrinsics.cy, kernel_isa_name(pipeline.kernel()), arena_bytes);
+
+  // ---- the loop: no allocation from here on ----
+  const auto loop_start = Clock::now();
+  bool lost = false, paced = false;
+  Clock::time_point pace_wall{};
+  uint64_t pace_ts = 0;
+  int64_t corrupt_seen = 0;
+  platform::FrameInfo info;
+  while (!g_stop && (options.max_frames < 0 || summary.frames_processed < options.max_frames)) {
+    const platform::NextStatus status = source->next(depth.data(), &info);
+    if (source->stats().corrupt_frames != corrupt_seen) {
+      corrupt_seen = source->stats().corrupt_frames;
+      std::fprintf(log, "run: %s\n", source->last_warning().c_str());
+    }
+    if (status == platform::NextStatus::kEnd) break;
+    if (status == platform::NextStatus::kError) {
+      summary.source_failed = true;
+      summary.source_error = source->last_error();
+      std::fprintf(log, "run: source error: %s\n", summary.source_error.c_str());
+      break;
+    }
+    if (status == platform::NextStatus::kDeviceLost) {
+      if (!lost) std::fprintf(log, "run: %s; waiting for it to come back\n", source->last_warning().c_str());
+      lost = true;
+      continue;
+    }
+    if (status == platform::NextStatus::kNoFrame) continue;
+    if (lost) {
+      std::fprintf(log, "run: device back, resuming\n");
+      lost = false;
+    }
+    ++summary.frames_read;
+    if ((summary.frames_read - 1) % options.every != 0) {
+      ++summary.skipped_by_every;
+      continue;
+    }
+    if (options.realtime && !source->live()) {
+      // Replay at the recording's pace; a frame whose time has passed is dropped, not queued.
+      const auto now = Clock::now();
+      if (!paced) {
+        paced = true;
+        pace_wall = now;
+        pace_ts = info.timestamp_us;
+      }
+      const auto due = pace_wall + std::chrono::microseconds(int64_t(info.timestamp_us - pace_ts));
+      if (now > due + std::chrono::milliseconds(5)) {
+        ++summary.dropped;
+        continue;
+      }
+      if (now < due) std::this_thread::sleep_until(due);
+    }
+    const auto t0 = Clock::now();
+    const Status s = pipeline.process(frame, result.get());
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    if (s != Status::kOk) {
+      std::fprintf(log, "run: frame %lld: %s (skipped)\n", (long long)info.index, status_message(s));
+      ++summary.corrupt;
+      continue;
+    }
+    times.add(ms);
+    if (result->flags & kFlagOverCycleBudget) ++summary.overruns;
+    if (result->flags & (kFlagPixelsStrided | kFlagVotesTruncated | kFlagStartsTruncated | kFlagProposalsTruncated))
+      ++summary.degraded;
+    if (options.json) {
+      write_frame_json(line, options, b, pipeline, summary.frames_processed, info, ms, *result);
+      line.write(json_out);
+    }
+    if (!options.overlay_dir.empty()) {
+      draw_overlay(frame, pipeline, *result, &overlay);
+      std::snprintf(overlay_path.data(), overlay_path.size(), "%s/%06lld.png", options.overlay_dir.c_str(),
+                    (long long)summary.frames_processed);
+      try {
+        write_png_rgb(overlay_path.data(), overlay);
+      } catch (const std::exception& e) {
+        std::fprintf(log, "run: overlay: %s\n", e.what());
+      }
+    }
+    ++summary.frames_processed;
+  }
+  summary.seconds = std::chrono::duration<double>(Clock::now() - loop_start).count();
+  summary.fps = summary.seconds > 0 ? double(summary.frames_processed) / summary.seconds : 0;
+  summary.p50_ms = times.quantile(0.50);
+  summary.p99_ms = times.quantile(0.99);
+  summary.max_ms = times.max();
+  const platform::SourceStats& st = source->stats();
+  summary.corrupt += st.corrupt_frames;
+  summary.dropped += st.dropped_frames;
+  summary.device_lost = st.device_lost;
+  summary.reconnects = st.reconnects;
+  std::fprintf(log,
+               "summary: %lld frames processed (%lld read, %lld skipped by --every) in %.2f s = %.1f frames/s; "
+               "frame time p50 %.3f ms p99 %.3f ms max %.3f ms; budget overruns %lld, degraded %lld; "
+               "dropped %lld, corrupt %lld; device lost %lld, reconnects %lld\n",
+               (long long)summary.frames_processed, (long long)summary.frames_read, (long long)summary.skipped_by_every,
+               summary.seconds, summary.fps, summary.p50_ms, summary.p99_ms, summary.max_ms, (long long)summary.overruns,
+               (long long)summary.degraded, (long long)summary.dropped, (long long)summary.corrupt,
+               (long long)summary.device_lost, (long long)summary.reconnects);
+  return summary;
+}
+
+}  // namespace dp::tools

@@ -1,0 +1,67 @@
+// `depthpose run`: the app loop. One blob, one source, one pipeline, one JSON line per frame.
+//
+// Memory: the blob bytes, the arena (required_arena_bytes for the source's frame size), the frame
+// buffer, the overlay image, the JSON line buffer and the frame-time histogram are allocated once
+// before the first frame; the per-frame loop allocates nothing (PNG encoding for --overlay happens
+// inside libpng, which keeps its own state).
+//
+// Output (stdout with --json), one line per processed frame:
+//   {"frame":N,"source_index":I,"timestamp_us":T,"frame_ms":F,"kernel":"avx2",
+//    "joints":[{"name":"head","x":..,"y":..,"z":..,"confidence":..}, ... ],   // best proposal,
+//             //  x/y/z metres (camera frame, y up), null when the joint has no proposal
+//    "proposals":[[[x,y,z,c],...], ...],      // only with --all-proposals, per joint
+//    "stage_cycles":{"foreground":..,"forest":..,"votes":..,"mean_shift":..},"total_cycles":..,
+//    "flags":["pixels_strided",...],"over_budget":false,
+//    "foreground_pixels":..,"evaluated_pixels":..,"pixel_stride":..}
+// Events (device lost/back, skipped corrupt frames) and the closing summary go to `log`.
+#pragma once
+#include <cstdint>
+#include <cstdio>
+#include <string>
+
+#include "platform/frame_source.h"
+#include "runtime/depthpose.h"
+
+namespace dp::tools {
+
+struct RunOptions {
+  std::string blob_path;
+  std::string source_spec;
+  platform::SourceOptions source_options;
+  bool json = false;
+  bool all_proposals = false;
+  std::string overlay_dir;      // empty = no overlays
+  int every = 1;                // process every N-th frame of the source
+  bool realtime = false;        // pace files at their timestamps; drop frames when late
+  int64_t max_frames = -1;      // stop after this many processed frames (−1 = source end)
+  KernelIsa kernel = KernelIsa::kBest;
+  // Live sources: watch the USB bus (libusb) for the depth camera leaving and coming back.
+  bool usb_watch = true;
+};
+
+struct RunSummary {
+  int64_t frames_processed = 0;
+  int64_t frames_read = 0;        // delivered by the source (processed + skipped by --every + dropped)
+  int64_t skipped_by_every = 0;
+  int64_t dropped = 0;            // --realtime drops + frames the live device produced unread
+  int64_t corrupt = 0;            // skipped by the source
+  int64_t overruns = 0;           // frames flagged kFlagOverCycleBudget
+  int64_t degraded = 0;           // frames with any other budget flag (strided, truncated)
+  int64_t device_lost = 0, reconnects = 0;
+  double seconds = 0, fps = 0;    // wall time of the loop; processed frames per second
+  double p50_ms = 0, p99_ms = 0, max_ms = 0;  // process() time per frame
+  bool source_failed = false;
+  std::string source_error;
+};
+
+// Runs the loop until the source ends, max_frames, a source error or stop_requested() (SIGINT).
+// Throws ToolError for setup problems (blob, source, overlay directory, kernel).
+RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log);
+
+// Names of the FrameFlag bits, in bit order ("no_foreground", "pixels_strided", ...).
+const char* frame_flag_name(int bit);
+
+// Asks a running run_app to stop after the current frame (signal safe).
+void request_stop();
+
+}  // namespace dp::tools

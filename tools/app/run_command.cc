@@ -1,0 +1,72 @@
+// `depthpose run`: argument parsing around run_app (tools/app/run.h).
+#include <csignal>
+#include <cstdio>
+
+#include "tools/app/app_common.h"
+#include "tools/app/run.h"
+#include "tools/cli/command.h"
+#include "tools/common/args.h"
+#include "tools/common/error.h"
+
+namespace dp::tools {
+
+static void on_interrupt(int) { request_stop(); }
+
+static KernelIsa parse_kernel(const std::string& name) {
+  if (name == "scalar") return KernelIsa::kScalar;
+  if (name == "avx2") return KernelIsa::kAvx2;
+  if (name == "avx512") return KernelIsa::kAvx512;
+  if (name == "best") return KernelIsa::kBest;
+  fail("--kernel wants scalar, avx2, avx512 or best, got '" + name + "'");
+}
+
+static int run_run(int argc, char** argv) {
+  std::vector<std::string> options = kSourceOptionNames;
+  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--kernel"});
+  Args args(argc, argv,
+            std::string("usage: depthpose run --blob BLOB --source SRC [--json] [--overlay DIR] [--every N]\n"
+                        "                     [--realtime] [--all-proposals] [--frames N] [--kernel K]\n"
+                        "  Runs the forest on every frame of a source: one JSON line per frame on stdout (--json),\n"
+                        "  events and a closing summary (fps, p50/p99/max frame time, budget overruns, dropped and\n"
+                        "  corrupt frames) on stderr.\n"
+                        "  --blob BLOB          the model (forest_blob v1)\n") +
+                kSourceUsage +
+                "  --json               one JSON line per processed frame (schema: docs/app.md)\n"
+                "  --all-proposals      include every proposal of every joint, not only the best\n"
+                "  --overlay DIR        write DIR/NNNNNN.png per processed frame: parts, joints, skeleton\n"
+                "  --every N            process every N-th frame of the source (default 1)\n"
+                "  --realtime           replay files at their recorded pace, dropping frames when late\n"
+                "                       (live sources always deliver the newest frame)\n"
+                "  --frames N           stop after N processed frames\n"
+                "  --kernel K           forest kernel: scalar, avx2, avx512 or best (default best)\n"
+                "  --no-usb-watch       live sources: do not watch the USB bus for the camera leaving/returning\n",
+            options, {"--json", "--realtime", "--all-proposals", "--no-usb-watch"});
+  if (args.help_requested()) {
+    std::printf("%s", args.usage().c_str());
+    return 0;
+  }
+  RunOptions o;
+  o.blob_path = args.get("--blob");
+  o.source_spec = args.get("--source");
+  o.source_options = source_options_from(args);
+  o.json = args.flag("--json");
+  o.all_proposals = args.flag("--all-proposals");
+  o.overlay_dir = args.get("--overlay", "");
+  o.every = int(args.get_int("--every", 1));
+  if (o.every < 1) fail("--every must be at least 1");
+  o.realtime = args.flag("--realtime");
+  o.max_frames = args.get_int("--frames", -1);
+  if (args.has("--frames") && o.max_frames < 1) fail("--frames must be at least 1");
+  o.kernel = parse_kernel(args.get("--kernel", "best"));
+  o.usb_watch = !args.flag("--no-usb-watch");
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+  RunSummary s = run_app(o, stdout, stderr);
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+  return s.source_failed ? 1 : 0;
+}
+
+DP_REGISTER_COMMAND(run, "run", "run a blob on a depth source (files, .oni, OpenNI2, V4L2)", run_run);
+
+}  // namespace dp::tools
