@@ -25,12 +25,24 @@ using namespace dp::tools;
 using dp::apptest::TempDir;
 using nlohmann::json;
 
-// Counts operator new calls made by the thread that asked for it (other threads, e.g. OpenNI2's,
-// are not this test's business).
+// Counts the allocations made by the thread that asked for it (other threads, e.g. OpenNI2's, are
+// not this test's business). Under AddressSanitizer its allocator hooks see every malloc and
+// operator new; otherwise a replaced operator new sees the C++ allocations.
 namespace {
 thread_local bool t_count_news = false;
 thread_local long t_news = 0;
 }  // namespace
+#if defined(__SANITIZE_ADDRESS__)
+extern "C" int __sanitizer_install_malloc_and_free_hooks(void (*malloc_hook)(const volatile void*, size_t),
+                                                         void (*free_hook)(const volatile void*));
+namespace {
+void count_malloc(const volatile void*, size_t) {
+  if (t_count_news) ++t_news;
+}
+void ignore_free(const volatile void*) {}
+const int kHooksInstalled = __sanitizer_install_malloc_and_free_hooks(count_malloc, ignore_free);
+}  // namespace
+#else
 __attribute__((noinline)) void* operator new(std::size_t n) {
   if (t_count_news) ++t_news;
   if (void* p = std::malloc(n ? n : 1)) return p;
@@ -38,6 +50,7 @@ __attribute__((noinline)) void* operator new(std::size_t n) {
 }
 __attribute__((noinline)) void operator delete(void* p) noexcept { std::free(p); }
 __attribute__((noinline)) void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#endif
 
 namespace {
 
