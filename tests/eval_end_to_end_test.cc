@@ -104,6 +104,13 @@ TEST(EvalEndToEnd, ForeignNamesAreRefusedUnlessMapped) {
   o.joint_map = tools::parse_name_map("elbow=joint1", "--map-joints");
   EXPECT_THROW(session(tools::single_vote_ojr(2, 0, 0, 0), tmp.path, o), tools::ToolError);
   EXPECT_THROW(tools::parse_name_map("head", "--map-joints"), tools::ToolError);
+  const std::string map_file = tmp.path + "/joints.map";
+  std::ofstream(map_file) << "head=joint0\nneck=joint1\n";
+  o.joint_map = tools::parse_name_map("@" + map_file, "--map-joints");
+  ASSERT_EQ(o.joint_map.size(), 2u);
+  EXPECT_EQ(o.joint_map[1].first, "neck");
+  EXPECT_EQ(o.joint_map[1].second, "joint1");
+  EXPECT_THROW(tools::parse_name_map("@" + tmp.path + "/missing.map", "--map-joints"), tools::ToolError);
 
   // BPC parts: the blob's "part0..3" against a dataset naming its parts differently.
   DiscDatasetSpec parts = spec;

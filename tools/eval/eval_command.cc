@@ -38,7 +38,8 @@ static const char* const kUsage =
     "  --dtp D              true-positive radius: metres (default 0.1), pixels with --silhouette (default 10)\n"
     "  --penalize-occluded  count invisible joints as false negatives when missed\n"
     "  --silhouette         flatten the foreground to 2 m (paper 4.6.4); D_tp in pixels\n"
-    "  --map-joints/--map-parts  rename dataset names to blob names (unmatched names are then skipped)\n"
+    "  --map-joints/--map-parts  rename dataset names to blob names (unmatched names are then skipped);\n"
+    "                       the value may be @FILE (pairs separated by commas, spaces or newlines)\n"
     "  docs/evaluation.md describes the protocol and the JSON.";
 
 static int run_eval(int argc, char** argv) {

@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "tools/common/args.h"
@@ -13,7 +15,17 @@
 
 namespace dp::tools {
 
-NameMap parse_name_map(const std::string& text, const std::string& option) {
+NameMap parse_name_map(const std::string& text_or_file, const std::string& option) {
+  std::string text = text_or_file;
+  if (!text.empty() && text[0] == '@') {
+    std::ifstream f(text.substr(1));
+    if (!f) fail(option + ": cannot read " + text.substr(1));
+    std::stringstream ss;
+    ss << f.rdbuf();
+    text = ss.str();
+    for (char& ch : text)
+      if (ch == '\n' || ch == '\r' || ch == ' ' || ch == '\t') ch = ',';
+  }
   NameMap map;
   for (const std::string& piece : split_list(text)) {
     const size_t eq = piece.find('=');

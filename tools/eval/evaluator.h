@@ -18,7 +18,8 @@
 namespace dp::tools {
 
 using NameMap = std::vector<std::pair<std::string, std::string>>;  // dataset name → blob name
-// Parses "a=b,c=d" (ToolError naming `option` when a piece has no '=').
+// Parses "a=b,c=d", or "@FILE" holding such pairs separated by commas, spaces or newlines
+// (ToolError naming `option` when a piece has no '=' or the file is unreadable).
 NameMap parse_name_map(const std::string& text, const std::string& option);
 
 struct EvalOptions {

@@ -62,7 +62,7 @@ void plot_pr(const EvalReport& r, const std::string& path, std::vector<std::stri
   const int cols = std::min(4, std::max(1, n)), rows = (n + cols - 1) / cols;
   const int pw = 230, ph = 200;
   Canvas c(cols * pw, rows * ph + 30);
-  c.text(10, 8, "RECALL-PRECISION PER JOINT, " + r.method + ", D_TP " + num(r.d_tp, 2) + " " + r.d_tp_unit +
+  c.text(10, 8, "RECALL (X) - PRECISION (Y) PER JOINT, " + r.method + ", D_TP " + num(r.d_tp, 2) + " " + r.d_tp_unit +
                     ", MAP " + ap_text(r.mean_ap), kBlack, 1);
   for (int k = 0; k < n; ++k) {
     const int ox = (k % cols) * pw, oy = 30 + (k / cols) * ph;
