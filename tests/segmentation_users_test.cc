@@ -99,7 +99,7 @@ TEST(SegmentationComponents, DepthJumpsSplitAndSmoothSurfacesJoin) {
 TEST(SegmentationComponents, TooSmallOrTooLowForAPersonIsDropped) {
   tools::Scene s = room();
   s.cylinders.push_back(person_at(0.0f, 2.5f, 1, 0.6f));           // a bin-sized "person": too low
-  s.cylinders.push_back({1.0f, 3.0f, 0.02f, 0.0f, 1.8f, 0});        // a thin pole: too few pixels
+  s.cylinders.push_back({1.0f, 3.0f, 0.01f, 0.0f, 1.8f, 0});        // a thin pole: too few pixels
   s.boxes.push_back({-2.5f, 0.6f, 0.0f, 1.6f, 4.0f, 4.3f, 0});      // a 3 m wide cupboard: too wide
   const tools::RenderedScene f = tools::render_scene(s);
   SegmenterHarness h(default_segmenter_config(false));
