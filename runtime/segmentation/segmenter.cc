@@ -607,15 +607,28 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     if (x.v_max > c.v_max) c.v_max = x.v_max;
     return c;
   };
-  // A fragment (failing the test) joins the nearest touching candidate with which it forms a
-  // person: a body cut in two by a depth jump, or a fragment of a body that passes already.
+  // A fragment joins the nearest touching candidate with which it forms a person: a body cut in
+  // two by a depth jump (both halves may pass on their own), or a piece of a body that passes.
   for (int32_t k = 0; k < n; ++k) {
-    if (person[k] || !touches[k] || candidates_[k].pixels == 0) continue;
+    if (!touches[k] || candidates_[k].pixels == 0) continue;
     Candidate& frag = candidates_[k];
     int32_t best = -1;
     float best_d2 = cfg.fragment_radius_m * cfg.fragment_radius_m;
     for (int32_t m = 0; m < n; ++m) {
       if (!((touches[k] >> m) & 1u) || candidates_[m].pixels == 0) continue;
+      // Two halves of one body that each pass (a torso over its legs): the smaller joins.
+      if (person[k]) {
+        if (!person[m] || candidates_[m].pixels < candidates_[k].pixels) continue;
+        // Stacked in the image (same columns, little row overlap), unlike two people side by
+        // side or one behind the other.
+        const Candidate& a = candidates_[k];
+        const Candidate& b = candidates_[m];
+        const int32_t cols = (a.u_max < b.u_max ? a.u_max : b.u_max) - (a.u_min > b.u_min ? a.u_min : b.u_min) + 1;
+        const int32_t rows = (a.v_max < b.v_max ? a.v_max : b.v_max) - (a.v_min > b.v_min ? a.v_min : b.v_min) + 1;
+        const int32_t narrow = (a.u_max - a.u_min < b.u_max - b.u_min ? a.u_max - a.u_min : b.u_max - b.u_min) + 1;
+        const int32_t short_rows = (a.v_max - a.v_min < b.v_max - b.v_min ? a.v_max - a.v_min : b.v_max - b.v_min) + 1;
+        if (2 * cols < narrow || 10 * rows > 6 * short_rows) continue;
+      }
       const Candidate& body = candidates_[m];
       float d[3] = {float(frag.sx / frag.pixels - body.sx / body.pixels), float(frag.sy / frag.pixels - body.sy / body.pixels),
                     float(frag.sz / frag.pixels - body.sz / body.pixels)};
@@ -658,9 +671,8 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
     cy[k] = float(c.sy / c.pixels);
     cz[k] = float(c.sz / c.pixels);
     const float need = cfg.min_person_area_m2 * focal2 / (cz[k] * cz[k]);
-    const bool narrow = c.x_max - c.x_min <= cfg.max_person_width_m;
-    strict[k] = narrow && float(c.pixels) >= need && c.top >= cfg.min_person_height_m;
-    relaxed[k] = narrow && float(c.pixels) >= cfg.tracked_area_fraction * need;
+    strict[k] = passes_person_test(f, c);
+    relaxed[k] = c.x_max - c.x_min <= cfg.max_person_width_m && float(c.pixels) >= cfg.tracked_area_fraction * need;
   }
   // Greedy nearest-centroid association: repeatedly the closest (track, component) pair.
   bool track_matched[kMaxUsers] = {};

@@ -198,7 +198,6 @@ int run_segeval(int argc, char** argv) {
     inter_total += double(inter);
     union_total += double(uni);
     iou_sum += uni ? double(inter) / double(uni) : 1.0;
-    if (std::getenv("SEGEVAL_TRACE")) std::fprintf(stderr, "frame %ld iou %.3f users %d floor %d d %.3f n %.3f %.3f %.3f inl %d/%d comps %d\n", i, uni ? double(inter) / double(uni) : 1.0, r.user_count, r.floor.valid, r.floor.d, r.floor.nx, r.floor.ny, r.floor.nz, r.floor.inliers, r.floor.samples, r.component_count);
 
     // Users ↔ people: greedy by IoU ≥ 0.5.
     const int nu = r.user_count, np = int(people.size());
