@@ -99,7 +99,7 @@ TEST(SegmentationComponents, DepthJumpsSplitAndSmoothSurfacesJoin) {
 TEST(SegmentationComponents, TooSmallOrTooLowForAPersonIsDropped) {
   tools::Scene s = room();
   s.cylinders.push_back(person_at(0.0f, 2.5f, 1, 0.6f));           // a bin-sized "person": too low
-  s.cylinders.push_back({1.0f, 3.0f, 0.02f, 0.0f, 1.8f, 0});        // a thin pole: too few pixels
+  s.cylinders.push_back({1.0f, 3.0f, 0.01f, 0.0f, 1.8f, 0});        // a thin pole: too few pixels
   s.boxes.push_back({-2.5f, 0.6f, 0.0f, 1.6f, 4.0f, 4.3f, 0});      // a 3 m wide cupboard: too wide
   const tools::RenderedScene f = tools::render_scene(s);
   SegmenterHarness h(default_segmenter_config(false));
@@ -258,4 +258,37 @@ TEST(SegmentationUsers, LabelsUseTheFrameStrideAndBadArgumentsAreRefused) {
   uint8_t* aligned = small.data() + (64 - reinterpret_cast<uintptr_t>(small.data()) % 64) % 64;
   EXPECT_EQ(fresh.init(default_segmenter_config(true), 320, 240, aligned, 64), Status::kArenaTooSmall);
   EXPECT_EQ(segmenter_required_bytes(0, 10), 0u);
+}
+
+TEST(SegmentationComponents, ABodyCutByADepthJumpIsOneUser) {
+  // Upper body leaning 30 cm towards the camera over the legs: two components (the jump exceeds
+  // the join threshold), the legs alone too low for a person; fragment merging makes one user.
+  tools::Scene s = room();
+  s.cylinders.push_back({0.0f, 3.0f, 0.15f, 0.0f, 0.9f, 1});   // legs
+  s.cylinders.push_back({0.0f, 2.7f, 0.22f, 0.9f, 1.7f, 1});   // torso and head
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_EQ(h.result.component_count, 2);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.97 * truth_pixels(f, 1)));
+  EXPECT_EQ(h.result.users[0].pixel_count, count_pixels(h.labels, f, 1, 1));
+  EXPECT_NEAR(h.result.users[0].top_height_m, 1.7, 0.03);
+  // Without merging the legs are dropped.
+  SegmenterConfig cfg = default_segmenter_config(false);
+  cfg.fragment_join_mm = 0.0f;
+  SegmenterHarness n(cfg);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  ASSERT_EQ(n.result.user_count, 1);
+  EXPECT_LT(count_pixels(n.labels, f, 1, 1), int(0.8 * truth_pixels(f, 1)));
+}
+
+TEST(SegmentationComponents, TwoPeopleSideBySideAreNotMerged) {
+  tools::Scene s = room();
+  s.cylinders.push_back(person_at(-0.25f, 3.0f, 1));
+  s.cylinders.push_back(person_at(0.25f, 3.2f, 2));  // touching in the image, 20 cm behind
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_EQ(h.result.user_count, 2);
 }

@@ -45,17 +45,25 @@ bool plane_from_points(const float* a, const float* b, const float* c, Plane* p)
   return true;
 }
 
-int32_t count_inliers(const Plane& p, const float* pts, int32_t n, float tol_m, uint8_t* mark) {
-  int32_t count = 0;
+int32_t count_inliers(const Plane& p, const float* pts, int32_t n, float tol_m, uint8_t* mark,
+                      int32_t* below = nullptr) {
+  int32_t count = 0, under = 0;
+  const float under_m = tol_m * 3.0f > 0.1f ? tol_m * 3.0f : 0.1f;
   for (int32_t i = 0; i < n; ++i) {
     const float* q = pts + 3 * i;
     const float s = p.nx * q[0] + p.ny * q[1] + p.nz * q[2] + p.d;
     const bool in = s <= tol_m && s >= -tol_m;
     if (mark) mark[i] = in;
     count += in;
+    under += s < -under_m;
   }
+  if (below) *below = under;
   return count;
 }
+
+// A floor has (almost) nothing under it; a table top or a box lid has the floor under it. Each
+// point clearly below a hypothesis costs two inliers.
+inline int32_t floor_score(int32_t inliers, int32_t below) { return inliers - 2 * below; }
 
 // Eigenvector of the smallest eigenvalue of a symmetric 3×3 matrix (cyclic Jacobi, ≤ 16 sweeps).
 void smallest_eigenvector(const double in[3][3], double out[3]) {
@@ -155,7 +163,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.background_absorb_frames >= 0 && c.background_absorb_frames <= 65535 && c.join_mm > 0.0f &&
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
-         c.tracked_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -300,12 +308,16 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
   const float min_up = cosf(cfg.floor_max_tilt_deg * 3.14159265f / 180.0f);
   const bool had_plane = floor_->valid != 0;
   Plane best{0, 0, 0, 0};
-  int32_t best_count = 0;
+  int32_t best_count = 0, best_score = 0, below = 0;
   if (had_plane) {
     best = Plane{floor_->nx, floor_->ny, floor_->nz, floor_->d};
-    best_count = count_inliers(best, samples_, n, tol, nullptr);
+    best_count = count_inliers(best, samples_, n, tol, nullptr, &below);
+    best_score = floor_score(best_count, below);
   }
-  const int32_t iterations = had_plane ? cfg.floor_tracked_iterations : cfg.floor_iterations;
+  // The cheap tracked search only when last frame's plane still explains most of what it did;
+  // otherwise (camera moved, new scene) the full search.
+  const bool tracking = had_plane && 2 * best_count >= floor_->inliers;
+  const int32_t iterations = tracking ? cfg.floor_tracked_iterations : cfg.floor_iterations;
   uint32_t rng = 0x9E3779B9u ^ (uint32_t(state_->frames) * 0x85EBCA77u);
   if (rng == 0) rng = 1;
   for (int32_t it = 0; it < iterations && n >= 3; ++it) {
@@ -316,16 +328,17 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
     Plane p;
     if (!plane_from_points(samples_ + 3 * a, samples_ + 3 * b, samples_ + 3 * c, &p)) continue;
     if (!orient_and_check(&p, min_up, cfg.camera_height_min_m, cfg.camera_height_max_m)) continue;
-    const int32_t count = count_inliers(p, samples_, n, tol, nullptr);
-    if (count > best_count) {
+    const int32_t count = count_inliers(p, samples_, n, tol, nullptr, &below);
+    if (floor_score(count, below) > best_score) {
       best = p;
       best_count = count;
+      best_score = floor_score(count, below);
     }
   }
   int32_t needed = int32_t(ceilf(cfg.floor_min_inlier_fraction * float(n)));
   if (needed < 3) needed = 3;
   bool fitted = false;
-  if (best_count >= needed) {
+  if (best_count >= needed && best_score > 0) {
     // Least-squares refinement on the inliers with a shrinking band: objects standing on the floor
     // put points just above it inside the RANSAC band and would tilt the plane; a symmetric band
     // around the refined plane keeps the fit unbiased under noise.
@@ -421,6 +434,10 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
   const SegmenterConfig& cfg = *config_;
   const int32_t w = f.width, h = f.height;
   const float join_per_mm = cfg.join_mm_per_m * 0.001f;
+  auto join = [&](int32_t i, int32_t j, int32_t z, int32_t zn) {
+    const int32_t zmax = z > zn ? z : zn;
+    if (float(z > zn ? z - zn : zn - z) <= cfg.join_mm + join_per_mm * float(zmax)) unite(parent_, aux_, i, j);
+  };
   for (int32_t v = 0; v < h; ++v) {
     const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     const uint16_t* above = v > 0 ? row - f.stride_px : nullptr;
@@ -438,6 +455,12 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
         const int32_t zmax = z > zn ? z : zn;
         if (float(z > zn ? z - zn : zn - z) <= cfg.join_mm + join_per_mm * float(zmax)) unite(parent_, aux_, i, i - w);
       }
+      // Sensor dropouts (no reading) cut thin limbs into pieces: bridge a one-pixel hole to the
+      // left and above, and join the upper diagonals.
+      if (u > 1 && row[u - 1] == 0 && parent_[i - 2] >= 0) join(i, i - 2, z, row[u - 2]);
+      if (v > 1 && above[u] == 0 && parent_[i - 2 * w] >= 0) join(i, i - 2 * w, z, above[u - f.stride_px]);
+      if (above && u > 0 && parent_[i - w - 1] >= 0) join(i, i - w - 1, z, above[u - 1]);
+      if (above && u + 1 < w && parent_[i - w + 1] >= 0) join(i, i - w + 1, z, above[u + 1]);
     }
   }
   // Keep the kMaxCandidates largest components (replace-smallest keeps it independent of
@@ -475,6 +498,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
     c.u_min = c.v_min = 32767;
     c.u_max = c.v_max = -1;
     c.user = 0;
+    c.owner = k;
   }
   // Statistics. With a floor, x_min/x_max run along the floor's horizontal axis nearest camera x
   // and `top` is the height above the floor; without one, camera x and the y extent.
@@ -524,20 +548,131 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
   return kept;
 }
 
+bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c) const {
+  const SegmenterConfig& cfg = *config_;
+  const float z = float(c.sz / c.pixels);
+  const float need = cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (z * z);
+  return c.x_max - c.x_min <= cfg.max_person_width_m && float(c.pixels) >= need && c.top >= cfg.min_person_height_m;
+}
+
+void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
+  const SegmenterConfig& cfg = *config_;
+  if (cfg.fragment_join_mm <= 0.0f || n < 2) return;
+  // Which candidates touch (4-neighbours within fragment_join_mm): one pass over the image.
+  uint64_t touches[kMaxCandidates] = {};
+  const int32_t w = f.width;
+  const int32_t join = int32_t(cfg.fragment_join_mm);
+  for (int32_t v = 0; v < f.height; ++v) {
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    const int32_t* parent = parent_ + size_t(v) * w;
+    for (int32_t u = 0; u < w; ++u) {
+      if (parent[u] < 0) continue;
+      const int32_t k = aux_[parent[u]];
+      if (k < 0) continue;
+      if (u + 1 < w && parent[u + 1] >= 0) {
+        const int32_t m = aux_[parent[u + 1]];
+        const int32_t dz = int32_t(row[u]) - int32_t(row[u + 1]);
+        if (m >= 0 && m != k && dz <= join && dz >= -join) {
+          touches[k] |= uint64_t(1) << m;
+          touches[m] |= uint64_t(1) << k;
+        }
+      }
+      if (v + 1 < f.height && parent[u + w] >= 0) {
+        const int32_t m = aux_[parent[u + w]];
+        const int32_t dz = int32_t(row[u]) - int32_t(row[u + f.stride_px]);
+        if (m >= 0 && m != k && dz <= join && dz >= -join) {
+          touches[k] |= uint64_t(1) << m;
+          touches[m] |= uint64_t(1) << k;
+        }
+      }
+    }
+  }
+  bool person[kMaxCandidates];
+  for (int32_t k = 0; k < n; ++k) person[k] = passes_person_test(f, candidates_[k]);
+  const bool use_floor = floor_->valid != 0;
+  auto united = [&](const Candidate& x, const Candidate& y) {
+    Candidate c = y;
+    c.pixels += x.pixels;
+    c.sx += x.sx; c.sy += x.sy; c.sz += x.sz;
+    if (x.x_min < c.x_min) c.x_min = x.x_min;
+    if (x.x_max > c.x_max) c.x_max = x.x_max;
+    if (x.y_min < c.y_min) c.y_min = x.y_min;
+    if (x.y_max > c.y_max) c.y_max = x.y_max;
+    if (x.z_min < c.z_min) c.z_min = x.z_min;
+    if (x.z_max > c.z_max) c.z_max = x.z_max;
+    c.top = use_floor ? (x.top > c.top ? x.top : c.top) : c.y_max - c.y_min;
+    if (x.u_min < c.u_min) c.u_min = x.u_min;
+    if (x.u_max > c.u_max) c.u_max = x.u_max;
+    if (x.v_min < c.v_min) c.v_min = x.v_min;
+    if (x.v_max > c.v_max) c.v_max = x.v_max;
+    return c;
+  };
+  // A fragment joins the nearest touching candidate with which it forms a person: a body cut in
+  // two by a depth jump (both halves may pass on their own), or a piece of a body that passes.
+  for (int32_t k = 0; k < n; ++k) {
+    if (!touches[k] || candidates_[k].pixels == 0) continue;
+    Candidate& frag = candidates_[k];
+    int32_t best = -1;
+    float best_d2 = cfg.fragment_radius_m * cfg.fragment_radius_m;
+    for (int32_t m = 0; m < n; ++m) {
+      if (!((touches[k] >> m) & 1u) || candidates_[m].pixels == 0) continue;
+      // Two halves of one body that each pass (a torso over its legs): the smaller joins.
+      if (person[k]) {
+        if (!person[m] || candidates_[m].pixels < candidates_[k].pixels) continue;
+        // Stacked in the image (same columns, little row overlap), unlike two people side by
+        // side or one behind the other.
+        const Candidate& a = candidates_[k];
+        const Candidate& b = candidates_[m];
+        const int32_t cols = (a.u_max < b.u_max ? a.u_max : b.u_max) - (a.u_min > b.u_min ? a.u_min : b.u_min) + 1;
+        const int32_t rows = (a.v_max < b.v_max ? a.v_max : b.v_max) - (a.v_min > b.v_min ? a.v_min : b.v_min) + 1;
+        const int32_t narrow = (a.u_max - a.u_min < b.u_max - b.u_min ? a.u_max - a.u_min : b.u_max - b.u_min) + 1;
+        const int32_t short_rows = (a.v_max - a.v_min < b.v_max - b.v_min ? a.v_max - a.v_min : b.v_max - b.v_min) + 1;
+        if (2 * cols < narrow || 10 * rows > 6 * short_rows) continue;
+      }
+      const Candidate& body = candidates_[m];
+      float d[3] = {float(frag.sx / frag.pixels - body.sx / body.pixels), float(frag.sy / frag.pixels - body.sy / body.pixels),
+                    float(frag.sz / frag.pixels - body.sz / body.pixels)};
+      if (use_floor) {  // along the floor: drop the vertical part
+        const float up = d[0] * floor_->nx + d[1] * floor_->ny + d[2] * floor_->nz;
+        d[0] -= up * floor_->nx; d[1] -= up * floor_->ny; d[2] -= up * floor_->nz;
+      } else {
+        d[1] = 0.0f;
+      }
+      const float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+      if (d2 <= best_d2 && passes_person_test(f, united(frag, body))) { best_d2 = d2; best = m; }
+    }
+    if (best < 0) continue;
+    candidates_[best] = united(frag, candidates_[best]);
+    person[best] = true;
+    touches[best] |= touches[k];
+    frag.owner = best;
+    frag.pixels = 0;  // no longer a component of its own
+  }
+  // Owners of owners (a candidate merged into one that merged later) resolve to the last.
+  for (int32_t k = 0; k < n; ++k)
+    for (int32_t hop = 0; hop < kMaxCandidates && candidates_[candidates_[k].owner].owner != candidates_[k].owner; ++hop)
+      candidates_[k].owner = candidates_[candidates_[k].owner].owner;
+}
+
 void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult* r) {
   const SegmenterConfig& cfg = *config_;
+  merge_fragments(f, n);
   bool strict[kMaxCandidates], relaxed[kMaxCandidates];
   float cx[kMaxCandidates], cy[kMaxCandidates], cz[kMaxCandidates];
   const float focal2 = f.intrinsics.fx * f.intrinsics.fy;
   for (int32_t k = 0; k < n; ++k) {
     const Candidate& c = candidates_[k];
+    if (c.pixels == 0) {  // merged into another candidate
+      strict[k] = relaxed[k] = false;
+      cx[k] = cy[k] = cz[k] = 0.0f;
+      continue;
+    }
     cx[k] = float(c.sx / c.pixels);
     cy[k] = float(c.sy / c.pixels);
     cz[k] = float(c.sz / c.pixels);
     const float need = cfg.min_person_area_m2 * focal2 / (cz[k] * cz[k]);
-    const bool narrow = c.x_max - c.x_min <= cfg.max_person_width_m;
-    strict[k] = narrow && float(c.pixels) >= need && c.top >= cfg.min_person_height_m;
-    relaxed[k] = narrow && float(c.pixels) >= cfg.tracked_area_fraction * need;
+    strict[k] = passes_person_test(f, c);
+    relaxed[k] = c.x_max - c.x_min <= cfg.max_person_width_m && float(c.pixels) >= cfg.tracked_area_fraction * need;
   }
   // Greedy nearest-centroid association: repeatedly the closest (track, component) pair.
   bool track_matched[kMaxUsers] = {};
@@ -622,7 +757,7 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
     for (int32_t u = 0; u < w; ++u) {
       const int32_t root = parent[u];
       const int32_t k = root >= 0 ? aux_[root] : -1;
-      out[u] = k >= 0 ? uint8_t(candidates_[k].user) : 0;
+      out[u] = k >= 0 ? uint8_t(candidates_[candidates_[k].owner].user) : 0;
     }
   }
 }

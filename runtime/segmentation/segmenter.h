@@ -48,7 +48,8 @@ struct SegmenterConfig {
   float floor_sample_fraction = 0.5f;   // sample rows v ≥ (1 − fraction)·height, (0, 1]
   int32_t floor_samples = 800;          // grid sample size, 16..kMaxFloorSamples
   int32_t floor_iterations = 160;       // hypotheses without a tracked plane, 1..kMaxFloorIterations
-  int32_t floor_tracked_iterations = 32;// hypotheses when last frame's plane is tried first, 0..max
+  int32_t floor_tracked_iterations = 32;// hypotheses when last frame's plane still has ≥ half its
+                                        // inliers (it is scored first), 0..max
   float floor_fit_mm = 30.0f;           // inlier distance for fitting, > 0
   float floor_margin_mm = 25.0f;        // pixels closer than margin + margin_per_m2·z² to the
   float floor_margin_per_m2_mm = 2.0f;  //   plane, or below it, are floor (z in metres), ≥ 0
@@ -78,10 +79,16 @@ struct SegmenterConfig {
   float join_mm = 30.0f;                  // > 0
   float join_mm_per_m = 30.0f;            // ≥ 0
   int32_t min_component_pixels = 24;      // smaller components are never examined, ≥ 1
-  float min_person_area_m2 = 0.10f;       // > 0
+  float min_person_area_m2 = 0.06f;       // > 0
   float min_person_height_m = 0.9f;       // ≥ 0
   float max_person_width_m = 1.8f;        // > 0
   float tracked_area_fraction = 0.35f;    // (0, 1]
+  // Fragments: a component failing the person test that touches another (neighbouring pixels
+  // within fragment_join_mm in depth: a person bending forward over their own legs, a limb cut
+  // off by a depth jump) joins the nearest one with which the union passes the person test,
+  // when their centroids are within fragment_radius_m of each other along the floor.
+  float fragment_join_mm = 450.0f;        // ≥ 0 (0 = no merging)
+  float fragment_radius_m = 0.5f;         // ≥ 0
 
   // Users.
   int32_t max_users = 8;                  // 1..kMaxUsers
@@ -187,6 +194,7 @@ class Segmenter {
     float x_min, x_max, y_min, y_max, z_min, z_max, top;
     int16_t u_min, v_min, u_max, v_max;
     int32_t user;          // id or 0
+    int32_t owner;         // candidate this one was merged into (itself when not merged)
   };
 
   struct State {
@@ -218,6 +226,8 @@ class Segmenter {
   void fit_floor(const DepthFrame& frame, SegmentationResult* result);
   int32_t classify_pixels(const DepthFrame& frame);
   int32_t label_components(const DepthFrame& frame, SegmentationResult* result);
+  bool passes_person_test(const DepthFrame& frame, const Candidate& candidate) const;
+  void merge_fragments(const DepthFrame& frame, int32_t candidate_count);
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
   void update_background(const DepthFrame& frame, const uint8_t* labels);
 };

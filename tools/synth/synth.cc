@@ -1,6 +1,7 @@
 #include "tools/synth/synth.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -27,6 +28,20 @@ double age_control_from_years(double years) {
 
 bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+void sample_shape(Rng& rng, const SynthConfig& c, ShapeControls& s) {
+  s.gender = rng.uniform();
+  s.age = age_control_from_years(rng.uniform(c.age_min_years, c.age_max_years));
+  s.muscle = rng.uniform(0.15, 0.85);
+  s.weight = rng.uniform(0.1, 0.9);
+  s.height = rng.uniform(0.4, 0.6);  // adults ~1.5-1.9 m before the extra scale
+  s.proportions = rng.uniform(0.3, 1.0);
+  s.african = rng.uniform();
+  s.asian = rng.uniform();
+  s.caucasian = rng.uniform();
+  s.extra_height = 1.0 + rng.uniform(-c.extra_scale, c.extra_scale);
+  s.extra_weight = 1.0 + rng.uniform(-c.extra_scale, c.extra_scale);
 }
 
 }  // namespace
@@ -72,6 +87,8 @@ std::vector<MotionClip> load_clips(const std::string& assets_dir, const std::vec
 Synthesizer::Synthesizer(const std::string& assets_dir, const SynthConfig& config) : config_(config) {
   if (config_.width < 16 || config_.height < 16 || config_.width > 4096 || config_.height > 4096)
     fail("image size " + std::to_string(config_.width) + "x" + std::to_string(config_.height) + " out of range");
+  if (config_.people < 1 || config_.people > 8) fail("--people must be 1..8, got " + std::to_string(config_.people));
+  if (config_.clutter < 0 || config_.clutter > 32) fail("--clutter must be 0..32, got " + std::to_string(config_.clutter));
   intrinsics_ = Intrinsics::kinect_like(config_.width, config_.height);
   intrinsics_.fx = intrinsics_.fy = config_.focal_640 * config_.width / 640.0;
   assets_ = load_human_assets(assets_dir);
@@ -90,18 +107,7 @@ FrameParams Synthesizer::sample_frame_params(uint64_t seed, uint64_t frame_index
   p.noise_seed = Rng::for_frame(seed, frame_index, kNoiseStream).next();
   p.pose_index = size_t(rng.below(library_.poses.size()));
   p.mirror = rng.chance(c.mirror_probability);
-  ShapeControls& s = p.shape;
-  s.gender = rng.uniform();
-  s.age = age_control_from_years(rng.uniform(c.age_min_years, c.age_max_years));
-  s.muscle = rng.uniform(0.15, 0.85);
-  s.weight = rng.uniform(0.1, 0.9);
-  s.height = rng.uniform(0.4, 0.6);  // adults ~1.5-1.9 m before the extra scale
-  s.proportions = rng.uniform(0.3, 1.0);
-  s.african = rng.uniform();
-  s.asian = rng.uniform();
-  s.caucasian = rng.uniform();
-  s.extra_height = 1.0 + rng.uniform(-c.extra_scale, c.extra_scale);
-  s.extra_weight = 1.0 + rng.uniform(-c.extra_scale, c.extra_scale);
+  sample_shape(rng, c, p.shape);
   const double rot = std::min(180.0, c.rotation_deg);
   p.yaw_deg = rng.uniform(-rot, rot);
   p.camera_height_m = rng.uniform(c.camera_height_min_m, c.camera_height_max_m);
@@ -109,6 +115,59 @@ FrameParams Synthesizer::sample_frame_params(uint64_t seed, uint64_t frame_index
   p.camera_roll_deg = rng.uniform(-c.camera_roll_max_deg, c.camera_roll_max_deg);
   p.distance_m = rng.uniform(c.distance_min_m, c.distance_max_m);
   p.image_x = rng.uniform(c.image_x_margin, 1.0 - c.image_x_margin);
+  // --people and --clutter draw after everything above, so one-body frames without clutter stay
+  // exactly what they were. Placement: rejection sampling with a bounded number of tries.
+  const Intrinsics& k = intrinsics_;
+  auto floor_point = [&](double distance, double image_x, double out[2]) {
+    const double lateral = (image_x * k.width - k.cx) / k.fx;
+    out[0] = -distance * lateral;  // world x (camera right is −x)
+    out[1] = distance;
+  };
+  std::vector<std::array<double, 2>> bodies(1);
+  floor_point(p.distance_m, p.image_x, bodies[0].data());
+  for (int n = 1; n < c.people; ++n) {
+    OtherPerson o;
+    for (int attempt = 0; attempt < 50; ++attempt) {
+      o.distance_m = rng.uniform(c.distance_min_m, c.distance_max_m);
+      o.image_x = rng.uniform(c.image_x_margin, 1.0 - c.image_x_margin);
+      std::array<double, 2> at;
+      floor_point(o.distance_m, o.image_x, at.data());
+      bool clear = true;
+      for (const auto& b : bodies) clear = clear && std::hypot(at[0] - b[0], at[1] - b[1]) >= 0.8;
+      if (clear || attempt == 49) {
+        bodies.push_back(at);
+        break;
+      }
+    }
+    o.pose_index = size_t(rng.below(library_.poses.size()));
+    o.mirror = rng.chance(c.mirror_probability);
+    sample_shape(rng, c, o.shape);
+    o.yaw_deg = rng.uniform(-rot, rot);
+    p.others.push_back(o);
+  }
+  for (int n = 0; n < c.clutter; ++n) {
+    for (int attempt = 0; attempt < 50; ++attempt) {
+      ClutterItem item;
+      item.cylinder = rng.chance(0.4);
+      item.width = item.cylinder ? rng.uniform(0.3, 0.7) : rng.uniform(0.3, 1.0);
+      item.depth = item.cylinder ? item.width : rng.uniform(0.3, 0.8);
+      item.height = rng.uniform(0.3, 0.8);
+      item.yaw_deg = rng.uniform(0.0, 90.0);
+      double at[2];
+      floor_point(rng.uniform(1.0, c.distance_max_m + 1.0), rng.uniform(0.0, 1.0), at);
+      item.x = at[0];
+      item.z = at[1];
+      const double reach = 0.5 * std::hypot(item.width, item.depth);
+      bool clear = true;
+      for (const auto& b : bodies) clear = clear && std::hypot(at[0] - b[0], at[1] - b[1]) >= 0.55 + reach;
+      for (const ClutterItem& q : p.clutter)
+        clear = clear && std::hypot(at[0] - q.x, at[1] - q.z) >= reach + 0.5 * std::hypot(q.width, q.depth);
+      if (clear) {
+        p.clutter.push_back(item);
+        break;
+      }
+    }
+  }
   return p;
 }
 
@@ -141,57 +200,117 @@ struct PosedBody {
 
 SynthFrame Synthesizer::render(const FrameParams& p) const {
   const Intrinsics& k = intrinsics_;
-  if (p.pose_index >= library_.poses.size()) fail("pose index out of range");
-  const BodyPose& pose = library_.poses[p.pose_index];
-
-  // Shape, skeleton, pose, skin.
-  const std::vector<Vec3f> shaped = shaped_vertices(assets_, p.shape);
-  const Skeleton rest = measure_skeleton(assets_, shaped);
-  const Skeleton posed = pose_skeleton(assets_, rest, pose);
-  thread_local std::vector<Vec3f> verts;
-  skin_body(assets_, shaped, rest, posed, pose, verts);
-  JointSet joints = joints_of(assets_, posed);
-
-  // Mirror (in body space): x -> -x, swap left/right labels and joints.
-  thread_local std::vector<uint8_t> mirrored_labels;
-  const std::vector<uint8_t>* labels = &vertex_labels_;
-  if (p.mirror) {
-    for (Vec3f& v : verts) v.x = -v.x;
-    for (Vec3& j : joints) j.x = -j.x;
-    JointSet swapped;
-    for (int j = 0; j < dp::tools::kJointCount; ++j) swapped[dp::tools::kJointMirror[j]] = joints[j];
-    joints = swapped;
-    mirrored_labels.resize(vertex_labels_.size());
-    for (size_t i = 0; i < vertex_labels_.size(); ++i) mirrored_labels[i] = dp::tools::kPartMirror[vertex_labels_[i]];
-    labels = &mirrored_labels;
-  }
-
-  // Stand on the floor: lowest vertex at y = 0, hips above the placement point.
-  const int hips = assets_.bone_index("Hips");
-  Vec3 hip = posed.heads[hips];
-  if (p.mirror) hip.x = -hip.x;
-  float min_y = verts[0].y;
-  for (const Vec3f& v : verts) min_y = std::min(min_y, v.y);
-  // Body -> world: turn to face the camera (-z) and by yaw; place at distance along the view.
   const CameraPose cam = make_camera(p);
-  const double lateral = (p.image_x * k.width - k.cx) / k.fx;  // tan of the horizontal angle
-  const Vec3 place{-p.distance_m * lateral, 0, p.distance_m};     // camera right is -x
-  const Mat3 body_rot = rot_y(M_PI + p.yaw_deg * kDegToRad);
-  const Mat3 m = cam.world_to_camera * body_rot;
-  const Vec3 offset = cam.world_to_camera * (place - cam.position) - m * Vec3{hip.x, double(min_y), hip.z};
-  float mf[9];
-  for (int i = 0; i < 9; ++i) mf[i] = float(m.m[i]);
-  const float ox = float(offset.x), oy = float(offset.y), oz = float(offset.z);
-  for (Vec3f& v : verts) {
-    const float x = v.x, y = v.y, z = v.z;
-    v = {mf[0] * x + mf[1] * y + mf[2] * z + ox, mf[3] * x + mf[4] * y + mf[5] * z + oy,
-         mf[6] * x + mf[7] * y + mf[8] * z + oz};
-  }
-  for (Vec3& j : joints) j = m * j + offset;
-
   SynthFrame f;
   f.clean.reset(k.width, k.height);
-  rasterize(k, verts, assets_.body_triangles, *labels, f.clean);
+  std::vector<uint8_t> body_of(size_t(k.width) * k.height, 0);  // 1 + body index, 0 = none
+  std::vector<float> before;
+  // Draws into f.clean with the z-test; pixels it wins take `owner` in body_of.
+  auto draw = [&](const std::vector<Vec3f>& verts, const std::vector<std::array<uint32_t, 3>>& tris,
+                  const std::vector<uint8_t>& labels, uint8_t owner) {
+    before = f.clean.depth;
+    rasterize(k, verts, tris, labels, f.clean);
+    for (size_t i = 0; i < before.size(); ++i)
+      if (f.clean.depth[i] != before[i]) body_of[i] = owner;
+  };
+
+  std::vector<JointSet> body_joints;
+  const size_t bodies = 1 + p.others.size();
+  for (size_t b = 0; b < bodies; ++b) {
+    OtherPerson o;
+    if (b == 0) {
+      o.pose_index = p.pose_index;
+      o.mirror = p.mirror;
+      o.shape = p.shape;
+      o.yaw_deg = p.yaw_deg;
+      o.distance_m = p.distance_m;
+      o.image_x = p.image_x;
+    } else {
+      o = p.others[b - 1];
+    }
+    if (o.pose_index >= library_.poses.size()) fail("pose index out of range");
+    const BodyPose& pose = library_.poses[o.pose_index];
+
+    // Shape, skeleton, pose, skin.
+    const std::vector<Vec3f> shaped = shaped_vertices(assets_, o.shape);
+    const Skeleton rest = measure_skeleton(assets_, shaped);
+    const Skeleton posed = pose_skeleton(assets_, rest, pose);
+    thread_local std::vector<Vec3f> verts;
+    skin_body(assets_, shaped, rest, posed, pose, verts);
+    JointSet joints = joints_of(assets_, posed);
+
+    // Mirror (in body space): x -> -x, swap left/right labels and joints.
+    thread_local std::vector<uint8_t> mirrored_labels;
+    const std::vector<uint8_t>* labels = &vertex_labels_;
+    if (o.mirror) {
+      for (Vec3f& v : verts) v.x = -v.x;
+      for (Vec3& j : joints) j.x = -j.x;
+      JointSet swapped;
+      for (int j = 0; j < dp::tools::kJointCount; ++j) swapped[dp::tools::kJointMirror[j]] = joints[j];
+      joints = swapped;
+      mirrored_labels.resize(vertex_labels_.size());
+      for (size_t i = 0; i < vertex_labels_.size(); ++i) mirrored_labels[i] = dp::tools::kPartMirror[vertex_labels_[i]];
+      labels = &mirrored_labels;
+    }
+
+    // Stand on the floor: lowest vertex at y = 0, hips above the placement point.
+    const int hips = assets_.bone_index("Hips");
+    Vec3 hip = posed.heads[hips];
+    if (o.mirror) hip.x = -hip.x;
+    float min_y = verts[0].y;
+    for (const Vec3f& v : verts) min_y = std::min(min_y, v.y);
+    // Body -> world: turn to face the camera (-z) and by yaw; place at distance along the view.
+    const double lateral = (o.image_x * k.width - k.cx) / k.fx;  // tan of the horizontal angle
+    const Vec3 place{-o.distance_m * lateral, 0, o.distance_m};     // camera right is -x
+    const Mat3 body_rot = rot_y(M_PI + o.yaw_deg * kDegToRad);
+    const Mat3 m = cam.world_to_camera * body_rot;
+    const Vec3 offset = cam.world_to_camera * (place - cam.position) - m * Vec3{hip.x, double(min_y), hip.z};
+    float mf[9];
+    for (int i = 0; i < 9; ++i) mf[i] = float(m.m[i]);
+    const float ox = float(offset.x), oy = float(offset.y), oz = float(offset.z);
+    for (Vec3f& v : verts) {
+      const float x = v.x, y = v.y, z = v.z;
+      v = {mf[0] * x + mf[1] * y + mf[2] * z + ox, mf[3] * x + mf[4] * y + mf[5] * z + oy,
+           mf[6] * x + mf[7] * y + mf[8] * z + oz};
+    }
+    for (Vec3& j : joints) j = m * j + offset;
+    draw(verts, assets_.body_triangles, *labels, uint8_t(b + 1));
+    body_joints.push_back(joints);
+  }
+
+  // Clutter: boxes (8 corners) and 16-sided cylinders, label kNoLabel.
+  for (const ClutterItem& item : p.clutter) {
+    std::vector<Vec3f> verts;
+    std::vector<std::array<uint32_t, 3>> tris;
+    const double c = std::cos(item.yaw_deg * kDegToRad), s = std::sin(item.yaw_deg * kDegToRad);
+    auto add = [&](double lx, double y, double lz) {
+      const Vec3 w{item.x + c * lx - s * lz, y, item.z + s * lx + c * lz};
+      const Vec3 q = cam.world_to_camera * (w - cam.position);
+      verts.push_back({float(q.x), float(q.y), float(q.z)});
+    };
+    const int sides = item.cylinder ? 16 : 4;
+    for (int i = 0; i < sides; ++i) {
+      double lx, lz;
+      if (item.cylinder) {
+        lx = 0.5 * item.width * std::cos(2 * M_PI * i / sides);
+        lz = 0.5 * item.width * std::sin(2 * M_PI * i / sides);
+      } else {
+        lx = (i == 1 || i == 2 ? 0.5 : -0.5) * item.width;
+        lz = (i >= 2 ? 0.5 : -0.5) * item.depth;
+      }
+      add(lx, 0.0, lz);
+      add(lx, item.height, lz);
+    }
+    add(0.0, item.height, 0.0);  // top centre
+    const uint32_t top = uint32_t(verts.size() - 1);
+    for (int i = 0; i < sides; ++i) {
+      const uint32_t a0 = uint32_t(2 * i), a1 = a0 + 1, b0 = uint32_t(2 * ((i + 1) % sides)), b1 = b0 + 1;
+      tris.push_back({a0, b0, a1});
+      tris.push_back({a1, b0, b1});
+      tris.push_back({a1, b1, top});
+    }
+    draw(verts, tris, std::vector<uint8_t>(verts.size(), kNoLabel), 0);
+  }
   if (config_.floor) {
     const Vec3 n = cam.world_to_camera * Vec3{0, 1, 0};
     rasterize_plane(k, n, -p.camera_height_m, config_.noise.max_range_m, f.clean);
@@ -205,22 +324,31 @@ SynthFrame Synthesizer::render(const FrameParams& p) const {
   for (size_t i = 0; i < f.parts.pixels.size(); ++i)
     if (f.depth.pixels[i] != 0) f.parts.pixels[i] = f.clean.label[i];
 
-  f.joints.resize(dp::tools::kJointCount);
-  for (int j = 0; j < dp::tools::kJointCount; ++j) {
-    dp::tools::JointTruth& t = f.joints[j];
-    t.x = float(joints[j].x);
-    t.y = float(joints[j].y);
-    t.z = float(joints[j].z);
-    t.visible = false;
-    if (joints[j].z > kNearPlane) {
-      const int u = int(std::lround(k.cx + k.fx * joints[j].x / joints[j].z));
-      const int v = int(std::lround(k.cy - k.fy * joints[j].y / joints[j].z));
-      if (u >= 0 && v >= 0 && u < k.width && v < k.height) {
-        const float d = f.clean.depth[size_t(v) * k.width + u];
-        t.visible = d == 0 || d >= joints[j].z - kJointOcclusionMargin;
+  f.people.width = k.width;
+  f.people.height = k.height;
+  f.people.pixels.assign(size_t(k.width) * k.height, 0);
+  for (size_t i = 0; i < f.people.pixels.size(); ++i)
+    if (f.parts.pixels[i] != dp::tools::kNotBodyLabel) f.people.pixels[i] = body_of[i];
+  for (const JointSet& joints : body_joints) {
+    std::vector<dp::tools::JointTruth> truth(dp::tools::kJointCount);
+    for (int j = 0; j < dp::tools::kJointCount; ++j) {
+      dp::tools::JointTruth& t = truth[j];
+      t.x = float(joints[j].x);
+      t.y = float(joints[j].y);
+      t.z = float(joints[j].z);
+      t.visible = false;
+      if (joints[j].z > kNearPlane) {
+        const int u = int(std::lround(k.cx + k.fx * joints[j].x / joints[j].z));
+        const int v = int(std::lround(k.cy - k.fy * joints[j].y / joints[j].z));
+        if (u >= 0 && v >= 0 && u < k.width && v < k.height) {
+          const float d = f.clean.depth[size_t(v) * k.width + u];
+          t.visible = d == 0 || d >= joints[j].z - kJointOcclusionMargin;
+        }
       }
     }
+    f.people_joints.push_back(std::move(truth));
   }
+  f.joints = f.people_joints[0];
 
   nlohmann::json extra;
   extra["pose"] = library_.origin[p.pose_index];
@@ -232,6 +360,28 @@ SynthFrame Synthesizer::render(const FrameParams& p) const {
   extra["rotation"] = p.yaw_deg;
   extra["camera"] = {{"height", p.camera_height_m}, {"pitch", p.camera_pitch_deg}, {"roll", p.camera_roll_deg}};
   extra["distance"] = p.distance_m;
+  if (!p.others.empty()) {
+    nlohmann::json people = nlohmann::json::array();
+    for (size_t b = 0; b < f.people_joints.size(); ++b) {
+      nlohmann::json joints = nlohmann::json::array();
+      for (const dp::tools::JointTruth& t : f.people_joints[b]) joints.push_back({t.x, t.y, t.z, t.visible ? 1 : 0});
+      nlohmann::json person;
+      person["id"] = b + 1;
+      person["joints"] = joints;
+      person["pose"] = library_.origin[b == 0 ? p.pose_index : p.others[b - 1].pose_index];
+      person["rotation"] = b == 0 ? p.yaw_deg : p.others[b - 1].yaw_deg;
+      person["distance"] = b == 0 ? p.distance_m : p.others[b - 1].distance_m;
+      people.push_back(person);
+    }
+    extra["people"] = people;
+  }
+  if (!p.clutter.empty()) {
+    nlohmann::json items = nlohmann::json::array();
+    for (const ClutterItem& c : p.clutter)
+      items.push_back({{"shape", c.cylinder ? "cylinder" : "box"}, {"x", c.x}, {"z", c.z}, {"yaw", c.yaw_deg},
+                       {"width", c.width}, {"depth", c.depth}, {"height", c.height}});
+    extra["clutter"] = items;
+  }
   f.extra_json = extra.dump();
   return f;
 }
@@ -252,6 +402,8 @@ dp::tools::DatasetMeta Synthesizer::dataset_meta() const {
   extra["clips"] = clip_names_;
   extra["floor"] = config_.floor;
   extra["noise"] = config_.noise.enabled;
+  if (config_.people > 1) extra["people"] = config_.people;
+  if (config_.clutter > 0) extra["clutter"] = config_.clutter;
   m.extra_json = extra.dump();
   return m;
 }

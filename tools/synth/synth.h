@@ -30,6 +30,8 @@ struct SynthConfig {
   double focal_640 = 525.0;          // fx = fy = focal_640 * width / 640
   double rotation_deg = 60;          // body yaw uniform in [-rotation, +rotation] (180+ = full turn)
   bool floor = false;                // render a floor plane behind the body (label 255)
+  int people = 1;                    // bodies per frame, 1..8 (--people N); body 0 is `joints`
+  int clutter = 0;                   // furniture on the floor per frame, 0..32 (--clutter N), label 255
   NoiseConfig noise;
   // Clips: "02" (all clips of subject 02), "02_01" (one clip), or a path to a .bvh file. Empty =
   // every ASF/AMC clip under assets/mocap/cmu.
@@ -48,6 +50,22 @@ struct SynthConfig {
   double extra_scale = 0.10;         // +-10 % extra height and weight (paper)
 };
 
+// A further body of a --people frame (placed like body 0, at least 0.8 m from every other body).
+struct OtherPerson {
+  size_t pose_index = 0;
+  bool mirror = false;
+  ShapeControls shape;
+  double yaw_deg = 0, distance_m = 2.5, image_x = 0.5;
+};
+
+// A piece of --clutter furniture standing on the floor (world frame: floor y = 0, x = the
+// camera's left, z forward; see make_camera in synth.cc): a box (width × depth, turned by yaw) or
+// a vertical cylinder (width = diameter). Heights 0.3–0.8 m, kept clear of every body.
+struct ClutterItem {
+  bool cylinder = false;
+  double x = 0, z = 0, yaw_deg = 0, width = 0.5, depth = 0.5, height = 0.5;
+};
+
 // Everything that varies per frame; sample_frame_params draws it from the frame's stream, tests
 // may edit it (e.g. fix yaw, mirror) before render.
 struct FrameParams {
@@ -60,6 +78,8 @@ struct FrameParams {
   double camera_height_m = 1.0, camera_pitch_deg = 0, camera_roll_deg = 0;
   double distance_m = 2.5;          // along the floor, camera to hips
   double image_x = 0.5;             // where the hips project horizontally, fraction of width
+  std::vector<OtherPerson> others;  // config.people − 1 further bodies
+  std::vector<ClutterItem> clutter; // config.clutter items
 };
 
 struct SynthFrame {
@@ -67,6 +87,10 @@ struct SynthFrame {
   dp::tools::ImageU8 parts;         // 0..30 where the body has a reading, 255 elsewhere
   DepthLabelImage clean;            // noise-free render (metres, labels incl. dropped pixels)
   std::vector<dp::tools::JointTruth> joints;  // 16, camera frame, metres, with visibility
+  // --people: joints of every body (body 0 = `joints`) and, per pixel, 1 + the index of the body
+  // whose reading it is (0 = not a body). Filled for every frame; one entry for one body.
+  std::vector<std::vector<dp::tools::JointTruth>> people_joints;
+  dp::tools::ImageU8 people;
   std::string extra_json;           // per-frame metadata for frames.jsonl
 };
 

@@ -34,6 +34,9 @@ const char* kUsage =
     "  --preview FILE.png  contact sheet of the first frames (depth | parts | joints)\n"
     "  --rotation DEG      body yaw uniform in [-DEG, DEG] (default 60; 180 or 360 = any)\n"
     "  --floor             render a floor plane (label 255) instead of empty background\n"
+    "  --people N          N bodies per frame (1..8, default 1): frames.jsonl gets \"people\", and\n"
+    "                      people/NNNNNN.png (1 + body index per pixel) is written\n"
+    "  --clutter N         N furniture-sized boxes/cylinders on the floor per frame (0..32, label 255)\n"
     "  --no-noise          clean depth (no shadows, dropouts, quantization)\n"
     "  --pose-distance M   D_pose of the pose pruning in metres (default 0.05)\n"
     "  --pose-stride N     use every N-th mocap frame before pruning (default 4)\n"
@@ -58,7 +61,7 @@ int run_synth(int argc, char** argv) {
   dp::tools::Args args(argc, argv, kUsage,
                        {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
-                        "--pose-sheet"},
+                        "--pose-sheet", "--people", "--clutter"},
                        {"--floor", "--no-noise"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
@@ -69,6 +72,8 @@ int run_synth(int argc, char** argv) {
   config.height = int(args.get_int("--height", 240));
   config.rotation_deg = args.get_double("--rotation", 60);
   config.floor = args.flag("--floor");
+  config.people = int(args.get_int("--people", 1));
+  config.clutter = int(args.get_int("--clutter", 0));
   config.noise.enabled = !args.flag("--no-noise");
   config.pose_min_distance_m = args.get_double("--pose-distance", 0.05);
   config.pose_frame_stride = int(args.get_int("--pose-stride", 4));
@@ -131,6 +136,7 @@ int run_synth(int argc, char** argv) {
   threads = int(std::min<long long>(threads, frames));
 
   dp::tools::create_dataset(out, synth.dataset_meta(), true);
+  if (config.people > 1) std::filesystem::create_directories(out + "/people");
   std::vector<dp::tools::FrameRecord> records(static_cast<size_t>(frames));
   const size_t preview_count = args.has("--preview") ? size_t(std::min<long long>(frames, 12)) : 0;
   std::vector<SynthFrame> preview(preview_count);
@@ -148,6 +154,7 @@ int run_synth(int argc, char** argv) {
         const std::string id = dp::tools::frame_id(size_t(i));
         write_bytes(out + "/depth/" + id + ".png", dp::tools::encode_png_u16(f.depth));
         write_bytes(out + "/parts/" + id + ".png", dp::tools::encode_png_u8(f.parts));
+        if (config.people > 1) write_bytes(out + "/people/" + id + ".png", dp::tools::encode_png_u8(f.people));
         dp::tools::FrameRecord& r = records[size_t(i)];
         r.id = id;
         r.joints = f.joints;

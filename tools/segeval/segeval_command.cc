@@ -1,0 +1,347 @@
+// `depthpose segeval`: how well dp::Segmenter finds the people of a labelled dataset (foreground
+// IoU, people found, false users, cycles) and, with --blob, joint mAP with the segmenter's mask
+// against the ground-truth mask. docs/segmentation.md describes the protocol.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "runtime/segmentation/segmenter.h"
+#include "tools/cli/command.h"
+#include "tools/common/args.h"
+#include "tools/common/body_model.h"
+#include "tools/common/dataset.h"
+#include "tools/common/error.h"
+#include "tools/common/png_io.h"
+#include "tools/eval/metrics.h"
+#include "tools/info/info.h"
+
+namespace dp::tools {
+namespace {
+
+using json = nlohmann::json;
+
+static const char* const kUsage =
+    "usage: depthpose segeval --data DATASET [--blob BLOB] [--frames N] [--live] [--json OUT.json]\n"
+    "                         [--dtp D] [--min-visible-joints K]\n"
+    "  Runs dp::Segmenter over a labelled dataset (layout v1 with parts/; people/ and the \"people\" key of\n"
+    "  frames.jsonl for several bodies, see docs/dataset_format.md) and reports foreground IoU against the\n"
+    "  ground-truth body mask, the share of people found, false users per frame and the segmenter's cycles.\n"
+    "  With --blob: joint mAP per person with the segmenter's mask (Pipeline::process_user) against the\n"
+    "  ground-truth mask of that person.\n"
+    "  --live                 background model on (frames in sequence from a fixed camera); default off\n"
+    "  --dtp D                true-positive radius in metres (default 0.1)\n"
+    "  --min-visible-joints K a person counts for the detection rate with >= K of 16 joints visible (default 8)\n"
+    "  --dump DIR             write DIR/NNNNNN.png per frame: depth in grey, users in colour, missed body red";
+
+struct Person {
+  std::vector<JointTruth> joints;
+  int pixels = 0;
+  int visible_joints = 0;
+};
+
+struct AlignedFree {
+  void operator()(uint8_t* p) const { std::free(p); }
+};
+using ArenaPtr = std::unique_ptr<uint8_t, AlignedFree>;
+
+ArenaPtr aligned_arena(size_t bytes) {
+  ArenaPtr p(static_cast<uint8_t*>(std::aligned_alloc(64, (bytes + 63) / 64 * 64)));
+  if (!p) fail("segeval: out of memory for a " + std::to_string(bytes) + "-byte arena");
+  return p;
+}
+
+std::vector<Person> people_of(const Dataset& ds, size_t i) {
+  const FrameRecord& r = ds.frames[i];
+  std::vector<Person> out;
+  const json extra = json::parse(r.extra_json.empty() ? "{}" : r.extra_json);
+  if (extra.contains("people")) {
+    for (const json& p : extra["people"]) {
+      Person person;
+      for (const json& j : p.at("joints")) {
+        JointTruth t;
+        t.x = j.at(0).get<float>();
+        t.y = j.at(1).get<float>();
+        t.z = j.at(2).get<float>();
+        t.visible = j.at(3).is_boolean() ? j.at(3).get<bool>() : j.at(3).get<int>() != 0;
+        person.joints.push_back(t);
+      }
+      out.push_back(std::move(person));
+    }
+  } else {
+    out.push_back(Person{r.joints, 0, 0});
+  }
+  for (Person& p : out)
+    for (const JointTruth& t : p.joints) p.visible_joints += t.visible;
+  return out;
+}
+
+int run_segeval(int argc, char** argv) {
+  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--dump"}, {"--live"});
+  if (a.help_requested()) {
+    std::printf("%s\n", a.usage().c_str());
+    return 0;
+  }
+  const std::string dir = a.get("--data");
+  const Dataset ds = open_dataset(dir);
+  if (!ds.has_parts) fail(dir + ": segeval needs the ground-truth body mask (parts/)");
+  const bool multi = std::filesystem::is_directory(dir + "/people");
+  const long max_frames = long(a.get_int("--frames", 0));
+  const long frames = max_frames > 0 ? std::min<long>(max_frames, long(ds.frames.size())) : long(ds.frames.size());
+  const double d_tp = a.get_double("--dtp", 0.1);
+  const int min_visible = int(a.get_int("--min-visible-joints", 8));
+  const int w = ds.meta.width, h = ds.meta.height;
+  const CameraIntrinsics intr{float(ds.meta.fx), float(ds.meta.fy), float(ds.meta.cx), float(ds.meta.cy)};
+
+  const SegmenterConfig cfg = default_segmenter_config(a.flag("--live"));
+  Segmenter seg;
+  const size_t seg_bytes = segmenter_required_bytes(w, h);
+  ArenaPtr seg_arena = aligned_arena(seg_bytes);
+  if (Status s = seg.init(cfg, w, h, seg_arena.get(), seg_bytes); s != Status::kOk)
+    fail(std::string("segeval: segmenter init: ") + status_message(s));
+
+  // Optional pipeline for joints.
+  std::vector<uint8_t> blob_bytes;
+  blob::LoadedBlob blob{};
+  Pipeline pipeline;
+  ArenaPtr pipe_arena;
+  std::vector<int> joint_blob, joint_data;  // evaluated joints: blob index, dataset index
+  const bool joints = a.has("--blob");
+  if (joints) {
+    blob = load_blob_file_checked(a.get("--blob"), blob_bytes);
+    const size_t n = required_arena_bytes(blob, w, h);
+    pipe_arena = aligned_arena(n);
+    if (Status s = pipeline.init(blob, w, h, pipe_arena.get(), n); s != Status::kOk)
+      fail(a.get("--blob") + ": pipeline init: " + status_message(s));
+    for (int j = 0; j < blob.meta->joint_count; ++j) {
+      const std::string name(blob.meta->joint_names[j], strnlen(blob.meta->joint_names[j], blob::kNameBytes));
+      for (size_t d = 0; d < ds.meta.joints.size(); ++d)
+        if (ds.meta.joints[d] == name) {
+          joint_blob.push_back(j);
+          joint_data.push_back(int(d));
+        }
+    }
+    if (joint_blob.empty()) fail(a.get("--blob") + ": no joint name in common with " + dir + "/meta.json");
+  }
+  std::vector<JointSamples> seg_samples(joint_blob.size()), gt_samples(joint_blob.size());
+
+  std::vector<uint8_t> labels(size_t(w) * h);
+  double inter_total = 0, union_total = 0, iou_sum = 0;
+  long people_total = 0, people_found = 0, findable_total = 0, findable_found = 0, false_users = 0;
+  long frames_with_false = 0;
+  std::array<double, kSegStageCount> stage_cycles{};
+  double seg_cycles = 0, seg_wall_s = 0, user_joint_cycles = 0;
+  for (long i = 0; i < frames; ++i) {
+    const ImageU16 depth = ds.load_depth(size_t(i));
+    const ImageU8 parts = ds.load_parts(size_t(i));
+    std::vector<Person> people = people_of(ds, size_t(i));
+    std::vector<uint8_t> truth(size_t(w) * h, 0);  // 1 + person index
+    if (multi) {
+      const std::string path = dir + "/people/" + ds.frames[size_t(i)].id + ".png";
+      const ImageU8 img = read_png_u8(path);
+      if (img.width != w || img.height != h) fail(path + ": not " + std::to_string(w) + "x" + std::to_string(h));
+      for (size_t p = 0; p < truth.size(); ++p) {
+        const uint8_t id = parts.pixels[p] != kNotBodyLabel ? img.pixels[p] : 0;
+        if (id > people.size()) fail(path + ": body id " + std::to_string(id) + " but frames.jsonl lists " +
+                                     std::to_string(people.size()) + " people");
+        truth[p] = id;
+      }
+    } else {
+      for (size_t p = 0; p < truth.size(); ++p) truth[p] = parts.pixels[p] != kNotBodyLabel && depth.pixels[p] ? 1 : 0;
+    }
+    for (size_t p = 0; p < truth.size(); ++p)
+      if (truth[p]) people[truth[p] - 1].pixels++;
+
+    // Without --live every frame is its own scene (another camera): nothing carries over.
+    if (!a.flag("--live")) seg.reset();
+    DepthFrame frame{depth.pixels.data(), w, h, w, intr, nullptr};
+    SegmentationResult r{};
+    r.labels = labels.data();
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Status s = seg.process(frame, &r); s != Status::kOk)
+      fail(ds.depth_path(size_t(i)) + ": segmenter refused the frame: " + status_message(s));
+    seg_wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    seg_cycles += double(r.total_cycles);
+    for (int s = 0; s < kSegStageCount; ++s) stage_cycles[size_t(s)] += double(r.stage_cycles[s]);
+
+    if (a.has("--dump")) {
+      ImageRgb img;
+      img.resize(w, h);
+      static const uint8_t colours[6][3] = {{40, 200, 40}, {40, 120, 255}, {255, 200, 0}, {200, 40, 255}, {0, 220, 220}, {255, 120, 0}};
+      for (int v = 0; v < h; ++v)
+        for (int u = 0; u < w; ++u) {
+          const size_t p = size_t(v) * w + u;
+          const uint8_t g = depth.pixels[p] ? uint8_t(255 - std::min(255, depth.pixels[p] / 25)) : 0;
+          if (labels[p]) {
+            const uint8_t* c = colours[(labels[p] - 1) % 6];
+            img.set(u, v, c[0], c[1], c[2]);
+          } else if (truth[p]) {
+            img.set(u, v, 255, 0, 0);
+          } else {
+            img.set(u, v, g, g, g);
+          }
+        }
+      std::filesystem::create_directories(a.get("--dump"));
+      write_png_rgb(a.get("--dump") + "/" + ds.frames[size_t(i)].id + ".png", img);
+    }
+    // Foreground IoU.
+    long inter = 0, uni = 0;
+    for (size_t p = 0; p < truth.size(); ++p) {
+      const bool a_ = labels[p] != 0, b_ = truth[p] != 0;
+      inter += a_ && b_;
+      uni += a_ || b_;
+    }
+    inter_total += double(inter);
+    union_total += double(uni);
+    iou_sum += uni ? double(inter) / double(uni) : 1.0;
+
+    // Users ↔ people: greedy by IoU ≥ 0.5.
+    const int nu = r.user_count, np = int(people.size());
+    std::vector<long> overlap(size_t(nu) * np, 0);
+    std::vector<int> user_index(256, -1);
+    for (int u = 0; u < nu; ++u) user_index[size_t(r.users[u].id)] = u;
+    for (size_t p = 0; p < truth.size(); ++p)
+      if (labels[p] && truth[p] && user_index[labels[p]] >= 0)
+        overlap[size_t(user_index[labels[p]]) * np + (truth[p] - 1)]++;
+    std::vector<int> user_of_person(size_t(np), -1), person_of_user(size_t(nu), -1);
+    for (;;) {
+      double best = 0.5;
+      int bu = -1, bp = -1;
+      for (int u = 0; u < nu; ++u)
+        for (int p = 0; p < np; ++p) {
+          if (person_of_user[size_t(u)] >= 0 || user_of_person[size_t(p)] >= 0) continue;
+          const double o = double(overlap[size_t(u) * np + p]);
+          const double iou = o / double(r.users[u].pixel_count + people[size_t(p)].pixels - o);
+          if (iou >= best) { best = iou; bu = u; bp = p; }
+        }
+      if (bu < 0) break;
+      person_of_user[size_t(bu)] = bp;
+      user_of_person[size_t(bp)] = bu;
+    }
+    long false_here = 0;
+    for (int u = 0; u < nu; ++u) false_here += person_of_user[size_t(u)] < 0;
+    false_users += false_here;
+    frames_with_false += false_here > 0;
+    for (int p = 0; p < np; ++p) {
+      if (people[size_t(p)].pixels == 0) continue;
+      ++people_total;
+      people_found += user_of_person[size_t(p)] >= 0;
+      if (people[size_t(p)].visible_joints >= min_visible) {
+        ++findable_total;
+        findable_found += user_of_person[size_t(p)] >= 0;
+      }
+    }
+
+    if (!joints) continue;
+    // Joints: with the segmenter's mask (forest once, aggregation per user) ...
+    frame.foreground_mask = labels.data();
+    FrameResult all, one;
+    if (Status s = pipeline.process(frame, &all); s != Status::kOk)
+      fail(ds.depth_path(size_t(i)) + ": runtime refused the frame: " + status_message(s));
+    user_joint_cycles += double(all.total_cycles);
+    auto add = [&](std::vector<JointSamples>& samples, const Person& person, const FrameResult* res) {
+      for (size_t k = 0; k < joint_blob.size(); ++k) {
+        const JointTruth& t = person.joints[size_t(joint_data[k])];
+        samples[k].truth.push_back(JointSamples::Truth{Point3{t.x, t.y, t.z}, t.visible});
+        std::vector<ScoredPoint> props;
+        if (res)
+          for (int q = 0; q < res->proposal_count[joint_blob[k]]; ++q) {
+            const JointProposal& jp = res->proposals[joint_blob[k]][q];
+            props.push_back(ScoredPoint{Point3{jp.x_m, jp.y_m, jp.z_m}, jp.confidence});
+          }
+        samples[k].proposals.push_back(std::move(props));
+      }
+    };
+    for (int p = 0; p < np; ++p) {
+      if (people[size_t(p)].pixels == 0) continue;
+      const int u = user_of_person[size_t(p)];
+      if (u >= 0) {
+        if (Status s = pipeline.process_user(frame, uint8_t(r.users[u].id), &one); s != Status::kOk)
+          fail(std::string("segeval: process_user: ") + status_message(s));
+        user_joint_cycles += double(one.total_cycles);
+      }
+      add(seg_samples, people[size_t(p)], u >= 0 ? &one : nullptr);
+    }
+    // ... and with each person's ground-truth mask.
+    std::vector<uint8_t> mask(truth.size());
+    for (int p = 0; p < np; ++p) {
+      if (people[size_t(p)].pixels == 0) continue;
+      for (size_t q = 0; q < truth.size(); ++q) mask[q] = truth[q] == p + 1;
+      frame.foreground_mask = mask.data();
+      if (Status s = pipeline.process(frame, &one); s != Status::kOk)
+        fail(ds.depth_path(size_t(i)) + ": runtime refused the frame: " + status_message(s));
+      add(gt_samples, people[size_t(p)], &one);
+    }
+  }
+
+  json out;
+  out["dataset"] = dir;
+  out["frames"] = frames;
+  out["background_model"] = cfg.background_enabled;
+  out["foreground_iou_pooled"] = union_total > 0 ? inter_total / union_total : 1.0;
+  out["foreground_iou_mean"] = frames ? iou_sum / double(frames) : 1.0;
+  out["people"] = people_total;
+  out["people_found"] = people_found;
+  out["detection_rate"] = people_total ? double(people_found) / double(people_total) : 1.0;
+  out["findable_people"] = findable_total;
+  out["findable_found"] = findable_found;
+  out["findable_detection_rate"] = findable_total ? double(findable_found) / double(findable_total) : 1.0;
+  out["min_visible_joints"] = min_visible;
+  out["false_users"] = false_users;
+  out["false_users_per_frame"] = frames ? double(false_users) / double(frames) : 0.0;
+  out["frames_with_false_users"] = frames_with_false;
+  json stages = json::object();
+  for (int s = 0; s < kSegStageCount; ++s) stages[segmentation_stage_name(s)] = frames ? stage_cycles[size_t(s)] / frames : 0;
+  out["segmentation_cycles_per_frame"] = frames ? seg_cycles / double(frames) : 0;
+  out["segmentation_stage_cycles_per_frame"] = stages;
+  out["segmentation_ms_per_frame"] = frames ? 1000.0 * seg_wall_s / double(frames) : 0;
+  std::printf("segeval %s: %ld frames, background model %s\n", dir.c_str(), frames, cfg.background_enabled ? "on" : "off");
+  std::printf("  foreground IoU      %.4f pooled, %.4f mean per frame\n", out["foreground_iou_pooled"].get<double>(),
+              out["foreground_iou_mean"].get<double>());
+  std::printf("  people found        %ld / %ld = %.4f (with >= %d visible joints: %ld / %ld = %.4f)\n", people_found,
+              people_total, out["detection_rate"].get<double>(), min_visible, findable_found, findable_total,
+              out["findable_detection_rate"].get<double>());
+  std::printf("  false users         %ld = %.4f per frame (%ld frames with any)\n", false_users,
+              out["false_users_per_frame"].get<double>(), frames_with_false);
+  std::printf("  segmentation        %.0f cycles/frame (%.2f ms):", out["segmentation_cycles_per_frame"].get<double>(),
+              out["segmentation_ms_per_frame"].get<double>());
+  for (int s = 0; s < kSegStageCount; ++s)
+    std::printf(" %s %.0f", segmentation_stage_name(s), frames ? stage_cycles[size_t(s)] / frames : 0.0);
+  std::printf("\n");
+  if (joints) {
+    const MatchOptions mo{float(d_tp), false};
+    std::vector<std::optional<double>> ap_seg, ap_gt;
+    json per_joint = json::object();
+    for (size_t k = 0; k < joint_blob.size(); ++k) {
+      ap_seg.push_back(average_precision(match_joint(seg_samples[k], mo)));
+      ap_gt.push_back(average_precision(match_joint(gt_samples[k], mo)));
+      per_joint[ds.meta.joints[size_t(joint_data[k])]] = {{"segmented", ap_seg.back() ? json(*ap_seg.back()) : json()},
+                                                          {"ground_truth_mask", ap_gt.back() ? json(*ap_gt.back()) : json()}};
+    }
+    const auto m_seg = mean_average_precision(ap_seg), m_gt = mean_average_precision(ap_gt);
+    out["d_tp_m"] = d_tp;
+    out["map_segmented"] = m_seg ? json(*m_seg) : json();
+    out["map_ground_truth_mask"] = m_gt ? json(*m_gt) : json();
+    out["ap_per_joint"] = per_joint;
+    out["pipeline_cycles_per_frame_segmented"] = frames ? user_joint_cycles / double(frames) : 0;
+    std::printf("  joint mAP (D_tp %.2f m)  segmented %.4f, ground-truth mask %.4f, difference %+.4f\n", d_tp,
+                m_seg.value_or(0), m_gt.value_or(0), m_seg.value_or(0) - m_gt.value_or(0));
+  }
+  if (a.has("--json")) {
+    const std::string path = a.get("--json");
+    std::ofstream f(path);
+    if (!f) fail(path + ": cannot write");
+    f << out.dump(2) << "\n";
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace dp::tools
+
+DP_REGISTER_COMMAND(segeval, "segeval", "segmentation quality (IoU, people found, false users) and joint mAP with it",
+                    dp::tools::run_segeval);
