@@ -1,7 +1,9 @@
 #include "platform/frame_source.h"
 
+#include <fcntl.h>
 #include <glob.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -64,14 +66,22 @@ class RawSource final : public FrameSource {
     while (position_ < files_.size()) {
       const size_t index = position_++;
       const std::string& path = files_[index];
-      FILE* f = std::fopen(path.c_str(), "rb");
-      if (!f) {
+      // Plain system calls: no stdio buffer is allocated per frame.
+      const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+      if (fd < 0) {
         skip(path + ": cannot open (frame skipped)");
         continue;
       }
-      size_t got = std::fread(depth_mm, 1, want, f);
-      bool longer = std::fgetc(f) != EOF;
-      std::fclose(f);
+      size_t got = 0;
+      auto* bytes = reinterpret_cast<uint8_t*>(depth_mm);
+      while (got < want) {
+        const ssize_t n = ::read(fd, bytes + got, want - got);
+        if (n <= 0) break;
+        got += size_t(n);
+      }
+      uint8_t extra;
+      const bool longer = got == want && ::read(fd, &extra, 1) > 0;
+      ::close(fd);
       if (got != want || longer) {
         skip(path + ": not " + std::to_string(width_) + "x" + std::to_string(height_) +
              " uint16 depth (" + (got < want ? "too short" : "too long") + ", frame skipped)");

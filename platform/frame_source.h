@@ -88,6 +88,9 @@ struct SourceOptions {
   int reconnect_interval_ms = 500;// live sources: how often a lost device is looked for
   // V4L2: requested size (0 = keep the device's current one).
   int v4l2_width = 0, v4l2_height = 0;
+  // Live sources: hand over only the newest frame, counting older queued ones as dropped
+  // (`run --realtime`). OpenNI2 streams always do; V4L2 otherwise delivers its queue in order.
+  bool latest_only = false;
 };
 
 // Opens a source from its spec (see above). Throws ToolError naming the problem.

@@ -24,7 +24,8 @@ std::string extended_error() {
   std::string s = e ? e : "";
   while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
   for (char& c : s)
-    if (c == '\n') c = ' ';
+    if (c == '\n' || c == '\t') c = ' ';
+  while (!s.empty() && s.front() == ' ') s.erase(s.begin());
   return s.empty() ? "no detail from OpenNI2" : s;
 }
 

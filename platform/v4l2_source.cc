@@ -82,6 +82,22 @@ class V4l2Source final : public FrameSource {
       if (errno == EAGAIN) return NextStatus::kNoFrame;
       return lose("VIDIOC_DQBUF: " + std::string(std::strerror(errno)));
     }
+    if (options_.latest_only) {
+      // Older filled buffers go straight back to the driver: only the newest frame is used.
+      for (;;) {
+        pollfd again{fd_, POLLIN, 0};
+        if (sys_.poll(&again, 1, 0) != 1 || !(again.revents & POLLIN)) break;
+        v4l2_buffer newer{};
+        newer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+        newer.memory = V4L2_MEMORY_MMAP;
+        if (sys_.ioctl(fd_, VIDIOC_DQBUF, &newer) < 0) break;
+        note_sequence(buf.sequence);
+        ++stats_.dropped_frames;
+        if (buf.index < buffers_.size() && sys_.ioctl(fd_, VIDIOC_QBUF, &buf) < 0)
+          return lose("VIDIOC_QBUF: " + std::string(std::strerror(errno)));
+        buf = newer;
+      }
+    }
     NextStatus status = NextStatus::kNoFrame;
     const size_t row_bytes = size_t(width_) * 2;
     const size_t stride = format_.fmt.pix.bytesperline;
@@ -93,9 +109,7 @@ class V4l2Source final : public FrameSource {
     } else {
       const auto* base = static_cast<const uint8_t*>(buffers_[buf.index].start);
       for (int y = 0; y < height_; ++y) std::memcpy(depth_mm + size_t(y) * width_, base + size_t(y) * stride, row_bytes);
-      if (have_sequence_ && buf.sequence > last_sequence_ + 1) stats_.dropped_frames += buf.sequence - last_sequence_ - 1;
-      have_sequence_ = true;
-      last_sequence_ = buf.sequence;
+      note_sequence(buf.sequence);
       info->index = index_++;
       info->timestamp_us = uint64_t(buf.timestamp.tv_sec) * 1000000u + uint64_t(buf.timestamp.tv_usec);
       ++stats_.frames;
@@ -121,6 +135,13 @@ class V4l2Source final : public FrameSource {
   };
 
   std::string label() const { return "v4l2:" + path_; }
+
+  // Sequence gaps are frames the driver captured but had no free buffer for.
+  void note_sequence(uint32_t sequence) {
+    if (have_sequence_ && sequence > last_sequence_ + 1) stats_.dropped_frames += sequence - last_sequence_ - 1;
+    have_sequence_ = true;
+    last_sequence_ = sequence;
+  }
 
   bool open_device(std::string* why, int want_width, int want_height) {
     fd_ = sys_.open(path_.c_str(), O_RDWR | O_NONBLOCK);

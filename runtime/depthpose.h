@@ -73,6 +73,12 @@ enum FrameFlag : uint32_t {
   kFlagStartsTruncated = 1u << 3,    // a joint had more starting points than max_starts_per_joint
   kFlagProposalsTruncated = 1u << 4, // a joint had more modes than max_proposals_per_joint
   kFlagOverCycleBudget = 1u << 5,    // the frame took more cycles than config.cycle_budget
+  // The cycle budget's plan (docs/budget.md) degraded, in this order:
+  kFlagBudgetPixels = 1u << 6,       // fewer evaluated pixels than max_evaluated_pixels (stride)
+  kFlagBudgetVotes = 1u << 7,        // Nsub below max_votes_per_joint
+  kFlagBudgetStarts = 1u << 8,       // mean-shift starts below max_starts_per_joint
+  kFlagBudgetIterations = 1u << 9,   // mean-shift iterations below mean_shift_iterations
+  kFlagBudgetInfeasible = 1u << 10,  // even fully degraded the predicted cost exceeds the budget
 };
 
 struct FrameResult {
@@ -85,6 +91,11 @@ struct FrameResult {
   int32_t foreground_pixels;                   // before striding
   int32_t evaluated_pixels;                    // pixels the forest ran on
   int32_t pixel_stride;                        // 1 unless kFlagPixelsStrided
+  // What the cycle-budget plan allowed this frame (= the config's values when nothing degraded).
+  int32_t votes_per_joint_used;                // Nsub
+  int32_t starts_per_joint_used;
+  int32_t iterations_used;
+  uint64_t predicted_cycles;                   // the plan's worst-case cost model (docs/budget.md)
 };
 
 enum class KernelIsa : int32_t { kScalar = 0, kAvx2 = 1, kAvx512 = 2, kBest = 3 };
@@ -170,6 +181,9 @@ class Pipeline {
   struct Vote* starts_ = nullptr;       // [max_starts] for the joint being aggregated
   float* modes_ = nullptr;              // scratch for mean-shift modes
   kernels::PackedNode* packed_nodes_ = nullptr;  // persistent (arena tail): compact copy of the nodes
+  uint16_t* joint_mass_ = nullptr;               // persistent: per leaf record × joint mass (BPC)
+  float* soa_ = nullptr;                         // scratch: mean-shift votes as structure of arrays
+  void rebuild_joint_mass();
   int32_t evaluated_count_ = 0;
   bool initialized_ = false;
   // process_user: only evaluated pixels whose mask value equals user_filter_id_ cast votes.
@@ -183,6 +197,7 @@ class Pipeline {
   void cast_bpc_votes(const DepthFrame& frame, FrameResult* result);
   void cast_ojr_votes(const DepthFrame& frame, FrameResult* result);
   void aggregate(FrameResult* result);
+  void plan_budget(int32_t frame_pixels, int32_t foreground, int32_t pixel_cap, int32_t* pixels, FrameResult* result) const;
 };
 
 }  // namespace dp

@@ -1,4 +1,7 @@
+#include <stdint.h>
 #include <string.h>
+
+#include <algorithm>
 #include <x86intrin.h>
 
 #include "runtime/arena.h"
@@ -60,9 +63,19 @@ struct Layout {
   int32_t* vote_counts;
   Vote* starts;
   float* modes;
+  float* soa;                         // mean shift: x, y, z, weight rows of kMaxVotesCap floats
   blob::RuntimeConfig* config;
   kernels::PackedNode* packed_nodes;  // nullptr when the forest's offsets do not fit the packing
+  uint16_t* joint_mass;               // BPC: per leaf record, Σ of its Q15 probabilities over each
+                                      // joint's part mask (kMaxJoints lanes); nullptr when too large
 };
+
+// The per-leaf joint-mass table replaces 3·parts additions per pixel by 3 loads of 16 lanes; it is
+// kept only while it is small (PCL: 25 records; a trained forest up to kMaxJointMassLeaves).
+constexpr uint32_t kMaxJointMassLeaves = 1u << 18;  // 8 MB
+bool use_joint_mass(const blob::LoadedBlob& b) {
+  return b.method() == blob::Method::kBpc && b.meta->leaf_count <= kMaxJointMassLeaves;
+}
 
 // Measured in docs/runtime_speed.md: the packed 8-byte nodes cost more decode work than they save in
 // cache misses with the current kernels, so the pipeline evaluates the blob's nodes in place.
@@ -75,6 +88,7 @@ bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int3
   l->config = c.tail<blob::RuntimeConfig>(1);
   l->packed_nodes = packable(b) ? c.tail<kernels::PackedNode>(size_t(b.tree_count()) * blob::nodes_per_tree(b.depth()))
                                 : nullptr;
+  l->joint_mass = use_joint_mass(b) ? c.tail<uint16_t>(size_t(b.meta->leaf_count) * blob::kMaxJoints) : nullptr;
   l->probe_image = c.head<uint16_t>(kernels::padded_probe_elements(w, h));
   l->pixels = c.head<EvaluatedPixel>(size_t(max_pixels));
   l->leaves = c.head<uint32_t>(size_t(max_pixels) * size_t(b.tree_count()));
@@ -82,6 +96,7 @@ bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int3
   l->vote_counts = c.head<int32_t>(blob::kMaxJoints);
   l->starts = c.head<Vote>(blob::kMaxStartsCap);
   l->modes = c.head<float>(size_t(blob::kMaxStartsCap) * 4);
+  l->soa = c.head<float>(size_t(blob::kMaxVotesCap + 4) * 4);
   return c.ok();
 }
 
@@ -170,6 +185,9 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
   config_ = l.config;
   *config_ = *blob.config;
   packed_nodes_ = l.packed_nodes;
+  joint_mass_ = l.joint_mass;
+  soa_ = l.soa;
+  rebuild_joint_mass();
   if (packed_nodes_) {
     const size_t count = size_t(blob.tree_count()) * blob::nodes_per_tree(blob.depth());
     for (size_t i = 0; i < count; ++i) packed_nodes_[i] = kernels::pack_node(blob.nodes[i]);
@@ -200,7 +218,24 @@ Status Pipeline::set_config(const blob::RuntimeConfig& config) {
       int64_t(max_pixels_) < int64_t(max_width_) * max_height_)
     return Status::kBadConfig;
   *config_ = config;
+  rebuild_joint_mass();
   return Status::kOk;
+}
+
+void Pipeline::rebuild_joint_mass() {
+  if (!joint_mass_) return;
+  const int parts = blob_.meta->part_count;
+  for (uint32_t l = 0; l < blob_.meta->leaf_count; ++l) {
+    const uint16_t* p = blob_.bpc_leaf(l);
+    uint16_t* out = joint_mass_ + size_t(l) * blob::kMaxJoints;
+    for (int j = 0; j < blob::kMaxJoints; ++j) {
+      uint32_t mass = 0;
+      if (j < blob_.meta->joint_count)
+        for (uint32_t m = config_->joints[j].part_mask; m; m &= m - 1)
+          if (int(__builtin_ctz(m)) < parts) mass += p[__builtin_ctz(m)];
+      out[j] = uint16_t(mass);  // Σ ≤ 32768 (validated at load)
+    }
+  }
 }
 
 void Pipeline::part_distribution(int32_t i, uint16_t* out) const {
@@ -244,7 +279,9 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
     }
   }
   r->foreground_pixels = fg;
-  const int32_t budget = int32_t(cfg.max_evaluated_pixels) < max_pixels_ ? int32_t(cfg.max_evaluated_pixels) : max_pixels_;
+  const int32_t pixel_cap = int32_t(cfg.max_evaluated_pixels) < max_pixels_ ? int32_t(cfg.max_evaluated_pixels) : max_pixels_;
+  int32_t budget = pixel_cap;
+  plan_budget(w * h, fg, pixel_cap, &budget, r);
   int32_t stride = 1;
   if (fg > budget) {
     stride = (fg + budget - 1) / budget;
@@ -303,6 +340,66 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   return Status::kOk;
 }
 
+// The worst-case cost model of docs/budget.md, in TSC cycles. It is deliberately the same for every
+// forest kernel (calibrated on the fastest), so a budget degrades a frame identically whichever
+// kernel runs, and results stay bit-identical across kernels; a slower kernel overruns and says so.
+namespace budget_model {
+constexpr uint64_t kPerFramePixel = 3;      // foreground scan, per frame pixel
+constexpr uint64_t kPerNodeVisit = 5;       // forest, per pixel × tree × level
+constexpr uint64_t kPerBpcPixel = 60;       // BPC votes, per evaluated pixel
+constexpr uint64_t kPerOjrVote = 8;         // OJR votes, per pixel × tree × joint × K
+constexpr uint64_t kPerKernelEval = 3;      // mean shift, per start × iteration × vote (4 lanes)
+constexpr uint64_t kPerJoint = 20000;       // aggregation fixed cost per joint (sort, modes)
+constexpr int32_t kMinPixels = 1000;        // degrade floors (or the configured value if lower)
+constexpr int32_t kMinVotes = 32;
+constexpr int32_t kMinStarts = 4;
+constexpr int32_t kMinIterations = 2;
+}  // namespace budget_model
+
+void Pipeline::plan_budget(int32_t frame_pixels, int32_t fg, int32_t pixel_cap, int32_t* pixels,
+                           FrameResult* r) const {
+  namespace bm = budget_model;
+  const blob::RuntimeConfig& cfg = *config_;
+  const blob::ForestMeta& m = *blob_.meta;
+  int64_t n = fg < pixel_cap ? fg : pixel_cap;
+  int64_t votes = cfg.max_votes_per_joint, starts = cfg.max_starts_per_joint, iters = cfg.mean_shift_iterations;
+  const int64_t joints = m.joint_count;
+  const uint64_t per_pixel = bm::kPerNodeVisit * uint64_t(m.tree_count) * m.depth +
+                             (blob_.method() == blob::Method::kBpc
+                                  ? bm::kPerBpcPixel
+                                  : bm::kPerOjrVote * uint64_t(m.tree_count) * uint64_t(joints) * m.votes_per_joint);
+  const uint64_t fixed = bm::kPerFramePixel * uint64_t(frame_pixels) + bm::kPerJoint * uint64_t(joints);
+  auto mean_shift = [&](int64_t v, int64_t s, int64_t it) { return bm::kPerKernelEval * uint64_t(joints * s * it * ((v + 3) & ~3)); };
+  auto total = [&]() { return fixed + per_pixel * uint64_t(n) + mean_shift(votes, starts, iters); };
+  const uint64_t budget = cfg.cycle_budget;
+  if (budget != 0 && total() > budget) {
+    // 1. pixels (stride), down to the floor.
+    const int64_t floor_n = n < bm::kMinPixels ? n : bm::kMinPixels;
+    const uint64_t rest = fixed + mean_shift(votes, starts, iters);
+    const int64_t fit = budget > rest ? int64_t((budget - rest) / per_pixel) : 0;
+    const int64_t new_n = fit > floor_n ? fit : floor_n;
+    if (new_n < n) { n = new_n; r->flags |= kFlagBudgetPixels; }
+    // 2.–4. Nsub, starts, iterations, each down to its floor while still over.
+    int64_t* knobs[3] = {&votes, &starts, &iters};
+    const int64_t floors[3] = {bm::kMinVotes, bm::kMinStarts, bm::kMinIterations};
+    const uint32_t flags[3] = {kFlagBudgetVotes, kFlagBudgetStarts, kFlagBudgetIterations};
+    for (int k = 0; k < 3 && total() > budget; ++k) {
+      int64_t& knob = *knobs[k];
+      const int64_t lowest = knob < floors[k] ? knob : floors[k];
+      const int64_t original = knob;
+      while (knob > lowest && total() > budget) knob = knob - 1 - (knob - lowest) / 8;  // ~12% steps
+      if (knob < lowest) knob = lowest;
+      if (knob < original) r->flags |= flags[k];
+    }
+    if (total() > budget) r->flags |= kFlagBudgetInfeasible;
+  }
+  *pixels = int32_t(n > 0 ? n : 1);
+  r->votes_per_joint_used = int32_t(votes);
+  r->starts_per_joint_used = int32_t(starts);
+  r->iterations_used = int32_t(iters);
+  r->predicted_cycles = total();
+}
+
 Status Pipeline::process_user(const DepthFrame& f, uint8_t user_id, FrameResult* r) {
   if (!r) return Status::kBadArgument;
   memset(r, 0, sizeof *r);
@@ -323,6 +420,10 @@ Status Pipeline::process_user(const DepthFrame& f, uint8_t user_id, FrameResult*
   user_filter_ = f.foreground_mask;
   user_filter_stride_ = f.stride_px;
   user_filter_id_ = user_id;
+  // No cycle-budget plan here: the frame's own process() already planned; its limits apply as configured.
+  r->votes_per_joint_used = config_->max_votes_per_joint;
+  r->starts_per_joint_used = config_->max_starts_per_joint;
+  r->iterations_used = config_->mean_shift_iterations;
   for (int j = 0; j < blob::kMaxJoints; ++j) vote_counts_[j] = 0;
   if (blob_.method() == blob::Method::kBpc)
     cast_bpc_votes(f, r);
@@ -357,6 +458,10 @@ Status Pipeline::aggregate_from_leaves(const CameraIntrinsics& intr, const Evalu
   r->evaluated_pixels = count;
   r->foreground_pixels = count;
   r->pixel_stride = 1;
+  // No cycle-budget plan here (the frame size is unknown): the config's limits apply as they are.
+  r->votes_per_joint_used = config_->max_votes_per_joint;
+  r->starts_per_joint_used = config_->max_starts_per_joint;
+  r->iterations_used = config_->mean_shift_iterations;
   const DepthFrame f{nullptr, 0, 0, 0, intr, nullptr};  // the vote casters read only the intrinsics
   for (int j = 0; j < blob::kMaxJoints; ++j) vote_counts_[j] = 0;
   if (blob_.method() == blob::Method::kBpc)
@@ -379,27 +484,46 @@ void Pipeline::cast_bpc_votes(const DepthFrame& f, FrameResult* r) {
   const int parts = blob_.meta->part_count;
   const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
   const float inv_total = 1.0f / (32768.0f * float(trees));
-  const int32_t cap = cfg.max_votes_per_joint;
+  const int32_t cap = r->votes_per_joint_used;
+  // Lightest kept weight per joint once its top-N set is full: lighter votes are rejected before
+  // any work (exactly push_top_n's own rejection), which is the common case on large frames.
+  float floor_weight[blob::kMaxJoints];
+  for (int j = 0; j < blob::kMaxJoints; ++j) floor_weight[j] = -1.0f;
   for (int32_t i = 0; i < evaluated_count_; ++i) {
     const EvaluatedPixel px = pixels_[i];
     if (skipped_by_user_filter(px)) continue;
-    uint32_t acc[blob::kMaxParts] = {};
-    for (int t = 0; t < trees; ++t) {
-      const uint16_t* p = blob_.bpc_leaf(leaf_of(i, t));
-      for (int c = 0; c < parts; ++c) acc[c] += p[c];
+    uint32_t mass[blob::kMaxJoints] = {};
+    if (joint_mass_) {
+      for (int t = 0; t < trees; ++t) {
+        const uint16_t* m = joint_mass_ + size_t(leaf_of(i, t)) * blob::kMaxJoints;
+        for (int j = 0; j < blob::kMaxJoints; ++j) mass[j] += m[j];
+      }
+    } else {
+      uint32_t acc[blob::kMaxParts] = {};
+      for (int t = 0; t < trees; ++t) {
+        const uint16_t* p = blob_.bpc_leaf(leaf_of(i, t));
+        for (int c = 0; c < parts; ++c) acc[c] += p[c];
+      }
+      for (int j = 0; j < joints; ++j)
+        for (uint32_t m = cfg.joints[j].part_mask; m; m &= m - 1) mass[j] += acc[__builtin_ctz(m)];
     }
     const float z = float(px.z_mm) * 0.001f;
     const float x = (float(px.u) - f.intrinsics.cx) * z * inv_fx;
     const float y = -(float(px.v) - f.intrinsics.cy) * z * inv_fy;
     for (int j = 0; j < joints; ++j) {
+      if (mass[j] == 0) continue;
+      const float p = float(mass[j]) * inv_total;
+      const float weight = p * z * z;
+      if (weight < floor_weight[j]) {
+        r->flags |= kFlagVotesTruncated;
+        continue;
+      }
       const blob::JointConfig& jc = cfg.joints[j];
-      uint32_t mass = 0;
-      for (uint32_t m = jc.part_mask; m; m &= m - 1) mass += acc[__builtin_ctz(m)];
-      if (mass == 0) continue;
-      const float p = float(mass) * inv_total;
-      Vote v{x, y, z + float(jc.push_back_mm) * 0.001f, p * z * z, uint32_t(i),
-             uint32_t(mass * 32768ull > uint64_t(jc.prob_threshold_q15) * 32768ull * uint64_t(trees) ? 1 : 0)};
-      if (push_top_n(votes_ + size_t(j) * blob::kMaxVotesCap, &vote_counts_[j], cap, v)) r->flags |= kFlagVotesTruncated;
+      Vote v{x, y, z + float(jc.push_back_mm) * 0.001f, weight, uint32_t(i),
+             uint32_t(uint64_t(mass[j]) > uint64_t(jc.prob_threshold_q15) * uint64_t(trees) ? 1 : 0)};
+      Vote* heap = votes_ + size_t(j) * blob::kMaxVotesCap;
+      if (push_top_n(heap, &vote_counts_[j], cap, v)) r->flags |= kFlagVotesTruncated;
+      if (vote_counts_[j] == cap) floor_weight[j] = heap[0].weight;
     }
   }
 }
@@ -410,78 +534,130 @@ void Pipeline::cast_ojr_votes(const DepthFrame& f, FrameResult* r) {
   const int trees = blob_.tree_count();
   const int k_votes = blob_.meta->votes_per_joint;
   const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
-  const int32_t cap = cfg.max_votes_per_joint;
+  const int32_t cap = r->votes_per_joint_used;
+  float floor_weight[blob::kMaxJoints];
+  int64_t len2[blob::kMaxJoints];
+  for (int j = 0; j < blob::kMaxJoints; ++j) {
+    floor_weight[j] = -1.0f;
+    const int64_t len = cfg.joints[j].vote_length_mm;
+    len2[j] = len == 0 ? INT64_MAX : len * len;
+  }
   for (int32_t i = 0; i < evaluated_count_; ++i) {
     const EvaluatedPixel px = pixels_[i];
     if (skipped_by_user_filter(px)) continue;
     const float z = float(px.z_mm) * 0.001f;
+    const float z2 = z * z;
     const float x = (float(px.u) - f.intrinsics.cx) * z * inv_fx;
     const float y = -(float(px.v) - f.intrinsics.cy) * z * inv_fy;
     for (int t = 0; t < trees; ++t) {
       const blob::OjrVote* leaf = blob_.ojr_leaf(leaf_of(i, t));
       for (int j = 0; j < joints; ++j) {
-        const int32_t len = cfg.joints[j].vote_length_mm;
-        const int64_t len2 = int64_t(len) * len;
         for (int k = 0; k < k_votes; ++k) {
           const blob::OjrVote& ov = leaf[j * k_votes + k];
           if (ov.weight == 0) continue;
           const int64_t d2 = int64_t(ov.dx_mm) * ov.dx_mm + int64_t(ov.dy_mm) * ov.dy_mm + int64_t(ov.dz_mm) * ov.dz_mm;
-          if (len != 0 && d2 > len2) continue;
+          if (d2 > len2[j]) continue;
+          const float weight = float(ov.weight) * z2;
+          if (weight < floor_weight[j]) {
+            r->flags |= kFlagVotesTruncated;
+            continue;
+          }
           // The order depends on (pixel, tree, k) only, never on other joints' vote-length filters:
           // each joint's proposals depend only on its own JointConfig (tune relies on this).
           const uint32_t order = (uint32_t(i) * uint32_t(trees) + uint32_t(t)) * uint32_t(k_votes) + uint32_t(k);
-          Vote v{x + float(ov.dx_mm) * 0.001f, y + float(ov.dy_mm) * 0.001f, z + float(ov.dz_mm) * 0.001f,
-                 float(ov.weight) * z * z, order, 1};
-          if (push_top_n(votes_ + size_t(j) * blob::kMaxVotesCap, &vote_counts_[j], cap, v))
-            r->flags |= kFlagVotesTruncated;
+          Vote v{x + float(ov.dx_mm) * 0.001f, y + float(ov.dy_mm) * 0.001f, z + float(ov.dz_mm) * 0.001f, weight,
+                 order, 1};
+          Vote* heap = votes_ + size_t(j) * blob::kMaxVotesCap;
+          if (push_top_n(heap, &vote_counts_[j], cap, v)) r->flags |= kFlagVotesTruncated;
+          if (vote_counts_[j] == cap) floor_weight[j] = heap[0].weight;
         }
       }
     }
   }
 }
 
+namespace {
+
+// e^(−t) for four t ≥ 0 (the polynomial of fast_math.h's exp_neg, branch-free); 0 for t ≥ 80.
+inline __m128 exp_neg4(__m128 t) {
+  const __m128 live = _mm_cmplt_ps(t, _mm_set1_ps(80.0f));
+  t = _mm_min_ps(t, _mm_set1_ps(80.0f));
+  const __m128 y = _mm_mul_ps(t, _mm_set1_ps(-1.44269504f));
+  const __m128 fi = _mm_floor_ps(y);
+  const __m128 f = _mm_sub_ps(y, fi);
+  __m128 p = _mm_add_ps(_mm_set1_ps(0.05550411f), _mm_mul_ps(f, _mm_set1_ps(0.00961813f)));
+  p = _mm_add_ps(_mm_set1_ps(0.24022650f), _mm_mul_ps(f, p));
+  p = _mm_add_ps(_mm_set1_ps(0.69314718f), _mm_mul_ps(f, p));
+  p = _mm_add_ps(_mm_set1_ps(1.0f), _mm_mul_ps(f, p));
+  const __m128i e = _mm_slli_epi32(_mm_add_epi32(_mm_cvttps_epi32(fi), _mm_set1_epi32(127)), 23);
+  return _mm_and_ps(live, _mm_mul_ps(p, _mm_castsi128_ps(e)));
+}
+
+inline float horizontal_sum(__m128 v) {  // fixed order: (v0 + v2) + (v1 + v3)
+  const __m128 h = _mm_add_ps(v, _mm_movehl_ps(v, v));
+  return _mm_cvtss_f32(_mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
+}
+
+}  // namespace
+
 void Pipeline::aggregate(FrameResult* r) {
   const blob::RuntimeConfig& cfg = *config_;
   const int joints = blob_.meta->joint_count;
+  float* const sx_row = soa_;
+  float* const sy_row = soa_ + (blob::kMaxVotesCap + 4);
+  float* const sz_row = soa_ + 2 * (blob::kMaxVotesCap + 4);
+  float* const sw_row = soa_ + 3 * (blob::kMaxVotesCap + 4);
   for (int j = 0; j < joints; ++j) {
     Vote* votes = votes_ + size_t(j) * blob::kMaxVotesCap;
     const int32_t nv = vote_counts_[j];
     if (nv == 0) continue;
-    // Canonical order (casting order) so results do not depend on heap internals.
-    for (int32_t a = 1; a < nv; ++a) {  // insertion sort: nv ≤ kMaxVotesCap, mostly short
-      Vote key = votes[a];
-      int32_t b = a - 1;
-      while (b >= 0 && votes[b].order > key.order) { votes[b + 1] = votes[b]; --b; }
-      votes[b + 1] = key;
-    }
+    // Canonical order (casting order, unique) so results do not depend on heap internals.
+    std::sort(votes, votes + nv, [](const Vote& a, const Vote& b) { return a.order < b.order; });
     // Starting points: eligible votes, evenly strided down to the cap.
     int32_t eligible = 0;
     for (int32_t i = 0; i < nv; ++i) eligible += votes[i].start ? 1 : 0;
     if (eligible == 0) continue;
-    const int32_t cap = cfg.max_starts_per_joint;
+    const int32_t cap = r->starts_per_joint_used;
     const int32_t step = (eligible + cap - 1) / cap;
     if (step > 1) r->flags |= kFlagStartsTruncated;
     int32_t ns = 0, e = 0;
     for (int32_t i = 0; i < nv && ns < cap; ++i)
       if (votes[i].start && (e++ % step) == 0) starts_[ns++] = votes[i];
+    // Votes as structure of arrays, padded to a multiple of 4 with weightless votes.
+    const int32_t padded = (nv + 3) & ~3;
+    for (int32_t i = 0; i < padded; ++i) {
+      const bool real = i < nv;
+      sx_row[i] = real ? votes[i].x : 0.0f;
+      sy_row[i] = real ? votes[i].y : 0.0f;
+      sz_row[i] = real ? votes[i].z : 0.0f;
+      sw_row[i] = real ? votes[i].weight : 0.0f;
+    }
 
     const float b = float(cfg.joints[j].bandwidth_mm) * 0.001f;
     const float inv_b2 = 1.0f / (b * b);
     const float tol = float(cfg.merge_tolerance_mm) * 0.001f;
     const float tol2 = tol * tol;
     const float stop2 = 1e-6f;  // (1 mm)²
+    const __m128 inv_b2_4 = _mm_set1_ps(inv_b2);
     int32_t nm = 0;             // modes: x, y, z, confidence
     for (int32_t s = 0; s < ns; ++s) {
       float mx = starts_[s].x, my = starts_[s].y, mz = starts_[s].z;
-      for (int it = 0; it < cfg.mean_shift_iterations; ++it) {
-        float sw = 0, sx = 0, sy = 0, sz = 0;
-        for (int32_t i = 0; i < nv; ++i) {
-          const float dx = votes[i].x - mx, dy = votes[i].y - my, dz = votes[i].z - mz;
-          const float k = votes[i].weight * exp_neg((dx * dx + dy * dy + dz * dz) * inv_b2);
-          sw += k; sx += k * votes[i].x; sy += k * votes[i].y; sz += k * votes[i].z;
+      for (int it = 0; it < r->iterations_used; ++it) {
+        const __m128 mx4 = _mm_set1_ps(mx), my4 = _mm_set1_ps(my), mz4 = _mm_set1_ps(mz);
+        __m128 sw4 = _mm_setzero_ps(), sx4 = _mm_setzero_ps(), sy4 = _mm_setzero_ps(), sz4 = _mm_setzero_ps();
+        for (int32_t i = 0; i < padded; i += 4) {
+          const __m128 x = _mm_load_ps(sx_row + i), y = _mm_load_ps(sy_row + i), z = _mm_load_ps(sz_row + i);
+          const __m128 dx = _mm_sub_ps(x, mx4), dy = _mm_sub_ps(y, my4), dz = _mm_sub_ps(z, mz4);
+          const __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+          const __m128 k = _mm_mul_ps(_mm_load_ps(sw_row + i), exp_neg4(_mm_mul_ps(d2, inv_b2_4)));
+          sw4 = _mm_add_ps(sw4, k);
+          sx4 = _mm_add_ps(sx4, _mm_mul_ps(k, x));
+          sy4 = _mm_add_ps(sy4, _mm_mul_ps(k, y));
+          sz4 = _mm_add_ps(sz4, _mm_mul_ps(k, z));
         }
+        const float sw = horizontal_sum(sw4);
         if (!(sw > 0.0f)) break;
-        const float nx = sx / sw, ny = sy / sw, nz = sz / sw;
+        const float nx = horizontal_sum(sx4) / sw, ny = horizontal_sum(sy4) / sw, nz = horizontal_sum(sz4) / sw;
         const float d2 = (nx - mx) * (nx - mx) + (ny - my) * (ny - my) + (nz - mz) * (nz - mz);
         mx = nx; my = ny; mz = nz;
         if (d2 < stop2) break;
@@ -510,11 +686,11 @@ void Pipeline::aggregate(FrameResult* r) {
       float best_d2 = reach2;
       for (int32_t m = 0; m < nm; ++m) {
         const float* q = modes_ + 4 * m;
-        const float dx = votes[i].x - q[0], dy = votes[i].y - q[1], dz = votes[i].z - q[2];
+        const float dx = sx_row[i] - q[0], dy = sy_row[i] - q[1], dz = sz_row[i] - q[2];
         const float d2 = dx * dx + dy * dy + dz * dz;
         if (d2 < best_d2) { best_d2 = d2; best = m; }
       }
-      if (best >= 0) modes_[4 * best + 3] += votes[i].weight;
+      if (best >= 0) modes_[4 * best + 3] += sw_row[i];
     }
     // Top proposals by confidence (selection: nm ≤ kMaxStartsCap, output ≤ kMaxProposals).
     const int32_t out_cap = cfg.max_proposals_per_joint;

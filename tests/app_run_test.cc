@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <new>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -23,6 +25,33 @@ using namespace dp::tools;
 using dp::apptest::TempDir;
 using nlohmann::json;
 
+// Counts the allocations made by the thread that asked for it (other threads, e.g. OpenNI2's, are
+// not this test's business). Under AddressSanitizer its allocator hooks see every malloc and
+// operator new; otherwise a replaced operator new sees the C++ allocations.
+namespace {
+thread_local bool t_count_news = false;
+thread_local long t_news = 0;
+}  // namespace
+#if defined(__SANITIZE_ADDRESS__)
+extern "C" int __sanitizer_install_malloc_and_free_hooks(void (*malloc_hook)(const volatile void*, size_t),
+                                                         void (*free_hook)(const volatile void*));
+namespace {
+void count_malloc(const volatile void*, size_t) {
+  if (t_count_news) ++t_news;
+}
+void ignore_free(const volatile void*) {}
+const int kHooksInstalled = __sanitizer_install_malloc_and_free_hooks(count_malloc, ignore_free);
+}  // namespace
+#else
+__attribute__((noinline)) void* operator new(std::size_t n) {
+  if (t_count_news) ++t_news;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+__attribute__((noinline)) void operator delete(void* p) noexcept { std::free(p); }
+__attribute__((noinline)) void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#endif
+
 namespace {
 
 constexpr int16_t kPushBackMm = 55;
@@ -39,7 +68,8 @@ std::string write_test_blob(const TempDir& dir) {
 
 struct Captured {
   RunSummary summary;
-  std::vector<json> lines;
+  std::vector<json> lines;        // with --json
+  std::vector<std::string> text;  // without
   std::string log;
 };
 
@@ -59,7 +89,10 @@ Captured run_captured(const RunOptions& o) {
   };
   std::istringstream lines(slurp(out));
   c.log = slurp(log);
-  for (std::string line; std::getline(lines, line);) c.lines.push_back(json::parse(line));
+  for (std::string line; std::getline(lines, line);) {
+    if (o.json) c.lines.push_back(json::parse(line));
+    else c.text.push_back(line);
+  }
   return c;
 }
 
@@ -190,7 +223,10 @@ TEST(AppRun, OverlaysShowPartsJointsAndAreWritten) {
   o.source_spec = "dataset:" + (dir / "ds");
   o.overlay_dir = dir / "overlay";
   Captured c = run_captured(o);
-  EXPECT_TRUE(c.lines.empty());  // no --json: nothing on stdout
+  // Without --json: one text line per frame naming every joint.
+  ASSERT_EQ(c.text.size(), 2u);
+  EXPECT_EQ(c.text[1].rfind("frame 1 (source 1,", 0), 0u) << c.text[1];
+  for (const char* name : {" head ", " neck ", " hand_l "}) EXPECT_NE(c.text[0].find(name), std::string::npos) << c.text[0];
   ASSERT_EQ(c.summary.frames_processed, 2);
   for (int i = 0; i < 2; ++i) {
     char name[32];
@@ -234,6 +270,31 @@ TEST(AppRun, RunsOnSkeltrackRawFrames) {
   ASSERT_EQ(c.lines.size(), 3u) << "needs ../shared/data/skeltrack-frames (12 files): " << c.log;
   EXPECT_NE(c.log.find("640x480, fx 525.0 fy 525.0 cx 319.5 cy 239.5"), std::string::npos) << c.log;
   for (const json& j : c.lines) EXPECT_GT(j["foreground_pixels"].get<int>(), 1000);
+}
+
+TEST(AppRun, TheFrameLoopAllocatesNothing) {
+  TempDir dir;
+  const std::string blob = write_test_blob(dir);
+  RunOptions o;
+  o.blob_path = blob;
+  o.source_spec = "raw:../shared/data/skeltrack-frames/*.raw:640x480";
+  o.json = true;
+  o.all_proposals = true;
+  long news_in_loop = -1;
+  // Count from after frame 2 (stdio buffers exist by then) to after frame 12, the last.
+  o.on_frame = [&](int64_t processed) {
+    if (processed == 2) {
+      t_news = 0;
+      t_count_news = true;
+    } else if (processed == 12) {
+      t_count_news = false;
+      news_in_loop = t_news;
+    }
+  };
+  Captured c = run_captured(o);
+  t_count_news = false;
+  ASSERT_EQ(c.summary.frames_processed, 12) << c.log;
+  EXPECT_EQ(news_in_loop, 0) << "frames 3..12 (read, process, JSON) must not allocate";
 }
 
 TEST(AppRun, ReplaysARecordingMadeByRecord) {

@@ -291,3 +291,23 @@ TEST(PlatformV4l2, UnplugReportsLostThenReopensWhenBack) {
   EXPECT_EQ(depth, dev.frame(900));
   EXPECT_EQ(info.index, 1);
 }
+
+TEST(PlatformV4l2, LatestOnlyHandsOverTheNewestFrame) {
+  FakeDevice dev;
+  V4l2Syscalls s = dev.table();
+  SourceOptions o;
+  o.latest_only = true;
+  auto source = open_v4l2_source("/dev/video9", o, &s);
+  std::vector<uint16_t> depth(32);
+  FrameInfo info;
+  for (uint16_t base : {10, 20, 30}) dev.pending.push_back(dev.frame(base));
+  ASSERT_EQ(source->next(depth.data(), &info), NextStatus::kFrame);
+  EXPECT_EQ(depth, dev.frame(30)) << "the two older queued frames are not delivered late";
+  EXPECT_EQ(source->stats().dropped_frames, 2);
+  EXPECT_EQ(dev.queued.size(), 3u) << "every buffer back with the driver";
+  dev.pending.push_back(dev.frame(40));
+  ASSERT_EQ(source->next(depth.data(), &info), NextStatus::kFrame);
+  EXPECT_EQ(depth, dev.frame(40));
+  EXPECT_EQ(source->stats().dropped_frames, 2);
+  EXPECT_EQ(info.index, 1);
+}

@@ -22,9 +22,11 @@ constexpr int32_t kChunkPixels = 2048;
 constexpr int32_t kPrefetchAhead = 40;
 constexpr int32_t kPrefetchFromLevel = 9;
 
-struct alignas(16) ProbeSetup {
-  int16_t scale_q13[4];  // s in every lane
-  int16_t origin[4];     // u + 1, v + 1, u + 1, v + 1 (padded coordinates)
+// Per pixel of a chunk, kept in two arrays so the setups of two neighbouring pixels are one 16-byte
+// load: scale_q13 (s in 4 int16 lanes) and origin (u + 1, v + 1, u + 1, v + 1, padded coordinates).
+struct ChunkSetup {
+  alignas(16) int16_t scale_q13[kChunkPixels][4];
+  alignas(16) int16_t origin[kChunkPixels][4];
 };
 
 inline int32_t scale_q13_of(int32_t focal_factor, int32_t z_mm) {  // = dp::scale_q13
@@ -32,66 +34,95 @@ inline int32_t scale_q13_of(int32_t focal_factor, int32_t z_mm) {  // = dp::scal
   return s < 32767 ? s : 32767;
 }
 
+struct Consts {
+  __m128i low, high, row_madd, lane_mask;
+};
+
 template <bool kPacked>
-inline uint32_t visit(const ForestKernelArgs& a, uint32_t n, const ProbeSetup& p, __m128i low, __m128i high,
-                      __m128i row_madd) {
-  __m128i off4;
-  int32_t threshold;
+inline __m128i load_offsets4(const ForestKernelArgs& a, uint32_t n0, uint32_t n1, int32_t* t0, int32_t* t1,
+                             const Consts& c) {
   if constexpr (kPacked) {
-    const uint64_t bits = a.packed_nodes[n].bits;
-    off4 = _mm_srai_epi16(_mm_and_si128(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(a.packed_nodes + n)),
-                                        _mm_set1_epi16(int16_t(0xFFF0))),
-                          2);
-    threshold = int16_t(_pext_u64(bits, 0x000F000F000F000Full));
+    const uint64_t b0 = a.packed_nodes[n0].bits, b1 = a.packed_nodes[n1].bits;
+    *t0 = int16_t(_pext_u64(b0, 0x000F000F000F000Full));
+    *t1 = int16_t(_pext_u64(b1, 0x000F000F000F000Full));
+    const __m128i raw = _mm_set_epi64x(int64_t(b1), int64_t(b0));
+    return _mm_srai_epi16(_mm_and_si128(raw, c.lane_mask), 2);
   } else {
-    const blob::TreeNode* node = a.nodes + n;
-    off4 = _mm_slli_epi16(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(node)), 2);
-    threshold = node->threshold_mm;
+    const blob::TreeNode* x0 = a.nodes + n0;
+    const blob::TreeNode* x1 = a.nodes + n1;
+    *t0 = x0->threshold_mm;
+    *t1 = x1->threshold_mm;
+    const __m128i lo = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(x0));
+    const __m128i raw = _mm_castpd_si128(_mm_loadh_pd(_mm_castsi128_pd(lo), reinterpret_cast<const double*>(x1)));
+    return _mm_slli_epi16(raw, 2);
   }
-  __m128i xy = _mm_mulhrs_epi16(off4, _mm_loadl_epi64(reinterpret_cast<const __m128i*>(p.scale_q13)));
-  xy = _mm_add_epi16(xy, _mm_loadl_epi64(reinterpret_cast<const __m128i*>(p.origin)));
-  xy = _mm_min_epi16(_mm_max_epi16(xy, low), high);
-  const uint64_t addresses = uint64_t(_mm_cvtsi128_si64(_mm_madd_epi16(xy, row_madd)));
-  const int32_t d1 = a.probe_image[uint32_t(addresses)];
-  const int32_t d2 = a.probe_image[addresses >> 32];
-  return 2 * n + 1 + ((d1 - d2) > threshold ? 1u : 0u);
+}
+
+// Two visits (pixels i and i + 1) in the 8 int16 lanes of one register.
+template <bool kPacked>
+inline void visit_pair(const ForestKernelArgs& a, uint32_t* node, const ChunkSetup& setup, int32_t i,
+                       const Consts& c) {
+  const uint32_t n0 = node[i], n1 = node[i + 1];
+  int32_t t0, t1;
+  const __m128i off4 = load_offsets4<kPacked>(a, n0, n1, &t0, &t1, c);
+  __m128i xy = _mm_mulhrs_epi16(off4, _mm_load_si128(reinterpret_cast<const __m128i*>(setup.scale_q13[i])));
+  xy = _mm_add_epi16(xy, _mm_load_si128(reinterpret_cast<const __m128i*>(setup.origin[i])));
+  xy = _mm_min_epi16(_mm_max_epi16(xy, c.low), c.high);
+  const __m128i addr = _mm_madd_epi16(xy, c.row_madd);
+  const uint64_t a0 = uint64_t(_mm_cvtsi128_si64(addr));
+  const uint64_t a1 = uint64_t(_mm_extract_epi64(addr, 1));
+  const int32_t f0 = int32_t(a.probe_image[uint32_t(a0)]) - int32_t(a.probe_image[a0 >> 32]);
+  const int32_t f1 = int32_t(a.probe_image[uint32_t(a1)]) - int32_t(a.probe_image[a1 >> 32]);
+  node[i] = 2 * n0 + 1 + (f0 > t0 ? 1u : 0u);
+  node[i + 1] = 2 * n1 + 1 + (f1 > t1 ? 1u : 0u);
+}
+
+template <bool kPacked>
+inline void prefetch_node(const ForestKernelArgs& a, uint32_t n) {
+  if constexpr (kPacked)
+    _mm_prefetch(reinterpret_cast<const char*>(a.packed_nodes + n), _MM_HINT_T0);
+  else
+    _mm_prefetch(reinterpret_cast<const char*>(a.nodes + n), _MM_HINT_T0);
 }
 
 template <bool kPacked>
 void evaluate_breadth_first(const ForestKernelArgs& a) {
-  ProbeSetup setup[kChunkPixels];
-  const __m128i low = _mm_setzero_si128();
-  const __m128i high = _mm_setr_epi16(int16_t(a.width + 1), int16_t(a.height + 1), int16_t(a.width + 1),
-                                      int16_t(a.height + 1), 0, 0, 0, 0);
-  const __m128i row_madd = _mm_setr_epi16(1, int16_t(a.probe_stride), 1, int16_t(a.probe_stride), 0, 0, 0, 0);
+  ChunkSetup setup;
+  Consts c;
+  c.low = _mm_setzero_si128();
+  const int16_t w1 = int16_t(a.width + 1), h1 = int16_t(a.height + 1), st = int16_t(a.probe_stride);
+  c.high = _mm_setr_epi16(w1, h1, w1, h1, w1, h1, w1, h1);
+  c.row_madd = _mm_setr_epi16(1, st, 1, st, 1, st, 1, st);
+  c.lane_mask = _mm_set1_epi16(int16_t(0xFFF0));
   const uint32_t first_leaf = (1u << a.depth) - 1;
   for (int32_t base = 0; base < a.pixel_count; base += kChunkPixels) {
     const int32_t count = a.pixel_count - base < kChunkPixels ? a.pixel_count - base : kChunkPixels;
-    uint32_t* node = a.leaf_out + base;  // holds node indices until the last level
-    for (int32_t i = 0; i < count; ++i) {
-      const EvaluatedPixel px = a.pixels[base + i];
+    // Node indices live in leaf_out until the last level. An odd chunk gets one padding pixel (a copy
+    // of the last) whose result is discarded; it lives in `spare`, not past the caller's array.
+    const int32_t even = (count + 1) & ~1;
+    uint32_t spare[kChunkPixels];
+    uint32_t* node = even == count ? a.leaf_out + base : spare;
+    for (int32_t i = 0; i < even; ++i) {
+      const EvaluatedPixel px = a.pixels[base + (i < count ? i : count - 1)];
       const int16_t s = int16_t(scale_q13_of(a.focal_factor, px.z_mm));
       const int16_t u = int16_t(px.u + 1), v = int16_t(px.v + 1);
-      setup[i] = ProbeSetup{{s, s, s, s}, {u, v, u, v}};
+      for (int k = 0; k < 4; ++k) setup.scale_q13[i][k] = s;
+      setup.origin[i][0] = setup.origin[i][2] = u;
+      setup.origin[i][1] = setup.origin[i][3] = v;
       node[i] = 0;
     }
     for (int32_t level = 0; level < a.depth; ++level) {
+      int32_t i = 0;
       if (level >= kPrefetchFromLevel) {
-        const int32_t ahead = count > kPrefetchAhead ? count - kPrefetchAhead : 0;
-        int32_t i = 0;
-        for (; i < ahead; ++i) {
-          if constexpr (kPacked)
-            _mm_prefetch(reinterpret_cast<const char*>(a.packed_nodes + node[i + kPrefetchAhead]), _MM_HINT_T0);
-          else
-            _mm_prefetch(reinterpret_cast<const char*>(a.nodes + node[i + kPrefetchAhead]), _MM_HINT_T0);
-          node[i] = visit<kPacked>(a, node[i], setup[i], low, high, row_madd);
+        for (; i + kPrefetchAhead + 2 <= even; i += 2) {
+          prefetch_node<kPacked>(a, node[i + kPrefetchAhead]);
+          prefetch_node<kPacked>(a, node[i + kPrefetchAhead + 1]);
+          visit_pair<kPacked>(a, node, setup, i, c);
         }
-        for (; i < count; ++i) node[i] = visit<kPacked>(a, node[i], setup[i], low, high, row_madd);
-      } else {
-        for (int32_t i = 0; i < count; ++i) node[i] = visit<kPacked>(a, node[i], setup[i], low, high, row_madd);
       }
+      for (; i < even; i += 2) visit_pair<kPacked>(a, node, setup, i, c);
     }
-    for (int32_t i = 0; i < count; ++i) node[i] = a.leaf_index[node[i] - first_leaf];
+    for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - first_leaf];
   }
 }
 

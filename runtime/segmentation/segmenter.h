@@ -77,10 +77,10 @@ struct SegmenterConfig {
   // at most max_person_width_m wide. A component associated with a tracked user needs only
   // tracked_area_fraction of that area and no height.
   float join_mm = 30.0f;                  // > 0
-  float join_mm_per_m = 30.0f;            // ≥ 0
+  float join_mm_per_m = 45.0f;            // ≥ 0
   int32_t min_component_pixels = 24;      // smaller components are never examined, ≥ 1
   float min_person_area_m2 = 0.06f;       // > 0
-  float min_person_height_m = 0.9f;       // ≥ 0
+  float min_person_height_m = 0.85f;      // ≥ 0
   float max_person_width_m = 1.8f;        // > 0
   float tracked_area_fraction = 0.35f;    // (0, 1]
   // Fragments: a component failing the person test that touches another (neighbouring pixels

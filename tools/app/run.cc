@@ -155,6 +155,22 @@ void write_frame_json(LineBuffer& line, const RunOptions& options, const blob::L
            r.pixel_stride);
 }
 
+void write_frame_text(LineBuffer& line, const blob::LoadedBlob& b, int64_t frame, const platform::FrameInfo& info,
+                      double frame_ms, const FrameResult& r) {
+  line.clear();
+  line.add("frame %lld (source %lld, %.2f ms):", (long long)frame, (long long)info.index, frame_ms);
+  for (int j = 0; j < r.joint_count; ++j) {
+    line.add(j ? " | %.*s" : " %.*s", blob::kNameBytes, b.meta->joint_names[j]);
+    if (r.proposal_count[j] > 0) {
+      const JointProposal& p = r.proposals[j][0];
+      line.add(" %.3f %.3f %.3f (%.3g)", p.x_m, p.y_m, p.z_m, p.confidence);
+    } else {
+      line.add(" -");
+    }
+  }
+  if (r.flags & kFlagOverCycleBudget) line.add(" [over budget]");
+}
+
 struct AlignedFree {
   void operator()(uint8_t* p) const { std::free(p); }
 };
@@ -177,7 +193,9 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   blob::LoadedBlob b;
   if (blob::BlobStatus s = blob::load_blob(blob_bytes.data(), blob_bytes.size(), &b); s != blob::BlobStatus::kOk)
     fail(options.blob_path + ": not a usable blob: " + blob::blob_status_message(s));
-  std::unique_ptr<platform::FrameSource> source = platform::open_source(options.source_spec, options.source_options);
+  platform::SourceOptions source_options = options.source_options;
+  if (options.realtime) source_options.latest_only = true;
+  std::unique_ptr<platform::FrameSource> source = platform::open_source(options.source_spec, source_options);
   if (source->live() && options.usb_watch) {
     // With a depth camera on the bus, its disappearance is noticed even when the driver says
     // nothing. (Which camera a /dev/videoN or OpenNI2 URI is cannot be told portably: the first
@@ -188,7 +206,6 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
       if (!cameras.empty()) {
         std::fprintf(log, "run: watching %s for hotplug\n", platform::describe(cameras[0]).c_str());
         const std::string spec = options.source_spec;
-        const platform::SourceOptions source_options = options.source_options;
         source = platform::watch_hotplug(std::move(source), [spec, source_options] { return platform::open_source(spec, source_options); },
                                          std::move(lister), cameras[0]);
       }
@@ -292,6 +309,9 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
     if (options.json) {
       write_frame_json(line, options, b, pipeline, summary.frames_processed, info, ms, *result);
       line.write(json_out);
+    } else if (!options.quiet) {
+      write_frame_text(line, b, summary.frames_processed, info, ms, *result);
+      line.write(json_out);
     }
     if (!options.overlay_dir.empty()) {
       draw_overlay(frame, pipeline, *result, &overlay);
@@ -304,6 +324,7 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
       }
     }
     ++summary.frames_processed;
+    if (options.on_frame) options.on_frame(summary.frames_processed);
   }
   summary.seconds = std::chrono::duration<double>(Clock::now() - loop_start).count();
   summary.fps = summary.seconds > 0 ? double(summary.frames_processed) / summary.seconds : 0;

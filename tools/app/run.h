@@ -13,10 +13,13 @@
 //    "stage_cycles":{"foreground":..,"forest":..,"votes":..,"mean_shift":..},"total_cycles":..,
 //    "flags":["pixels_strided",...],"over_budget":false,
 //    "foreground_pixels":..,"evaluated_pixels":..,"pixel_stride":..}
+// Without --json each processed frame prints one text line instead:
+//   frame 3 (source 3, 0.41 ms): head 0.012 0.457 2.055 (812) | neck - | ...
 // Events (device lost/back, skipped corrupt frames) and the closing summary go to `log`.
 #pragma once
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <string>
 
 #include "platform/frame_source.h"
@@ -28,7 +31,8 @@ struct RunOptions {
   std::string blob_path;
   std::string source_spec;
   platform::SourceOptions source_options;
-  bool json = false;
+  bool json = false;             // JSON lines on json_out; otherwise one short text line per frame
+  bool quiet = false;            // no per-frame output at all (summary only)
   bool all_proposals = false;
   std::string overlay_dir;      // empty = no overlays
   int every = 1;                // process every N-th frame of the source
@@ -37,6 +41,8 @@ struct RunOptions {
   KernelIsa kernel = KernelIsa::kBest;
   // Live sources: watch the USB bus (libusb) for the depth camera leaving and coming back.
   bool usb_watch = true;
+  // Called after each processed frame (tests observe the loop with it). May be empty.
+  std::function<void(int64_t frames_processed)> on_frame;
 };
 
 struct RunSummary {

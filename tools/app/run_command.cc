@@ -31,7 +31,9 @@ static int run_run(int argc, char** argv) {
                         "  corrupt frames) on stderr.\n"
                         "  --blob BLOB          the model (forest_blob v1)\n") +
                 kSourceUsage +
-                "  --json               one JSON line per processed frame (schema: docs/app.md)\n"
+                "  --json               one JSON line per processed frame (schema: docs/app.md); without it\n"
+                "                       one text line per frame (best proposal per joint)\n"
+                "  --quiet              no per-frame output, only events and the summary\n"
                 "  --all-proposals      include every proposal of every joint, not only the best\n"
                 "  --overlay DIR        write DIR/NNNNNN.png per processed frame: parts, joints, skeleton\n"
                 "  --every N            process every N-th frame of the source (default 1)\n"
@@ -40,7 +42,7 @@ static int run_run(int argc, char** argv) {
                 "  --frames N           stop after N processed frames\n"
                 "  --kernel K           forest kernel: scalar, avx2, avx512 or best (default best)\n"
                 "  --no-usb-watch       live sources: do not watch the USB bus for the camera leaving/returning\n",
-            options, {"--json", "--realtime", "--all-proposals", "--no-usb-watch"});
+            options, {"--json", "--quiet", "--realtime", "--all-proposals", "--no-usb-watch"});
   if (args.help_requested()) {
     std::printf("%s", args.usage().c_str());
     return 0;
@@ -50,6 +52,7 @@ static int run_run(int argc, char** argv) {
   o.source_spec = args.get("--source");
   o.source_options = source_options_from(args);
   o.json = args.flag("--json");
+  o.quiet = args.flag("--quiet");
   o.all_proposals = args.flag("--all-proposals");
   o.overlay_dir = args.get("--overlay", "");
   o.every = int(args.get_int("--every", 1));

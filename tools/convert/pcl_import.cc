@@ -146,13 +146,26 @@ blob::BlobContents pcl_blob_contents(const std::vector<PclTree>& trees) {
   c.reference_focal_px = 525.0f;
   for (const char* name : kPclPartNames) c.part_names.push_back(name);
   for (const char* name : kJointNames) c.joint_names.push_back(name);
+  // One leaf record per label that occurs, in label order (all 25 for PCL's depth-20 trees), so
+  // the leaf count never exceeds what small trees can reference.
+  int record_of_label[kPclPartCount];
+  bool used[kPclPartCount] = {};
   for (const PclTree& t : trees) {
     if (t.depth != c.depth) fail("convert --from-pcl: trees of different heights");
-    c.tree_nodes.push_back(t.nodes);
-    c.tree_leaf_index.emplace_back(t.leaf_labels.begin(), t.leaf_labels.end());
+    for (uint8_t l : t.leaf_labels) used[l] = true;
   }
-  for (int label = 0; label < kPclPartCount; ++label)
+  int records = 0;
+  for (int label = 0; label < kPclPartCount; ++label) {
+    record_of_label[label] = used[label] ? records++ : -1;
+    if (!used[label]) continue;
     for (int p = 0; p < kPclPartCount; ++p) c.bpc_leaves.push_back(p == label ? 32768 : 0);
+  }
+  for (const PclTree& t : trees) {
+    c.tree_nodes.push_back(t.nodes);
+    std::vector<uint32_t> index(t.leaf_labels.size());
+    for (size_t i = 0; i < index.size(); ++i) index[i] = uint32_t(record_of_label[t.leaf_labels[i]]);
+    c.tree_leaf_index.push_back(std::move(index));
+  }
   c.config = blob::default_runtime_config(kJointCount);
   for (int j = 0; j < kJointCount; ++j) c.config.joints[j].part_mask = pcl_joint_parts(j);
   // PCL frames are 640×480: evaluate every foreground pixel of such a frame (no striding).

@@ -7,8 +7,9 @@
 // branch rule as blob v1, so nodes are copied unchanged. Differences from PCL kept deliberately:
 //   - probes off the image read the background constant (our rule) where PCL clamps to the border;
 //   - the probe scale is the integer rule of runtime/fixed_point.h, PCL uses float 1000/z.
-// Each leaf label becomes a one-hot Q15 distribution (32768 on that part); the 25 distributions
-// are shared by all trees (leaf record = label), so averaging trees gives PCL's vote fractions.
+// Each leaf label becomes a one-hot Q15 distribution (32768 on that part), one record per label
+// that occurs (in label order; all 25 for PCL's trees, where record = label), shared by all trees,
+// so averaging trees gives PCL's vote fractions.
 #pragma once
 #include <cstdint>
 #include <string>

@@ -36,7 +36,10 @@ static const char* const kUsage =
     "  --live                 background model on (frames in sequence from a fixed camera); default off\n"
     "  --dtp D                true-positive radius in metres (default 0.1)\n"
     "  --min-visible-joints K a person counts for the detection rate with >= K of 16 joints visible (default 8)\n"
-    "  --dump DIR             write DIR/NNNNNN.png per frame: depth in grey, users in colour, missed body red";
+    "  --dump DIR             write DIR/NNNNNN.png per frame: depth in grey, users in colour, missed body red\n"
+    "  --set K=V,...          override SegmenterConfig numbers: min_person_height_m, min_person_area_m2,\n"
+    "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
+    "                         fragment_radius_m, floor_samples, floor_iterations";
 
 struct Person {
   std::vector<JointTruth> joints;
@@ -81,7 +84,7 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
 }
 
 int run_segeval(int argc, char** argv) {
-  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--dump"}, {"--live"});
+  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--dump", "--set"}, {"--live"});
   if (a.help_requested()) {
     std::printf("%s\n", a.usage().c_str());
     return 0;
@@ -97,7 +100,26 @@ int run_segeval(int argc, char** argv) {
   const int w = ds.meta.width, h = ds.meta.height;
   const CameraIntrinsics intr{float(ds.meta.fx), float(ds.meta.fy), float(ds.meta.cx), float(ds.meta.cy)};
 
-  const SegmenterConfig cfg = default_segmenter_config(a.flag("--live"));
+  SegmenterConfig cfg = default_segmenter_config(a.flag("--live"));
+  if (a.has("--set")) {
+    for (const std::string& kv : split_list(a.get("--set"))) {
+      const size_t eq = kv.find('=');
+      if (eq == std::string::npos) fail("--set wants K=V, got '" + kv + "'");
+      const std::string k = kv.substr(0, eq);
+      const double v = std::atof(kv.c_str() + eq + 1);
+      if (k == "min_person_height_m") cfg.min_person_height_m = float(v);
+      else if (k == "min_person_area_m2") cfg.min_person_area_m2 = float(v);
+      else if (k == "max_person_width_m") cfg.max_person_width_m = float(v);
+      else if (k == "floor_margin_mm") cfg.floor_margin_mm = float(v);
+      else if (k == "join_mm") cfg.join_mm = float(v);
+      else if (k == "join_mm_per_m") cfg.join_mm_per_m = float(v);
+      else if (k == "fragment_join_mm") cfg.fragment_join_mm = float(v);
+      else if (k == "fragment_radius_m") cfg.fragment_radius_m = float(v);
+      else if (k == "floor_samples") cfg.floor_samples = int32_t(v);
+      else if (k == "floor_iterations") cfg.floor_iterations = int32_t(v);
+      else fail("--set: unknown key '" + k + "'");
+    }
+  }
   Segmenter seg;
   const size_t seg_bytes = segmenter_required_bytes(w, h);
   ArenaPtr seg_arena = aligned_arena(seg_bytes);

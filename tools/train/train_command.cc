@@ -9,6 +9,7 @@
 #include "tools/common/args.h"
 #include "tools/common/error.h"
 #include "tools/train/forest_trainer.h"
+#include "tools/train/forest_truncate.h"
 
 namespace dp::train {
 namespace {
@@ -32,6 +33,7 @@ constexpr const char* kUsage =
     "  --votes-per-leaf K     OJR votes kept per leaf and joint (default 2)\n"
     "  --vote-length L[,..]   OJR max vote length lambda_j, metres: one value or one per joint (default 0.5)\n"
     "  --structure FILE       retro-fit leaves onto this forest's trees instead of growing new ones\n"
+    "  --structure-depth D    cut the --structure trees back to depth D first (smaller OJR leaf tables)\n"
     "  --proposal FILE        mixture proposal: offsets drawn near FILE's chosen ones (90%) or uniform (10%)\n"
     "  --seed S               random seed (default 1); the forest is the same for any --threads\n"
     "  --threads N            worker threads (default: all cores)\n"
@@ -53,7 +55,7 @@ int run_train(int argc, char** argv) {
                    {"--data", "--method", "--trees", "--depth", "--out", "--objective", "--pixels-per-image",
                     "--images-per-tree", "--offsets", "--thresholds", "--max-offset", "--reference-focal",
                     "--min-samples", "--rho", "--nres", "--bandwidth", "--votes-per-leaf", "--vote-length",
-                    "--structure", "--proposal", "--seed", "--threads"},
+                    "--structure", "--structure-depth", "--proposal", "--seed", "--threads"},
                    {"--quiet"});
   if (args.help_requested()) {
     std::cout << kUsage;
@@ -73,6 +75,10 @@ int run_train(int argc, char** argv) {
 
   std::unique_ptr<TrainedForest> structure, proposal_forest;
   if (args.has("--structure")) structure = std::make_unique<TrainedForest>(read_forest(args.get("--structure")));
+  if (args.has("--structure-depth")) {
+    if (!structure) tools::fail("--structure-depth needs --structure");
+    *structure = truncate_structure(*structure, static_cast<int>(args.get_int("--structure-depth", 0)));
+  }
   std::unique_ptr<OffsetProposal> proposal;
   if (args.has("--proposal")) {
     proposal_forest = std::make_unique<TrainedForest>(read_forest(args.get("--proposal")));

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Reproduces the shipped models from ../shared/assets with our own tools (`make model`).
+# Every size, seed and clip list comes from mk/model.mk (overridable on the make command line);
+# the timings of each step are appended to $MODEL_DIR/times.txt for docs/results.md.
+set -euo pipefail
+CLI=${CLI:-build/bin/depthpose}
+D=${MODEL_DIR:-build/model}
+W=${MODEL_W:-320}; H=${MODEL_H:-240}
+PIXELS=${TRAIN_PIXELS:-1000}; OFFSETS=${TRAIN_OFFSETS:-400}; THRESHOLDS=${TRAIN_THRESHOLDS:-20}
+MIN_SAMPLES=${TRAIN_MIN_SAMPLES:-30}; IMAGES_PER_TREE=${TRAIN_IMAGES_PER_TREE:-1000}
+OJR_DEPTH=${OJR_STRUCTURE_DEPTH:-13}
+mkdir -p "$D" models
+: > "$D/times.txt"
+step() {  # step NAME command...
+  local name=$1; shift
+  local t0=$(date +%s.%N)
+  echo "== $name: $*" | tee -a "$D/commands.txt"
+  "$@"
+  local t1=$(date +%s.%N)
+  awk -v n="$name" -v a="$t0" -v b="$t1" 'BEGIN { printf "%s %.1f s\n", n, b - a }' | tee -a "$D/times.txt"
+}
+synth() {  # synth NAME SEED FRAMES CLIPS
+  [ -f "$D/$1/frames.jsonl" ] && [ "$(wc -l < "$D/$1/frames.jsonl")" -eq "$3" ] && return 0
+  rm -rf "$D/$1"
+  step "synth_$1" "$CLI" synth --assets "${ASSETS:-../shared/assets}" --out "$D/$1" --frames "$3" --seed "$2" \
+       --clips "$4" --width "$W" --height "$H" --preview "$D/$1_preview.png"
+}
+synth train 101 "${TRAIN_FRAMES:-3000}" "$TRAIN_CLIPS"
+synth val   202 "${VAL_FRAMES:-300}"    "$VAL_CLIPS"
+synth test  303 "${TEST_FRAMES:-500}"   "$TEST_CLIPS"
+synth demo  404 "${DEMO_FRAMES:-60}"    "$DEMO_CLIPS"
+
+step train_bpc "$CLI" train --data "$D/train" --method bpc --trees "${MODEL_TREES:-3}" --depth "${MODEL_DEPTH:-16}" \
+     --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --offsets "$OFFSETS" --thresholds "$THRESHOLDS" \
+     --min-samples "$MIN_SAMPLES" --seed 1 --out "$D/bpc.forest"
+# OJR: the classification structure cut back to depth 13 (so 16 joints x K=2 vote leaves fit ~6 MB),
+# vote leaves retro-fitted (paper 3.5.2).
+step train_ojr "$CLI" train --data "$D/train" --method ojr --structure "$D/bpc.forest" --structure-depth "$OJR_DEPTH" \
+     --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --seed 1 --out "$D/ojr.forest"
+for m in bpc ojr; do
+  step "convert_$m" "$CLI" convert "$D/$m.forest" --out "$D/${m}_untuned.blob"
+  step "tune_$m" "$CLI" tune --blob "$D/${m}_untuned.blob" --data "$D/val" --out "$D/$m.blob" --json "$D/tune_$m.json"
+  cp "$D/$m.blob" "models/$m.blob"
+  step "eval_$m" "$CLI" eval --blob "models/$m.blob" --data "$D/test" --json "$D/eval_$m.json" --plots "$D/plots_$m"
+done
+step record_demo "$CLI" record --source "dataset:$D/demo" --out models/demo.oni
+ls -l models

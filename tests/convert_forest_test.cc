@@ -1,0 +1,276 @@
+// `depthpose convert FOREST`: quantization bounds, padding, exact leaf agreement with the trained
+// forest's reference evaluator, byte-identical output, and the command line.
+#include <gtest/gtest.h>
+
+#include <bzlib.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "forest_blob/blob_loader.h"
+#include "forest_blob/blob_writer.h"
+#include "tools/cli/command.h"
+#include "tools/common/body_model.h"
+#include "tools/common/error.h"
+#include "tools/convert/forest_convert.h"
+#include "tools/convert/pcl_import.h"
+#include "tools/train/forest_file.h"
+
+using namespace dp;
+
+namespace {
+
+// A random trained forest: nodes split with probability `split_p` down to `depth`, so leaves end at
+// every level (the blob must pad them).
+train::TrainedForest random_trained_forest(uint32_t seed, const std::string& method, int trees, int depth,
+                                           double split_p, int k_votes = 2) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::uniform_int_distribution<int> off(-120, 120), thr(-300, 300);
+  train::TrainedForest f;
+  f.method = method;
+  f.reference_focal_px = 525.0f;
+  f.depth = depth;
+  f.part_names.assign(tools::kPartNames.begin(), tools::kPartNames.end());
+  f.joint_names.assign(tools::kJointNames.begin(), tools::kJointNames.end());
+  f.has_part_distributions = method == "bpc";
+  f.has_votes = method == "ojr";
+  f.votes_per_joint = f.has_votes ? k_votes : 0;
+  for (int t = 0; t < trees; ++t) {
+    train::TrainedTree tree;
+    std::vector<uint32_t> frontier = {0};
+    std::vector<uint32_t> all;
+    std::vector<bool> split;
+    while (!frontier.empty()) {  // breadth first keeps heap indices increasing
+      std::vector<uint32_t> next;
+      for (uint32_t h : frontier) {
+        const bool s = train::heap_level(h) < depth && (h == 0 || unit(rng) < split_p);
+        all.push_back(h);
+        split.push_back(s);
+        if (s) {
+          next.push_back(2 * h + 1);
+          next.push_back(2 * h + 2);
+        }
+      }
+      frontier = next;
+    }
+    std::vector<size_t> order(all.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return all[a] < all[b]; });
+    int32_t leaves = 0;
+    for (size_t i : order) {
+      train::TrainedNode n;
+      n.heap_index = all[i];
+      if (split[i]) {
+        n.du1 = int16_t(off(rng));
+        n.dv1 = int16_t(off(rng));
+        n.du2 = int16_t(off(rng));
+        n.dv2 = int16_t(off(rng));
+        n.threshold_mm = float(thr(rng));
+      } else {
+        n.leaf = leaves++;
+      }
+      tree.nodes.push_back(n);
+    }
+    tree.leaf_pixel_counts.assign(size_t(leaves), 10);
+    for (int32_t l = 0; l < leaves; ++l) {
+      if (f.has_part_distributions) {
+        std::vector<double> raw(tools::kPartCount);
+        double sum = 0;
+        for (double& r : raw) sum += (r = unit(rng) < 0.6 ? 0.0 : unit(rng));
+        if (sum == 0) raw[0] = sum = 1;
+        for (double r : raw) tree.part_probabilities.push_back(float(r / sum));
+      }
+      if (f.has_votes)
+        for (int j = 0; j < tools::kJointCount; ++j)
+          for (int k = 0; k < k_votes; ++k) {
+            const bool none = unit(rng) < 0.1;
+            tree.votes.push_back(train::LeafVote{float(unit(rng) * 5 - 2.5), float(unit(rng) * 1.2 - 0.6),
+                                                 float(unit(rng) * 0.8 - 0.4), none ? 0.0f : float(unit(rng) * 300)});
+          }
+    }
+    f.trees.push_back(std::move(tree));
+  }
+  train::link_and_validate(f, "random forest");
+  return f;
+}
+
+struct TempDir {
+  std::string path;
+  TempDir() {
+    char tmpl[] = "/tmp/dp_convert_test_XXXXXX";
+    path = mkdtemp(tmpl);
+  }
+  ~TempDir() { std::filesystem::remove_all(path); }
+};
+
+int run_command(std::vector<std::string> args) {
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  return cli::find_command("convert")->run(int(argv.size()), argv.data());
+}
+
+}  // namespace
+
+TEST(ConvertForest, BpcLeavesMatchTheTrainedForestExactly) {
+  const train::TrainedForest f = random_trained_forest(1, "bpc", 3, 9, 0.8);
+  tools::QuantizationReport rep;
+  const std::vector<uint8_t> bytes = blob::write_blob(tools::convert_forest(f, {}, "test", &rep));
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+  int deepest = 0;
+  for (const auto& t : f.trees) deepest = std::max(deepest, t.max_leaf_level());
+  EXPECT_EQ(b.depth(), deepest);
+  EXPECT_GT(rep.padded_nodes, 0u);
+  // Leaves: every pixel of every sample frame, both runtime kernels, at two focal lengths.
+  const auto frames = tools::sample_frames(160, 120, 6);
+  for (float focal : {262.5f * 160 / 320, 300.0f}) {
+    const tools::LeafCheck check = tools::check_leaves(f, bytes, frames, 160, 120, focal);
+    EXPECT_GT(check.pixels, 50000u);
+    EXPECT_EQ(check.mismatches, 0u) << "focal " << focal;
+  }
+  // Quantization: below 2^-15 per probability, sums ≤ 32768.
+  EXPECT_LT(rep.worst_probability_error, 1.0 / 32768.0);
+  size_t record = 0;
+  for (const auto& t : f.trees)
+    for (size_t l = 0; l < t.leaf_count(); ++l, ++record) {
+      uint32_t sum = 0;
+      for (int p = 0; p < tools::kPartCount; ++p) {
+        const uint16_t q = b.bpc_leaf(uint32_t(record))[p];
+        sum += q;
+        EXPECT_LT(std::fabs(q / 32768.0 - t.part_probabilities[l * tools::kPartCount + p]), 1.0 / 32768.0);
+      }
+      EXPECT_LE(sum, 32768u);
+      EXPECT_GE(sum, 32767u);
+    }
+  // Joints: our 16 with the documented masks.
+  ASSERT_EQ(b.meta->joint_count, tools::kJointCount);
+  EXPECT_EQ(b.config->joints[0].part_mask, 0xFu);          // head = head_lu|head_ru|head_lw|head_rw
+  EXPECT_EQ(b.config->joints[1].part_mask, 1u << 4);       // neck
+  EXPECT_EQ(b.config->joints[15].part_mask, 1u << 30);     // foot_r
+}
+
+TEST(ConvertForest, PaddingSendsEarlyLeavesToTheirRecord) {
+  const train::TrainedForest f = random_trained_forest(2, "bpc", 1, 7, 0.5);
+  const blob::BlobContents c = tools::convert_forest(f, {}, "test", nullptr);
+  const int depth = c.depth;
+  for (const train::TrainedNode& n : f.trees[0].nodes) {
+    if (!n.is_leaf()) {
+      EXPECT_EQ(c.tree_nodes[0][n.heap_index].threshold_mm, int16_t(n.threshold_mm));
+      continue;
+    }
+    EXPECT_EQ(c.tree_leaf_index[0][train::padded_leaf_slot(n.heap_index, depth)], uint32_t(n.leaf));
+    // Padded descendants go left always.
+    for (uint32_t h = 2 * n.heap_index + 1; h < blob::nodes_per_tree(depth); h = 2 * h + 1)
+      EXPECT_EQ(c.tree_nodes[0][h].threshold_mm, blob::kPadThreshold);
+  }
+}
+
+TEST(ConvertForest, OjrVotesQuantizedWithinBounds) {
+  const train::TrainedForest f = random_trained_forest(3, "ojr", 2, 8, 0.8, 6);
+  tools::QuantizationReport rep;
+  const blob::BlobContents c = tools::convert_forest(f, {}, "test", &rep);
+  EXPECT_EQ(c.votes_per_joint, blob::kMaxVotesPerLeafJoint);
+  EXPECT_GT(rep.dropped_votes, 0u);            // K = 6 > 4
+  EXPECT_LE(rep.worst_vote_offset_error_mm, 0.5);
+  EXPECT_GT(rep.clamped_vote_components, 0u);  // dx up to ±2.5 m > 2000 mm
+  EXPECT_LT(rep.worst_vote_weight_rel_error, 0.01);
+  const std::vector<uint8_t> bytes = blob::write_blob(c);
+  const tools::LeafCheck check = tools::check_leaves(f, bytes, tools::sample_frames(160, 120, 4), 160, 120, 262.5f);
+  EXPECT_EQ(check.mismatches, 0u);
+  // The heaviest vote of joint 0 of the first leaf is kept first, its offset rounded to mm.
+  const train::LeafVote* in = &f.trees[0].votes[0];
+  int heaviest = 0;
+  for (int k = 1; k < 6; ++k)
+    if (in[k].weight > in[heaviest].weight) heaviest = k;
+  EXPECT_NEAR(c.ojr_leaves[0].dy_mm, in[heaviest].dy * 1000.0, 0.5);
+  EXPECT_GT(c.ojr_leaves[0].weight, 0);
+}
+
+TEST(ConvertForest, CommandWritesByteIdenticalBlobs) {
+  TempDir dir;
+  const std::string forest = dir.path + "/f.forest";
+  train::write_forest(forest, random_trained_forest(4, "bpc", 2, 8, 0.85));
+  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/a.blob", "--check-frames", "3"}), 0);
+  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/b.blob", "--check-frames", "3"}), 0);
+  const std::vector<uint8_t> a = blob::read_blob_file(dir.path + "/a.blob");
+  EXPECT_EQ(a, blob::read_blob_file(dir.path + "/b.blob"));
+  blob::LoadedBlob b;
+  EXPECT_EQ(blob::load_blob(a.data(), a.size(), &b), blob::BlobStatus::kOk);
+  EXPECT_THROW(run_command({"convert", dir.path + "/missing.forest", "--out", dir.path + "/c.blob"}), tools::ToolError);
+  EXPECT_THROW(run_command({"convert", forest, "--out", dir.path + "/c.blob", "--max-size", "0x9"}), tools::ToolError);
+}
+
+TEST(ConvertForest, RefusesWhatABlobCannotHold) {
+  train::TrainedForest f = random_trained_forest(5, "bpc", 1, 6, 0.9);
+  f.trees[0].nodes[0].du1 = 5000;  // beyond kMaxProbeOffsetPxm
+  EXPECT_THROW(tools::convert_forest(f, {}, "test", nullptr), tools::ToolError);
+  train::TrainedForest g = random_trained_forest(6, "bpc", 1, 6, 0.9);
+  g.part_names = std::vector<std::string>(g.part_names.size(), "x");
+  EXPECT_THROW(tools::convert_forest(g, {}, "test", nullptr), tools::ToolError);  // no joint maps
+}
+
+namespace {
+void write_bz2(const std::string& path, const std::string& text) {
+  FILE* f = std::fopen(path.c_str(), "wb");
+  ASSERT_NE(f, nullptr);
+  int err = 0;
+  BZFILE* bz = BZ2_bzWriteOpen(&err, f, 9, 0, 0);
+  BZ2_bzWrite(&err, bz, const_cast<char*>(text.data()), int(text.size()));
+  BZ2_bzWriteClose(&err, bz, 0, nullptr, nullptr);
+  std::fclose(f);
+}
+// A depth-2 PCL tree: 3 nodes, 4 leaf labels.
+const char* const kSmallPclTree =
+    "2\n  -86   -26   201   -24  -229\n  -75  -225    -8     5   223\n 74 -85 0 0 223\n"
+    "19\n3\n10\n24\n";
+}  // namespace
+
+TEST(ConvertPcl, ReadsTheTreeFormatAndWritesABlob) {
+  TempDir dir;
+  write_bz2(dir.path + "/t1.bz2", kSmallPclTree);
+  write_bz2(dir.path + "/t2.bz2", kSmallPclTree);
+  const tools::PclTree t = tools::read_pcl_tree(dir.path + "/t1.bz2");
+  ASSERT_EQ(t.depth, 2);
+  ASSERT_EQ(t.nodes.size(), 3u);
+  EXPECT_EQ(t.nodes[0].du1, -86);
+  EXPECT_EQ(t.nodes[0].threshold_mm, -229);
+  EXPECT_EQ(t.nodes[2].du1, 74);
+  EXPECT_EQ(t.leaf_labels, (std::vector<uint8_t>{19, 3, 10, 24}));
+  ASSERT_EQ(run_command({"convert", "--from-pcl", dir.path + "/t1.bz2", dir.path + "/t2.bz2", "--out",
+                         dir.path + "/p.blob"}),
+            0);
+  const std::vector<uint8_t> bytes = blob::read_blob_file(dir.path + "/p.blob");
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+  EXPECT_EQ(b.tree_count(), 2);
+  // Labels used: 3, 10, 19, 24 → records 0..3, one-hot on their part.
+  EXPECT_EQ(b.meta->leaf_count, 4u);
+  EXPECT_EQ(b.tree_leaf_index(1)[3], 3u);
+  EXPECT_EQ(b.bpc_leaf(3)[24], 32768);
+  EXPECT_EQ(b.bpc_leaf(0)[3], 32768);
+  EXPECT_STREQ(b.meta->part_names[24], "Lchest");
+}
+
+TEST(ConvertPcl, RefusesBrokenFiles) {
+  TempDir dir;
+  write_bz2(dir.path + "/label.bz2", "1\n0 0 0 0 5\n3\n25\n");          // label 25 is not a PCL part
+  write_bz2(dir.path + "/short.bz2", "2\n0 0 0 0 5\n1 1 1 1 1\n");       // ends inside the nodes
+  write_bz2(dir.path + "/height.bz2", "21\n");                           // deeper than kMaxDepth
+  write_bz2(dir.path + "/offset.bz2", "1\n5000 0 0 0 5\n3\n4\n");         // offset out of range
+  write_bz2(dir.path + "/trail.bz2", "1\n0 0 0 0 5\n3\n4\n7\n");          // trailing data
+  write_bz2(dir.path + "/text.bz2", "1\n0 0 zero 0 5\n3\n4\n");           // not a number
+  for (const char* name : {"label", "short", "height", "offset", "trail", "text"})
+    EXPECT_THROW(tools::read_pcl_tree(dir.path + "/" + name + ".bz2"), tools::ToolError) << name;
+  std::FILE* plain = std::fopen((dir.path + "/plain.bz2").c_str(), "wb");
+  std::fputs("1\n0 0 0 0 5\n3\n4\n", plain);
+  std::fclose(plain);
+  EXPECT_THROW(tools::read_pcl_tree(dir.path + "/plain.bz2"), tools::ToolError);  // not bzip2
+  EXPECT_THROW(tools::read_pcl_tree(dir.path + "/absent.bz2"), tools::ToolError);
+}

@@ -1,0 +1,248 @@
+#include "tools/convert/forest_convert.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "forest_blob/blob_loader.h"
+#include "runtime/fixed_point.h"
+#include "runtime/kernels/forest_kernel.h"
+#include "tools/common/body_model.h"
+#include "tools/common/error.h"
+
+namespace dp::tools {
+
+void bpc_joint_masks(const std::vector<std::string>& parts, std::vector<std::string>* joint_names,
+                     std::vector<uint32_t>* masks, const std::string& what) {
+  joint_names->clear();
+  masks->clear();
+  auto part_bit = [&](const std::string& name) -> uint32_t {
+    for (size_t p = 0; p < parts.size(); ++p)
+      if (parts[p] == name) return 1u << p;
+    return 0;
+  };
+  for (const char* joint : kJointNames) {
+    uint32_t mask = part_bit(joint);
+    if (std::string(joint) == "head")
+      mask |= part_bit("head_lu") | part_bit("head_ru") | part_bit("head_lw") | part_bit("head_rw");
+    if (mask == 0) continue;
+    joint_names->push_back(joint);
+    masks->push_back(mask);
+  }
+  if (masks->empty()) fail(what + ": no part name matches a joint (head, neck, shoulder_l, ...): cannot map joints");
+}
+
+namespace {
+
+// Largest-remainder Q15 rounding of one distribution; returns the worst |q/32768 − p|.
+double quantize_distribution(const float* p, int parts, uint16_t* out) {
+  double sum = 0;
+  for (int c = 0; c < parts; ++c) sum += double(p[c]);
+  int64_t target = int64_t(std::llround(sum * 32768.0));
+  if (target > 32768) target = 32768;
+  int64_t given = 0;
+  std::vector<std::pair<double, int>> remainders;
+  for (int c = 0; c < parts; ++c) {
+    const double exact = double(p[c]) * 32768.0;
+    const int64_t q = int64_t(std::floor(exact));
+    out[c] = uint16_t(q);
+    given += q;
+    remainders.push_back({exact - double(q), c});
+  }
+  // Largest fractional parts first; ties by part index (deterministic).
+  std::stable_sort(remainders.begin(), remainders.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  for (size_t k = 0; given < target && k < remainders.size(); ++k, ++given) ++out[remainders[k].second];
+  double worst = 0;
+  for (int c = 0; c < parts; ++c) worst = std::max(worst, std::fabs(out[c] / 32768.0 - double(p[c])));
+  return worst;
+}
+
+}  // namespace
+
+blob::BlobContents convert_forest(const train::TrainedForest& forest, const ConvertOptions& options,
+                                  const std::string& what, QuantizationReport* report) {
+  QuantizationReport rep;
+  const bool bpc = forest.method == "bpc";
+  if (!bpc && forest.method != "ojr") fail(what + ": method '" + forest.method + "' is neither bpc nor ojr");
+  if (bpc && !forest.has_part_distributions) fail(what + ": BPC forest without part distributions");
+  if (!bpc && !forest.has_votes) fail(what + ": OJR forest without votes");
+  if (forest.trees.empty() || forest.trees.size() > size_t(blob::kMaxTrees))
+    fail(what + ": " + std::to_string(forest.trees.size()) + " trees; a blob holds 1.." + std::to_string(blob::kMaxTrees));
+  if (forest.part_names.size() > size_t(blob::kMaxParts))
+    fail(what + ": " + std::to_string(forest.part_names.size()) + " parts; a blob holds at most " +
+         std::to_string(blob::kMaxParts));
+  int depth = 1;
+  for (const auto& t : forest.trees) depth = std::max(depth, t.max_leaf_level());
+  if (depth > blob::kMaxDepth)
+    fail(what + ": deepest leaf at level " + std::to_string(depth) + "; a blob holds depth ≤ " +
+         std::to_string(blob::kMaxDepth));
+  rep.blob_depth = depth;
+
+  blob::BlobContents c;
+  c.method = bpc ? blob::Method::kBpc : blob::Method::kOjr;
+  c.depth = depth;
+  c.reference_focal_px = forest.reference_focal_px;
+  c.part_names = forest.part_names;
+  c.max_width = options.max_width;
+  c.max_height = options.max_height;
+  std::vector<uint32_t> masks;
+  if (bpc) {
+    bpc_joint_masks(forest.part_names, &c.joint_names, &masks, what);
+  } else {
+    if (forest.joint_names.size() > size_t(blob::kMaxJoints))
+      fail(what + ": " + std::to_string(forest.joint_names.size()) + " joints; a blob holds at most " +
+           std::to_string(blob::kMaxJoints));
+    c.joint_names = forest.joint_names;
+    c.votes_per_joint = std::min(forest.votes_per_joint, blob::kMaxVotesPerLeafJoint);
+  }
+
+  const size_t first_leaf = blob::nodes_per_tree(depth);
+  uint32_t record_base = 0;
+  double max_weight = 0;
+  if (!bpc)
+    for (const auto& t : forest.trees)
+      for (const auto& v : t.votes) max_weight = std::max(max_weight, double(v.weight));
+  const double weight_scale = max_weight > 0 ? 65535.0 / max_weight : 1.0;
+  const int parts = int(forest.part_names.size());
+  const int joints = int(forest.joint_names.size());
+  const int k_in = forest.votes_per_joint;
+
+  for (size_t ti = 0; ti < forest.trees.size(); ++ti) {
+    const train::TrainedTree& tree = forest.trees[ti];
+    std::vector<blob::TreeNode> nodes(blob::nodes_per_tree(depth), blob::TreeNode{0, 0, 0, 0, blob::kPadThreshold});
+    std::vector<uint32_t> index(blob::leaves_per_tree(depth), 0);
+    size_t split_nodes = 0;
+    for (const train::TrainedNode& n : tree.nodes) {
+      const int level = train::heap_level(n.heap_index);
+      if (!n.is_leaf()) {
+        for (int v : {n.du1, n.dv1, n.du2, n.dv2})
+          if (std::abs(v) > blob::kMaxProbeOffsetPxm)
+            fail(what + ": tree " + std::to_string(ti) + " node " + std::to_string(n.heap_index) + " offset " +
+                 std::to_string(v) + " beyond ±" + std::to_string(blob::kMaxProbeOffsetPxm));
+        nodes[n.heap_index] = blob::TreeNode{n.du1, n.dv1, n.du2, n.dv2, int16_t(n.threshold_mm)};
+        ++split_nodes;
+        continue;
+      }
+      // Every leaf slot under this leaf points at its record (only the always-left one is reached).
+      const uint64_t span = uint64_t(1) << (depth - level);
+      const uint64_t first = (uint64_t(n.heap_index) + 1) * span - 1 - first_leaf;
+      for (uint64_t s = 0; s < span; ++s) index[first + s] = record_base + uint32_t(n.leaf);
+    }
+    rep.padded_nodes += nodes.size() - split_nodes;
+    c.tree_nodes.push_back(std::move(nodes));
+    c.tree_leaf_index.push_back(std::move(index));
+
+    for (size_t l = 0; l < tree.leaf_count(); ++l) {
+      if (bpc) {
+        std::vector<uint16_t> q(static_cast<size_t>(parts));
+        rep.worst_probability_error =
+            std::max(rep.worst_probability_error, quantize_distribution(&tree.part_probabilities[l * parts], parts, q.data()));
+        c.bpc_leaves.insert(c.bpc_leaves.end(), q.begin(), q.end());
+        continue;
+      }
+      for (int j = 0; j < joints; ++j) {
+        const train::LeafVote* in = &tree.votes[(l * joints + j) * size_t(k_in)];
+        std::vector<int> order(static_cast<size_t>(k_in));
+        for (int k = 0; k < k_in; ++k) order[k] = k;
+        std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return in[a].weight > in[b].weight; });
+        for (int k = 0; k < k_in; ++k)
+          if (k >= c.votes_per_joint && in[order[k]].weight > 0) ++rep.dropped_votes;
+        for (int k = 0; k < c.votes_per_joint; ++k) {
+          const train::LeafVote& v = in[order[k]];
+          blob::OjrVote out{0, 0, 0, 0};
+          if (v.weight > 0) {
+            int16_t* comp[3] = {&out.dx_mm, &out.dy_mm, &out.dz_mm};
+            const float metres[3] = {v.dx, v.dy, v.dz};
+            for (int a = 0; a < 3; ++a) {
+              const double mm = double(metres[a]) * 1000.0;
+              double q = std::round(mm);
+              if (std::fabs(q) > blob::kMaxVoteOffsetMm) {
+                q = q > 0 ? blob::kMaxVoteOffsetMm : -blob::kMaxVoteOffsetMm;
+                ++rep.clamped_vote_components;
+              } else {
+                rep.worst_vote_offset_error_mm = std::max(rep.worst_vote_offset_error_mm, std::fabs(q - mm));
+              }
+              *comp[a] = int16_t(q);
+            }
+            const double w = std::max(1.0, std::round(double(v.weight) * weight_scale));
+            out.weight = uint16_t(std::min(65535.0, w));
+            rep.worst_vote_weight_rel_error = std::max(
+                rep.worst_vote_weight_rel_error, std::fabs(out.weight / weight_scale - double(v.weight)) / double(v.weight));
+          }
+          c.ojr_leaves.push_back(out);
+        }
+      }
+    }
+    record_base += uint32_t(tree.leaf_count());
+  }
+  c.config = blob::default_runtime_config(int(c.joint_names.size()));
+  for (size_t j = 0; j < masks.size(); ++j) c.config.joints[j].part_mask = masks[j];
+  if (report) *report = rep;
+  return c;
+}
+
+std::vector<std::vector<uint16_t>> sample_frames(int width, int height, int count) {
+  std::vector<std::vector<uint16_t>> frames;
+  std::mt19937 rng(20261122u);
+  for (int i = 0; i < count; ++i) {
+    std::vector<uint16_t> d(size_t(width) * height, 0);
+    const float cu = width * (0.3f + 0.4f * float(rng() % 1000) / 1000.0f);
+    const float cv = height * (0.3f + 0.4f * float(rng() % 1000) / 1000.0f);
+    const float r = height * (0.15f + 0.25f * float(rng() % 1000) / 1000.0f);
+    const int base = 800 + int(rng() % 3200);
+    for (int v = 0; v < height; ++v)
+      for (int u = 0; u < width; ++u) {
+        const float du = u - cu, dv = v - cv;
+        const bool inside = i % 3 == 0 ? true : du * du + dv * dv < r * r;  // every third: a full tilted plane
+        if (!inside) continue;
+        int z = base + int(du * 2.0f + dv * 1.5f) + int(rng() % 7);
+        if (i % 3 == 2 && rng() % 13 == 0) z = 0;  // holes
+        d[size_t(v) * width + u] = uint16_t(std::clamp(z, 0, 8000));
+      }
+    frames.push_back(std::move(d));
+  }
+  return frames;
+}
+
+LeafCheck check_leaves(const train::TrainedForest& forest, const std::vector<uint8_t>& blob_bytes,
+                       const std::vector<std::vector<uint16_t>>& frames, int width, int height, float focal_px) {
+  blob::LoadedBlob b;
+  if (blob::load_blob(blob_bytes.data(), blob_bytes.size(), &b) != blob::BlobStatus::kOk)
+    fail("check_leaves: the blob does not load");
+  std::vector<uint32_t> record_base(forest.trees.size(), 0);
+  for (size_t t = 1; t < forest.trees.size(); ++t) record_base[t] = record_base[t - 1] + uint32_t(forest.trees[t - 1].leaf_count());
+  const int32_t focal = focal_factor_mm(focal_px, forest.reference_focal_px);
+  LeafCheck check;
+  for (const auto& depth : frames) {
+    const std::vector<uint16_t> probe = train::make_probe_image(depth.data(), nullptr, width, height);
+    std::vector<uint16_t> padded(kernels::padded_probe_elements(width, height));
+    kernels::fill_probe_border(padded.data(), width, height);
+    std::vector<EvaluatedPixel> pixels;
+    for (int v = 0; v < height; ++v)
+      for (int u = 0; u < width; ++u) {
+        const uint16_t z = probe[size_t(v) * width + u];
+        padded[size_t(v + 1) * (width + 2) + u + 1] = z;
+        if (z != kBackgroundDepthMm) pixels.push_back(EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0});
+      }
+    if (pixels.empty()) continue;
+    std::vector<uint32_t> ref(pixels.size()), best(pixels.size());
+    for (size_t t = 0; t < forest.trees.size(); ++t) {
+      kernels::ForestKernelArgs a{padded.data(), width + 2, width, height, focal, pixels.data(), int32_t(pixels.size()),
+                                  b.tree_nodes(int(t)), nullptr, b.tree_leaf_index(int(t)), b.depth(), ref.data()};
+      kernels::forest_kernel(KernelIsa::kScalar)(a);
+      a.leaf_out = best.data();
+      kernels::forest_kernel(KernelIsa::kBest)(a);
+      const train::TrainedTree& tree = forest.trees[t];
+      for (size_t i = 0; i < pixels.size(); ++i) {
+        const int pos = train::leaf_node_for_pixel(tree, probe.data(), width, height, pixels[i].u, pixels[i].v, focal);
+        const uint32_t expected = record_base[t] + uint32_t(tree.nodes[size_t(pos)].leaf);
+        ++check.pixels;
+        check.mismatches += (ref[i] != expected) + (best[i] != expected) > 0;
+      }
+    }
+  }
+  return check;
+}
+
+}  // namespace dp::tools
