@@ -55,7 +55,7 @@ TEST_BIN     := $(BUILD)/bin/depthpose_tests
 LINK_TOOLS   := -Wl,--whole-archive $(TOOLS_LIB) -Wl,--no-whole-archive $(RUNTIME_LIB)
 EXTRA_LINK_DEPS :=
 
-.PHONY: all run test test-unit test-asan bench fuzz-smoke check-runtime deps clean model
+.PHONY: all run test test-unit test-asan chain-smoke bench fuzz-smoke check-runtime deps clean model
 .DEFAULT_GOAL := all
 all: $(CLI) $(RUNTIME_LIB) $(EXTRA_LINK_DEPS)
 
@@ -113,8 +113,13 @@ test:
 	$(MAKE) --no-print-directory test-unit BUILD=build || rc=1; \
 	$(MAKE) --no-print-directory test-unit BUILD=build/asan SAN=1 OPT=-O1 || rc=1; \
 	$(MAKE) --no-print-directory check-runtime BUILD=build || rc=1; \
-	mk/test_summary.sh build/test-logs/unit.log build/asan/test-logs/unit.log; s=$$?; \
+	$(MAKE) --no-print-directory chain-smoke BUILD=build || rc=1; \
+	mk/test_summary.sh build/test-logs/unit.log build/asan/test-logs/unit.log build/chain/chain.log; s=$$?; \
 	[ $$rc -eq 0 ] && [ $$s -eq 0 ]
+
+# The whole chain (synth → train → convert → tune → eval → record → run) on a tiny corpus.
+chain-smoke: $(CLI) $(EXTRA_LINK_DEPS)
+	@CLI=$(CLI) mk/chain_smoke.sh
 
 bench: $(BENCH_BINS) $(CLI) $(EXTRA_LINK_DEPS)
 	@mkdir -p $(BUILD)/bench

@@ -9,7 +9,8 @@ W=${MODEL_W:-320}; H=${MODEL_H:-240}
 PIXELS=${TRAIN_PIXELS:-1000}; OFFSETS=${TRAIN_OFFSETS:-400}; THRESHOLDS=${TRAIN_THRESHOLDS:-20}
 MIN_SAMPLES=${TRAIN_MIN_SAMPLES:-30}; IMAGES_PER_TREE=${TRAIN_IMAGES_PER_TREE:-1000}
 OJR_DEPTH=${OJR_STRUCTURE_DEPTH:-13}
-mkdir -p "$D" models
+OUT=${MODEL_OUT:-models}   # where the blobs and demo.oni go (the chain smoke test writes elsewhere)
+mkdir -p "$D" "$OUT"
 : > "$D/times.txt"
 step() {  # step NAME command...
   local name=$1; shift
@@ -40,8 +41,8 @@ step train_ojr "$CLI" train --data "$D/train" --method ojr --structure "$D/bpc.f
 for m in bpc ojr; do
   step "convert_$m" "$CLI" convert "$D/$m.forest" --out "$D/${m}_untuned.blob"
   step "tune_$m" "$CLI" tune --blob "$D/${m}_untuned.blob" --data "$D/val" --out "$D/$m.blob" --json "$D/tune_$m.json"
-  cp "$D/$m.blob" "models/$m.blob"
-  step "eval_$m" "$CLI" eval --blob "models/$m.blob" --data "$D/test" --json "$D/eval_$m.json" --plots "$D/plots_$m"
+  cp "$D/$m.blob" "$OUT/$m.blob"
+  step "eval_$m" "$CLI" eval --blob "$OUT/$m.blob" --data "$D/test" --json "$D/eval_$m.json" --plots "$D/plots_$m"
 done
-step record_demo "$CLI" record --source "dataset:$D/demo" --out models/demo.oni
-ls -l models
+step record_demo "$CLI" record --source "dataset:$D/demo" --out "$OUT/demo.oni"
+ls -l "$OUT"

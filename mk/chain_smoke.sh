@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# End-to-end smoke test of the whole offline + online chain on a tiny corpus (~15 s):
+# synth → train (BPC, OJR) → convert → tune → eval → record → run, with the same script that
+# makes the shipped models (mk/make_model.sh), writing under build/chain (never models/).
+# Each check prints a GoogleTest-style line so mk/test_summary.sh counts it.
+set -uo pipefail
+CLI=${CLI:-build/bin/depthpose}
+ROOT=${CHAIN_DIR:-build/chain}
+LOG=$ROOT/chain.log
+rm -rf "$ROOT"; mkdir -p "$ROOT"
+ran=0
+check() {  # check NAME command...
+  local name=$1; shift
+  ran=$((ran+1))
+  if "$@" >>"$LOG.steps" 2>&1; then echo "[       OK ] ChainSmoke.$name"; else echo "[  FAILED  ] ChainSmoke.$name"; fi
+}
+{
+  check MakeModel env CLI="$CLI" MODEL_DIR="$ROOT/model" MODEL_OUT="$ROOT/models" \
+    MODEL_W=160 MODEL_H=120 TRAIN_FRAMES=60 VAL_FRAMES=20 TEST_FRAMES=20 DEMO_FRAMES=5 \
+    MODEL_DEPTH=8 MODEL_TREES=2 TRAIN_IMAGES_PER_TREE=60 TRAIN_PIXELS=200 TRAIN_OFFSETS=50 TRAIN_THRESHOLDS=10 \
+    OJR_STRUCTURE_DEPTH=6 ASSETS="${ASSETS:-../shared/assets}" \
+    TRAIN_CLIPS=01_01,01_02,02_01 VAL_CLIPS=01_12 TEST_CLIPS=01_13 DEMO_CLIPS=02_06 \
+    mk/make_model.sh
+  check BlobsDescribed bash -c "'$CLI' info '$ROOT/models/bpc.blob' && '$CLI' info '$ROOT/models/ojr.blob'"
+  # A chain that lost the labels or joints on the way scores ~0; even this tiny forest scores > 0.1.
+  check EvalScores bash -c "grep -qE '^  \"mAP\": *0\.[1-9]' '$ROOT/model/eval_bpc.json' && grep -qE '^  \"mAP\": *0\.[1-9]' '$ROOT/model/eval_ojr.json'"
+  check PlotsWritten bash -c "ls '$ROOT/model/plots_bpc/'*.png '$ROOT/model/plots_ojr/'*.png"
+  check RunOnRecording bash -c "'$CLI' run --blob '$ROOT/models/ojr.blob' --source 'oni:$ROOT/models/demo.oni' --json > '$ROOT/run.jsonl' && [ \$(grep -c '^{' '$ROOT/run.jsonl') -eq 5 ]"
+  echo "[==========] $ran tests ran."
+} | tee "$LOG"
