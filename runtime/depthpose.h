@@ -134,7 +134,9 @@ class Pipeline {
   Status process_user(const DepthFrame& frame, uint8_t user_id, FrameResult* result);
 
   // Chooses the forest kernel (tests and benchmarks compare them). kKernelUnavailable if the CPU
-  // lacks it. kBest picks the widest available.
+  // lacks it. kBest picks the widest available. kScalar selects the whole scalar reference (forest
+  // kernel and vote casting, the specification); every other choice also uses the SSE4.1 vote
+  // casting, which keeps exactly the same votes (tests/runtime_kernel_test.cc proves it).
   Status set_kernel(KernelIsa isa);
   KernelIsa kernel() const { return kernel_; }
 
@@ -194,8 +196,13 @@ class Pipeline {
     return user_filter_ && user_filter_[size_t(px.v) * size_t(user_filter_stride_) + px.u] != user_filter_id_;
   }
 
+  void cast_votes(const DepthFrame& frame, FrameResult* result);  // reference or fast, by kernel_
   void cast_bpc_votes(const DepthFrame& frame, FrameResult* result);
   void cast_ojr_votes(const DepthFrame& frame, FrameResult* result);
+  void cast_bpc_votes_fast(const DepthFrame& frame, FrameResult* result);
+  void cast_ojr_votes_fast(const DepthFrame& frame, FrameResult* result);
+  bool append_vote(int joint, int32_t cap, const struct Vote& vote, float* floor_weight);
+  bool finish_votes(int32_t cap);
   void aggregate(FrameResult* result);
   void plan_budget(int32_t frame_pixels, int32_t foreground, int32_t pixel_cap, int32_t* pixels, FrameResult* result) const;
 };

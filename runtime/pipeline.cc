@@ -54,6 +54,10 @@ const char* stage_name(int32_t stage) {
 
 namespace {
 
+// Vote storage per joint: the reference keeps a top-N heap of at most Nsub ≤ kMaxVotesCap votes; the
+// fast casters append up to 2·Nsub and select the top Nsub when full (amortized O(1) per vote).
+constexpr int32_t kVoteSlots = 2 * blob::kMaxVotesCap;
+
 // Everything init carves, in one place so required_arena_bytes and init agree.
 struct Layout {
   uint16_t* probe_image;
@@ -92,7 +96,7 @@ bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int3
   l->probe_image = c.head<uint16_t>(kernels::padded_probe_elements(w, h));
   l->pixels = c.head<EvaluatedPixel>(size_t(max_pixels));
   l->leaves = c.head<uint32_t>(size_t(max_pixels) * size_t(b.tree_count()));
-  l->votes = c.head<Vote>(size_t(blob::kMaxJoints) * blob::kMaxVotesCap);
+  l->votes = c.head<Vote>(size_t(blob::kMaxJoints) * kVoteSlots);
   l->vote_counts = c.head<int32_t>(blob::kMaxJoints);
   l->starts = c.head<Vote>(blob::kMaxStartsCap);
   l->modes = c.head<float>(size_t(blob::kMaxStartsCap) * 4);
@@ -324,10 +328,7 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
 
   // Stage 3: votes.
   for (int j = 0; j < blob::kMaxJoints; ++j) vote_counts_[j] = 0;
-  if (blob_.method() == blob::Method::kBpc)
-    cast_bpc_votes(f, r);
-  else
-    cast_ojr_votes(f, r);
+  cast_votes(f, r);
   const uint64_t t3 = cycles_now();
   r->stage_cycles[kStageVotes] = t3 - t2;
 
@@ -425,10 +426,7 @@ Status Pipeline::process_user(const DepthFrame& f, uint8_t user_id, FrameResult*
   r->starts_per_joint_used = config_->max_starts_per_joint;
   r->iterations_used = config_->mean_shift_iterations;
   for (int j = 0; j < blob::kMaxJoints; ++j) vote_counts_[j] = 0;
-  if (blob_.method() == blob::Method::kBpc)
-    cast_bpc_votes(f, r);
-  else
-    cast_ojr_votes(f, r);
+  cast_votes(f, r);
   user_filter_ = nullptr;
   const uint64_t t1 = cycles_now();
   aggregate(r);
@@ -464,10 +462,7 @@ Status Pipeline::aggregate_from_leaves(const CameraIntrinsics& intr, const Evalu
   r->iterations_used = config_->mean_shift_iterations;
   const DepthFrame f{nullptr, 0, 0, 0, intr, nullptr};  // the vote casters read only the intrinsics
   for (int j = 0; j < blob::kMaxJoints; ++j) vote_counts_[j] = 0;
-  if (blob_.method() == blob::Method::kBpc)
-    cast_bpc_votes(f, r);
-  else
-    cast_ojr_votes(f, r);
+  cast_votes(f, r);
   const uint64_t t1 = cycles_now();
   r->stage_cycles[kStageVotes] = t1 - t0;
   aggregate(r);
@@ -521,7 +516,7 @@ void Pipeline::cast_bpc_votes(const DepthFrame& f, FrameResult* r) {
       const blob::JointConfig& jc = cfg.joints[j];
       Vote v{x, y, z + float(jc.push_back_mm) * 0.001f, weight, uint32_t(i),
              uint32_t(uint64_t(mass[j]) > uint64_t(jc.prob_threshold_q15) * uint64_t(trees) ? 1 : 0)};
-      Vote* heap = votes_ + size_t(j) * blob::kMaxVotesCap;
+      Vote* heap = votes_ + size_t(j) * kVoteSlots;
       if (push_top_n(heap, &vote_counts_[j], cap, v)) r->flags |= kFlagVotesTruncated;
       if (vote_counts_[j] == cap) floor_weight[j] = heap[0].weight;
     }
@@ -567,13 +562,231 @@ void Pipeline::cast_ojr_votes(const DepthFrame& f, FrameResult* r) {
           const uint32_t order = (uint32_t(i) * uint32_t(trees) + uint32_t(t)) * uint32_t(k_votes) + uint32_t(k);
           Vote v{x + float(ov.dx_mm) * 0.001f, y + float(ov.dy_mm) * 0.001f, z + float(ov.dz_mm) * 0.001f, weight,
                  order, 1};
-          Vote* heap = votes_ + size_t(j) * blob::kMaxVotesCap;
+          Vote* heap = votes_ + size_t(j) * kVoteSlots;
           if (push_top_n(heap, &vote_counts_[j], cap, v)) r->flags |= kFlagVotesTruncated;
           if (vote_counts_[j] == cap) floor_weight[j] = heap[0].weight;
         }
       }
     }
   }
+}
+
+void Pipeline::cast_votes(const DepthFrame& f, FrameResult* r) {
+  const bool bpc = blob_.method() == blob::Method::kBpc;
+  if (kernel_ == KernelIsa::kScalar) {
+    if (bpc) cast_bpc_votes(f, r); else cast_ojr_votes(f, r);
+  } else {
+    if (bpc) cast_bpc_votes_fast(f, r); else cast_ojr_votes_fast(f, r);
+  }
+}
+
+// The fast casters below keep exactly the votes of the reference casters above. Why that holds:
+// a candidate's weight is computed by the same float operations in the same order (SSE lanes are
+// IEEE single like the scalar code, and the baseline ISA has no FMA to contract them); the kept set
+// is the top Nsub under the same total order (weight, then tie_key(order)), which is unique, so it
+// does not matter that the reference finds it with a heap and these with buffered selection; the
+// SIMD test against a floor only pre-filters strictly lighter votes, and the floor is never above
+// the final set's lightest weight; aggregate() sorts the kept votes by order before using them.
+// Speed: the joint-mass rows / OJR leaves of pixels a few ahead are prefetched (random reads in
+// tables beyond L1), a group of four lanes is tested at once instead of one unpredictable branch
+// per candidate, and a surviving vote costs an append instead of a heap sift.
+constexpr int32_t kVotePrefetchAhead = 8;  // pixels
+
+namespace {
+inline bool heavier(const Vote& a, const Vote& b) { return lighter(b, a); }
+}  // namespace
+
+// Appends v to joint j's buffer; when 2·cap votes are held, keeps the cap heaviest and raises
+// *floor_weight to the lightest of them. Returns true when votes were dropped.
+bool Pipeline::append_vote(int j, int32_t cap, const Vote& v, float* floor_weight) {
+  Vote* buf = votes_ + size_t(j) * kVoteSlots;
+  int32_t& n = vote_counts_[j];
+  buf[n++] = v;
+  if (n < 2 * cap) return false;
+  std::nth_element(buf, buf + (cap - 1), buf + n, heavier);
+  n = cap;
+  *floor_weight = buf[cap - 1].weight;  // nth_element: every vote before it is at least as heavy
+  return true;
+}
+
+// Cuts every joint's buffer to its cap heaviest votes (the reference heap's set: the order is
+// total, so the set is unique). Returns true when votes were dropped.
+bool Pipeline::finish_votes(int32_t cap) {
+  bool dropped = false;
+  for (int j = 0; j < blob::kMaxJoints; ++j) {
+    if (vote_counts_[j] <= cap) continue;
+    Vote* buf = votes_ + size_t(j) * kVoteSlots;
+    std::nth_element(buf, buf + (cap - 1), buf + vote_counts_[j], heavier);
+    vote_counts_[j] = cap;
+    dropped = true;
+  }
+  return dropped;
+}
+
+void Pipeline::cast_bpc_votes_fast(const DepthFrame& f, FrameResult* r) {
+  if (!joint_mass_) {  // huge forests keep no joint-mass table: the reference path is the only one
+    cast_bpc_votes(f, r);
+    return;
+  }
+  const blob::RuntimeConfig& cfg = *config_;
+  const int joints = blob_.meta->joint_count;
+  const int trees = blob_.tree_count();
+  const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
+  const float inv_total = 1.0f / (32768.0f * float(trees));
+  const int32_t cap = r->votes_per_joint_used;
+  alignas(16) float floor_weight[blob::kMaxJoints];
+  for (int j = 0; j < blob::kMaxJoints; ++j) floor_weight[j] = -1.0f;
+  const int groups = (joints + 3) / 4;
+  const __m128 inv_total4 = _mm_set1_ps(inv_total);
+  const __m128i zero = _mm_setzero_si128();
+  for (int32_t i = 0; i < evaluated_count_; ++i) {
+    const EvaluatedPixel px = pixels_[i];
+    if (skipped_by_user_filter(px)) continue;
+    if (i + kVotePrefetchAhead < evaluated_count_)  // the rows are random reads in a table beyond L1
+      for (int t = 0; t < trees; ++t)
+        _mm_prefetch(reinterpret_cast<const char*>(joint_mass_ + size_t(leaf_of(i + kVotePrefetchAhead, t)) *
+                                                                     blob::kMaxJoints), _MM_HINT_T0);
+    __m128i acc[4] = {zero, zero, zero, zero};  // Σ over trees of each joint's Q15 mass, uint32 lanes
+    for (int t = 0; t < trees; ++t) {
+      const uint16_t* m = joint_mass_ + size_t(leaf_of(i, t)) * blob::kMaxJoints;
+      const __m128i lo = _mm_loadu_si128(reinterpret_cast<const __m128i*>(m));
+      const __m128i hi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(m + 8));
+      acc[0] = _mm_add_epi32(acc[0], _mm_cvtepu16_epi32(lo));
+      acc[1] = _mm_add_epi32(acc[1], _mm_cvtepu16_epi32(_mm_srli_si128(lo, 8)));
+      acc[2] = _mm_add_epi32(acc[2], _mm_cvtepu16_epi32(hi));
+      acc[3] = _mm_add_epi32(acc[3], _mm_cvtepu16_epi32(_mm_srli_si128(hi, 8)));
+    }
+    const float z = float(px.z_mm) * 0.001f;
+    const __m128 z4 = _mm_set1_ps(z);
+    bool have_xy = false;
+    float x = 0.0f, y = 0.0f;
+    for (int g = 0; g < groups; ++g) {
+      const __m128 p = _mm_mul_ps(_mm_cvtepi32_ps(acc[g]), inv_total4);  // mass < 2^24: exact
+      const __m128 w = _mm_mul_ps(_mm_mul_ps(p, z4), z4);                 // (p·z)·z as the reference
+      const __m128 live = _mm_castsi128_ps(_mm_xor_si128(_mm_cmpeq_epi32(acc[g], zero), _mm_set1_epi32(-1)));
+      const __m128 below = _mm_cmplt_ps(w, _mm_load_ps(floor_weight + 4 * g));
+      const int lanes = joints - 4 * g < 4 ? (1 << (joints - 4 * g)) - 1 : 15;
+      if (_mm_movemask_ps(_mm_and_ps(live, below)) & lanes) r->flags |= kFlagVotesTruncated;
+      int keep = _mm_movemask_ps(_mm_andnot_ps(below, live)) & lanes;
+      if (!keep) continue;
+      if (!have_xy) {
+        x = (float(px.u) - f.intrinsics.cx) * z * inv_fx;
+        y = -(float(px.v) - f.intrinsics.cy) * z * inv_fy;
+        have_xy = true;
+      }
+      alignas(16) float wl[4];
+      alignas(16) uint32_t ml[4];
+      _mm_store_ps(wl, w);
+      _mm_store_si128(reinterpret_cast<__m128i*>(ml), acc[g]);
+      for (; keep; keep &= keep - 1) {
+        const int lane = __builtin_ctz(unsigned(keep));
+        const int j = 4 * g + lane;
+        const blob::JointConfig& jc = cfg.joints[j];
+        Vote v{x, y, z + float(jc.push_back_mm) * 0.001f, wl[lane], uint32_t(i),
+               uint32_t(uint64_t(ml[lane]) > uint64_t(jc.prob_threshold_q15) * uint64_t(trees) ? 1 : 0)};
+        if (append_vote(j, cap, v, &floor_weight[j])) r->flags |= kFlagVotesTruncated;
+      }
+    }
+  }
+  if (finish_votes(cap)) r->flags |= kFlagVotesTruncated;
+}
+
+void Pipeline::cast_ojr_votes_fast(const DepthFrame& f, FrameResult* r) {
+  const blob::RuntimeConfig& cfg = *config_;
+  const int joints = blob_.meta->joint_count;
+  const int trees = blob_.tree_count();
+  const int k_votes = blob_.meta->votes_per_joint;
+  const int lanes = joints * k_votes;  // a leaf: votes in (joint, k) order, one lane each
+  const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
+  const int32_t cap = r->votes_per_joint_used;
+  constexpr int kMaxLanes = blob::kMaxJoints * blob::kMaxVotesPerLeafJoint;
+  float floor_weight[blob::kMaxJoints];
+  alignas(16) float lane_floor[kMaxLanes];
+  // Squared vote length per lane as uint32 (|offset|² ≤ 3·2^30 and len² < 2^32 both fit), biased
+  // by 2^31 so the signed compare of SSE orders them as unsigned; len 0 = no limit = 2^32 − 1.
+  alignas(16) uint32_t lane_len2_biased[kMaxLanes];
+  uint8_t lane_joint[kMaxLanes];
+  for (int j = 0; j < blob::kMaxJoints; ++j) floor_weight[j] = -1.0f;
+  for (int l = 0; l < lanes; ++l) {
+    const int j = l / k_votes;
+    const uint32_t len = cfg.joints[j].vote_length_mm;
+    lane_floor[l] = -1.0f;
+    lane_len2_biased[l] = (len == 0 ? 0xFFFFFFFFu : len * len) ^ 0x80000000u;
+    lane_joint[l] = uint8_t(j);
+  }
+  const int full = lanes & ~3;
+  const __m128i xyz_only = _mm_setr_epi16(-1, -1, -1, 0, -1, -1, -1, 0);
+  const __m128i bias = _mm_set1_epi32(int32_t(0x80000000u));
+  const __m128i zero = _mm_setzero_si128();
+
+  auto push = [&](int32_t i, int t, int l, float x, float y, float z, float weight, const blob::OjrVote& ov) {
+    const int j = lane_joint[l], k = l - j * k_votes;
+    const uint32_t order = (uint32_t(i) * uint32_t(trees) + uint32_t(t)) * uint32_t(k_votes) + uint32_t(k);
+    Vote v{x + float(ov.dx_mm) * 0.001f, y + float(ov.dy_mm) * 0.001f, z + float(ov.dz_mm) * 0.001f, weight, order, 1};
+    const float before = floor_weight[j];
+    if (append_vote(j, cap, v, &floor_weight[j])) r->flags |= kFlagVotesTruncated;
+    if (floor_weight[j] != before)
+      for (int q = j * k_votes; q < (j + 1) * k_votes; ++q) lane_floor[q] = floor_weight[j];
+  };
+
+  for (int32_t i = 0; i < evaluated_count_; ++i) {
+    const EvaluatedPixel px = pixels_[i];
+    if (skipped_by_user_filter(px)) continue;
+    const float z = float(px.z_mm) * 0.001f;
+    const float z2 = z * z;
+    const float x = (float(px.u) - f.intrinsics.cx) * z * inv_fx;
+    const float y = -(float(px.v) - f.intrinsics.cy) * z * inv_fy;
+    const __m128 z2_4 = _mm_set1_ps(z2);
+    if (i + kVotePrefetchAhead < evaluated_count_)
+      for (int t = 0; t < trees; ++t) {
+        const char* ahead = reinterpret_cast<const char*>(blob_.ojr_leaf(leaf_of(i + kVotePrefetchAhead, t)));
+        for (size_t b = 0; b < size_t(lanes) * sizeof(blob::OjrVote); b += 64) _mm_prefetch(ahead + b, _MM_HINT_T0);
+      }
+    for (int t = 0; t < trees; ++t) {
+      const blob::OjrVote* leaf = blob_.ojr_leaf(leaf_of(i, t));
+      int l = 0;
+      for (; l < full; l += 4) {
+        const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(leaf + l));
+        const __m128i b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(leaf + l + 2));
+        const __m128i xa = _mm_and_si128(a, xyz_only), xb = _mm_and_si128(b, xyz_only);
+        // dx²+dy², dz² per vote (pmaddwd; its only wrap, 2·(−32768)², is 2^31 read as unsigned),
+        // then summed modulo 2^32 — exact, as the true sum is below 2^32.
+        const __m128i d2 = _mm_hadd_epi32(_mm_madd_epi16(xa, xa), _mm_madd_epi16(xb, xb));
+        const __m128i too_long = _mm_cmpgt_epi32(_mm_xor_si128(d2, bias),
+                                                 _mm_load_si128(reinterpret_cast<const __m128i*>(lane_len2_biased + l)));
+        const __m128i wa = _mm_srli_epi64(a, 48), wb = _mm_srli_epi64(b, 48);  // weights in dwords 0, 2
+        const __m128i wq = _mm_castps_si128(
+            _mm_shuffle_ps(_mm_castsi128_ps(wa), _mm_castsi128_ps(wb), _MM_SHUFFLE(2, 0, 2, 0)));
+        const __m128i dead = _mm_or_si128(too_long, _mm_cmpeq_epi32(wq, zero));
+        const __m128 w = _mm_mul_ps(_mm_cvtepi32_ps(wq), z2_4);
+        const __m128 below = _mm_cmplt_ps(w, _mm_load_ps(lane_floor + l));
+        const int dead_bits = _mm_movemask_ps(_mm_castsi128_ps(dead)), below_bits = _mm_movemask_ps(below);
+        if (below_bits & ~dead_bits) r->flags |= kFlagVotesTruncated;
+        int keep = ~(below_bits | dead_bits) & 15;
+        if (!keep) continue;
+        alignas(16) float wl[4];
+        _mm_store_ps(wl, w);
+        for (; keep; keep &= keep - 1) {
+          const int lane = l + __builtin_ctz(unsigned(keep));
+          push(i, t, lane, x, y, z, wl[lane - l], leaf[lane]);
+        }
+      }
+      for (; l < lanes; ++l) {  // the reference's scalar test for the last lanes
+        const blob::OjrVote& ov = leaf[l];
+        if (ov.weight == 0) continue;
+        const int64_t d2 = int64_t(ov.dx_mm) * ov.dx_mm + int64_t(ov.dy_mm) * ov.dy_mm + int64_t(ov.dz_mm) * ov.dz_mm;
+        const int64_t len = cfg.joints[lane_joint[l]].vote_length_mm;
+        if (len != 0 && d2 > len * len) continue;
+        const float weight = float(ov.weight) * z2;
+        if (weight < lane_floor[l]) {
+          r->flags |= kFlagVotesTruncated;
+          continue;
+        }
+        push(i, t, l, x, y, z, weight, ov);
+      }
+    }
+  }
+  if (finish_votes(cap)) r->flags |= kFlagVotesTruncated;
 }
 
 namespace {
@@ -608,7 +821,7 @@ void Pipeline::aggregate(FrameResult* r) {
   float* const sz_row = soa_ + 2 * (blob::kMaxVotesCap + 4);
   float* const sw_row = soa_ + 3 * (blob::kMaxVotesCap + 4);
   for (int j = 0; j < joints; ++j) {
-    Vote* votes = votes_ + size_t(j) * blob::kMaxVotesCap;
+    Vote* votes = votes_ + size_t(j) * kVoteSlots;
     const int32_t nv = vote_counts_[j];
     if (nv == 0) continue;
     // Canonical order (casting order, unique) so results do not depend on heap internals.

@@ -304,3 +304,123 @@ TEST(CycleBudget, DegradedFramesAreIdenticalAcrossKernels) {
   ASSERT_EQ(r.pipeline.process(noisy_frame(40, 320, 240).view(), &res), Status::kOk);
   EXPECT_TRUE(res.flags & kFlagBudgetPixels);
 }
+
+// ---- vote casting: the SIMD kernels also select the fast vote casters (pipeline.cc); the scalar
+// reference keeps the reference casters. Same votes means same proposals, flags and counts.
+
+namespace {
+
+// A random forest's structure with N joints, random part masks / thresholds / push-backs, and
+// coarse leaf probabilities (many zeros and equal weights: exercises the tie order and the mass-0 skip).
+blob::BlobContents random_bpc_joints(uint64_t seed, int joints, int nsub) {
+  blob::BlobContents c = tools::random_bpc_forest(seed, 3, 10, 12, 400, 800);
+  std::mt19937_64 rng(seed * 7 + 1);
+  auto uni = [&](int lo, int hi) { return int(std::uniform_int_distribution<int>(lo, hi)(rng)); };
+  for (size_t l = 0; l < c.bpc_leaves.size(); l += 12) {
+    uint32_t raw[12], sum = 0;
+    for (auto& r : raw) sum += (r = uint32_t(uni(0, 3) == 0 ? uni(1, 3) : 0));
+    for (int p = 0; p < 12; ++p) c.bpc_leaves[l + p] = uint16_t(sum ? raw[p] * 32768u / sum : 0);
+  }
+  c.joint_names.clear();
+  for (int j = 0; j < joints; ++j) c.joint_names.push_back("joint" + std::to_string(j));
+  c.config = blob::default_runtime_config(joints);
+  c.config.max_votes_per_joint = uint16_t(nsub);
+  for (int j = 0; j < joints; ++j) {
+    c.config.joints[j].part_mask = uint32_t(uni(1, (1 << 12) - 1));
+    c.config.joints[j].prob_threshold_q15 = uint16_t(uni(0, 20000));
+    c.config.joints[j].push_back_mm = int16_t(uni(0, 60));
+  }
+  return c;
+}
+
+// The same structure with random OJR leaves: K votes per joint, weights 0..3 (ties, no-vote lanes),
+// offsets up to the format's limit kMaxVoteOffsetMm, vote lengths
+// unlimited or short.
+blob::BlobContents random_ojr_joints(uint64_t seed, int joints, int k, int nsub) {
+  blob::BlobContents c = tools::random_bpc_forest(seed, 3, 10, 2, 400, 800);
+  std::mt19937_64 rng(seed * 11 + 3);
+  auto uni = [&](int lo, int hi) { return int(std::uniform_int_distribution<int>(lo, hi)(rng)); };
+  const size_t leaves = c.bpc_leaves.size() / 2;
+  c.method = blob::Method::kOjr;
+  c.part_names.clear();
+  c.bpc_leaves.clear();
+  c.votes_per_joint = k;
+  c.joint_names.clear();
+  for (int j = 0; j < joints; ++j) c.joint_names.push_back("joint" + std::to_string(j));
+  for (size_t l = 0; l < leaves * size_t(joints) * size_t(k); ++l) {
+    auto off = [&] { return int16_t(uni(0, 50) == 0 ? (uni(0, 1) ? -blob::kMaxVoteOffsetMm : blob::kMaxVoteOffsetMm) : uni(-900, 900)); };
+    c.ojr_leaves.push_back(blob::OjrVote{off(), off(), off(), uint16_t(uni(0, 3))});
+  }
+  c.config = blob::default_runtime_config(joints);
+  c.config.max_votes_per_joint = uint16_t(nsub);
+  for (int j = 0; j < joints; ++j) c.config.joints[j].vote_length_mm = uint16_t(uni(0, 1) ? 0 : uni(300, 1200));
+  return c;
+}
+
+void compare_frames(Runner& r, const std::string& what) {
+  compare_all_kernels(r, tools::make_disc_frame(320, 240, 150.0f, 100.0f, 70.0f, 2100).view(), what + " disc");
+  for (uint64_t s = 0; s < 2; ++s)
+    compare_all_kernels(r, noisy_frame(40 + s, 320, 240).view(), what + " noisy " + std::to_string(s));
+}
+
+}  // namespace
+
+TEST(VoteCastingExactness, BpcRandomJointsTiesAndSmallNsub) {
+  for (int joints : {1, 5, 13, 16})
+    for (int nsub : {32, 200, 1024}) {
+      Runner r(blob::write_blob(random_bpc_joints(uint64_t(joints * 100 + nsub), joints, nsub)), 320, 240);
+      compare_frames(r, "bpc joints " + std::to_string(joints) + " nsub " + std::to_string(nsub));
+    }
+}
+
+TEST(VoteCastingExactness, OjrRandomLeavesEveryKAndLengthLimit) {
+  for (int k = 1; k <= blob::kMaxVotesPerLeafJoint; ++k)
+    for (int joints : {3, 16})
+      for (int nsub : {32, 500}) {
+        Runner r(blob::write_blob(random_ojr_joints(uint64_t(k * 1000 + joints * 10 + nsub), joints, k, nsub)), 320,
+                 240);
+        compare_frames(r, "ojr k " + std::to_string(k) + " joints " + std::to_string(joints) + " nsub " +
+                              std::to_string(nsub));
+      }
+}
+
+TEST(VoteCastingExactness, ShippedModelsOnSkeltrackFrames) {
+  for (const char* model : {"models/bpc.blob", "models/ojr.blob"}) {
+    Runner r(blob::read_blob_file(model), 640, 480);
+    for (const char* name : {"1028894671", "1166565565", "82823944"}) {
+      const std::vector<uint16_t> depth =
+          read_skeltrack(std::string("../shared/data/skeltrack-frames/depth-data-") + name + ".raw");
+      DepthFrame f{depth.data(), 640, 480, 640, tools::kinect_intrinsics(640, 480), nullptr};
+      compare_all_kernels(r, f, std::string(model) + " skeltrack " + name);
+    }
+  }
+}
+
+TEST(VoteCastingExactness, PerUserVotesAgreeAcrossKernels) {
+  Runner r(blob::write_blob(random_bpc_joints(77, 16, 64)), 320, 240);
+  SyntheticFrame frame = tools::make_disc_frame(320, 240, 160.0f, 120.0f, 90.0f, 2000);
+  std::vector<uint8_t> users(320 * 240, 0);
+  for (int v = 0; v < 240; ++v)
+    for (int u = 0; u < 320; ++u)
+      if (frame.depth_mm[size_t(v) * 320 + u]) users[size_t(v) * 320 + u] = u < 160 ? 1 : 2;
+  DepthFrame f = frame.view();
+  f.foreground_mask = users.data();
+  FrameResult ref[2], fast[2], all{};
+  ASSERT_EQ(r.pipeline.set_kernel(KernelIsa::kScalar), Status::kOk);
+  ASSERT_EQ(r.pipeline.process(f, &all), Status::kOk);
+  for (int id = 1; id <= 2; ++id) ASSERT_EQ(r.pipeline.process_user(f, uint8_t(id), &ref[id - 1]), Status::kOk);
+  ASSERT_EQ(r.pipeline.set_kernel(KernelIsa::kBest), Status::kOk);
+  ASSERT_EQ(r.pipeline.process(f, &all), Status::kOk);
+  for (int id = 1; id <= 2; ++id) ASSERT_EQ(r.pipeline.process_user(f, uint8_t(id), &fast[id - 1]), Status::kOk);
+  for (int u = 0; u < 2; ++u) {
+    EXPECT_EQ(ref[u].flags, fast[u].flags) << "user " << u + 1;
+    int proposals = 0;
+    for (int j = 0; j < 16; ++j) {
+      ASSERT_EQ(ref[u].proposal_count[j], fast[u].proposal_count[j]) << "user " << u + 1 << " joint " << j;
+      proposals += ref[u].proposal_count[j];
+      EXPECT_EQ(0, std::memcmp(ref[u].proposals[j], fast[u].proposals[j],
+                               sizeof(JointProposal) * size_t(ref[u].proposal_count[j])));
+    }
+    EXPECT_GT(proposals, 0) << "user " << u + 1 << " got no proposals: the comparison would be vacuous";
+  }
+}
