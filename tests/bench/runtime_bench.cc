@@ -283,13 +283,22 @@ int main(int argc, char** argv) {
   Runner bpc_vga(pcl_bytes, 640, 480), bpc_qvga(pcl_bytes, 320, 240);
   const std::vector<uint8_t> ojr_bytes = blob::write_blob(ojr_on_pcl_nodes(pcl));
   Runner ojr_vga(ojr_bytes, 640, 480), ojr_qvga(ojr_bytes, 320, 240);
+  // The models users run (make run): trained BPC depth 16 and OJR depth 13, 3 trees each.
+  const std::vector<uint8_t> ship_bpc = blob::read_blob_file("models/bpc.blob");
+  const std::vector<uint8_t> ship_ojr = blob::read_blob_file("models/ojr.blob");
+  Runner ship_bpc_vga(ship_bpc, 640, 480), ship_bpc_qvga(ship_bpc, 320, 240);
+  Runner ship_ojr_vga(ship_ojr, 640, 480), ship_ojr_qvga(ship_ojr, 320, 240);
   struct E2E { const char* label; Runner* r; const std::vector<Frame>* frames; EndToEnd scalar, best; };
   E2E runs[] = {{"BPC skeltrack 640x480", &bpc_vga, &real_vga, {}, {}},
                 {"BPC skeltrack 320x240", &bpc_qvga, &real_qvga, {}, {}},
                 {"OJR skeltrack 640x480", &ojr_vga, &real_vga, {}, {}},
                 {"OJR skeltrack 320x240", &ojr_qvga, &real_qvga, {}, {}},
                 {"BPC synthetic 640x480", &bpc_vga, &syn_vga, {}, {}},
-                {"BPC synthetic 320x240", &bpc_qvga, &syn_qvga, {}, {}}};
+                {"BPC synthetic 320x240", &bpc_qvga, &syn_qvga, {}, {}},
+                {"shipped BPC skeltrack 640x480", &ship_bpc_vga, &real_vga, {}, {}},
+                {"shipped BPC skeltrack 320x240", &ship_bpc_qvga, &real_qvga, {}, {}},
+                {"shipped OJR skeltrack 640x480", &ship_ojr_vga, &real_vga, {}, {}},
+                {"shipped OJR skeltrack 320x240", &ship_ojr_qvga, &real_qvga, {}, {}}};
   for (E2E& e : runs) {
     e.scalar = end_to_end(*e.r, KernelIsa::kScalar, *e.frames, 2);
     e.best = end_to_end(*e.r, KernelIsa::kBest, *e.frames, 5);
@@ -311,10 +320,13 @@ int main(int argc, char** argv) {
                "  \"ojr_fps_640x480\": %.1f,\n  \"bpc_scalar_fps_320x240\": %.1f,\n  \"bpc_scalar_fps_640x480\": %.1f,\n"
                "  \"arena_bytes\": %zu,\n  \"arena_bytes_320x240\": %zu,\n"
                "  \"forest_cycles_640x480\": %.0f,\n  \"mean_shift_cycles_640x480\": %.0f,\n"
-               "  \"frames\": \"skeltrack 12 real Kinect frames, PCL 3 x depth-20 trees\"\n}\n",
+               "  \"shipped_bpc_fps_320x240\": %.1f,\n  \"shipped_bpc_fps_640x480\": %.1f,\n"
+               "  \"shipped_ojr_fps_320x240\": %.1f,\n  \"shipped_ojr_fps_640x480\": %.1f,\n"
+               "  \"frames\": \"skeltrack 12 real Kinect frames, PCL 3 x depth-20 trees (shipped_*: models/*.blob)\"\n}\n",
                simd_ns, kVariants[best_variant].name, scalar_ns, scalar_ns / simd_ns, runs[1].best.fps, runs[3].best.fps,
                runs[0].best.fps, runs[2].best.fps, runs[1].scalar.fps, runs[0].scalar.fps, bpc_vga.arena_bytes,
-               bpc_qvga.arena_bytes, runs[0].best.stage_cycles[kStageForest], runs[0].best.stage_cycles[kStageMeanShift]);
+               bpc_qvga.arena_bytes, runs[0].best.stage_cycles[kStageForest], runs[0].best.stage_cycles[kStageMeanShift],
+               runs[7].best.fps, runs[6].best.fps, runs[9].best.fps, runs[8].best.fps);
   std::fclose(j);
   std::printf("wrote build/bench/runtime.json\n");
   return 0;
