@@ -19,8 +19,8 @@ namespace dp::kernels {
 namespace {
 
 constexpr int32_t kChunkPixels = 2048;
-constexpr int32_t kPrefetchAhead = 40;
-constexpr int32_t kPrefetchFromLevel = 9;
+constexpr int32_t kPrefetchAhead = 96;
+constexpr int32_t kPrefetchFromLevel = 6;
 
 // Per pixel of a chunk, kept in two arrays so the setups of two neighbouring pixels are one 16-byte
 // load: scale_q13 (s in 4 int16 lanes) and origin (u + 1, v + 1, u + 1, v + 1, padded coordinates).
