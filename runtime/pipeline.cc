@@ -590,10 +590,12 @@ void Pipeline::cast_votes(const DepthFrame& f, FrameResult* r) {
 // Speed: the joint-mass rows / OJR leaves of pixels a few ahead are prefetched (random reads in
 // tables beyond L1), a group of four lanes is tested at once instead of one unpredictable branch
 // per candidate, and a surviving vote costs an append instead of a heap sift.
-constexpr int32_t kVotePrefetchAhead = 8;  // pixels
+constexpr int32_t kVotePrefetchAhead = 16;  // pixels
 
 namespace {
-inline bool heavier(const Vote& a, const Vote& b) { return lighter(b, a); }
+struct Heavier {  // a function object, so nth_element inlines the comparison
+  bool operator()(const Vote& a, const Vote& b) const { return lighter(b, a); }
+};
 }  // namespace
 
 // Appends v to joint j's buffer; when 2·cap votes are held, keeps the cap heaviest and raises
@@ -603,7 +605,7 @@ bool Pipeline::append_vote(int j, int32_t cap, const Vote& v, float* floor_weigh
   int32_t& n = vote_counts_[j];
   buf[n++] = v;
   if (n < 2 * cap) return false;
-  std::nth_element(buf, buf + (cap - 1), buf + n, heavier);
+  std::nth_element(buf, buf + (cap - 1), buf + n, Heavier());
   n = cap;
   *floor_weight = buf[cap - 1].weight;  // nth_element: every vote before it is at least as heavy
   return true;
@@ -616,7 +618,7 @@ bool Pipeline::finish_votes(int32_t cap) {
   for (int j = 0; j < blob::kMaxJoints; ++j) {
     if (vote_counts_[j] <= cap) continue;
     Vote* buf = votes_ + size_t(j) * kVoteSlots;
-    std::nth_element(buf, buf + (cap - 1), buf + vote_counts_[j], heavier);
+    std::nth_element(buf, buf + (cap - 1), buf + vote_counts_[j], Heavier());
     vote_counts_[j] = cap;
     dropped = true;
   }
