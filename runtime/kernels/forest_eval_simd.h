@@ -71,10 +71,11 @@ inline void visit_pair(const ForestKernelArgs& a, uint32_t* node, const ChunkSet
   const __m128i addr = _mm_madd_epi16(xy, c.row_madd);
   const uint64_t a0 = uint64_t(_mm_cvtsi128_si64(addr));
   const uint64_t a1 = uint64_t(_mm_extract_epi64(addr, 1));
-  const int32_t f0 = int32_t(a.probe_image[uint32_t(a0)]) - int32_t(a.probe_image[a0 >> 32]);
-  const int32_t f1 = int32_t(a.probe_image[uint32_t(a1)]) - int32_t(a.probe_image[a1 >> 32]);
-  node[i] = 2 * n0 + 1 + (f0 > t0 ? 1u : 0u);
-  node[i + 1] = 2 * n1 + 1 + (f1 > t1 ? 1u : 0u);
+  // f > t  ⇔  (t + p2) − p1 < 0: the sign bit is the child bit (|t + p2 − p1| < 2^17, no overflow).
+  const int32_t d0 = t0 + int32_t(a.probe_image[a0 >> 32]) - int32_t(a.probe_image[uint32_t(a0)]);
+  const int32_t d1 = t1 + int32_t(a.probe_image[a1 >> 32]) - int32_t(a.probe_image[uint32_t(a1)]);
+  node[i] = 2 * n0 + 1 + (uint32_t(d0) >> 31);
+  node[i + 1] = 2 * n1 + 1 + (uint32_t(d1) >> 31);
 }
 
 template <bool kPacked>
