@@ -215,9 +215,18 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
   f.clean.reset(k.width, k.height);
   std::vector<uint8_t> body_of(size_t(k.width) * k.height, 0);  // 1 + body index, 0 = none
   std::vector<float> before;
-  // Draws into f.clean with the z-test; pixels it wins take `owner` in body_of.
+  bool drawn = false;
+  // Draws into f.clean with the z-test; pixels it wins take `owner` in body_of. The first draw
+  // starts from an all-zero depth, so there "changed" is "non-zero" and no copy is needed.
   auto draw = [&](const std::vector<Vec3f>& verts, const std::vector<std::array<uint32_t, 3>>& tris,
                   const std::vector<uint8_t>& labels, uint8_t owner) {
+    if (!drawn) {
+      drawn = true;
+      rasterize(k, verts, tris, labels, f.clean);
+      for (size_t i = 0; i < f.clean.depth.size(); ++i)
+        if (f.clean.depth[i] != 0.0f) body_of[i] = owner;
+      return;
+    }
     before = f.clean.depth;
     rasterize(k, verts, tris, labels, f.clean);
     for (size_t i = 0; i < before.size(); ++i)
