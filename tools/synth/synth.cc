@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -198,16 +199,34 @@ struct PosedBody {
 
 }  // namespace
 
-SynthFrame Synthesizer::render(const FrameParams& p) const {
+SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) const {
+  // Stage clock for `times` (no clock reads when it is null).
+  auto mark = std::chrono::steady_clock::time_point();
+  auto lap = [&](double SynthStageTimes::*stage) {
+    if (!times) return;
+    const auto now = std::chrono::steady_clock::now();
+    times->*stage += std::chrono::duration<double>(now - mark).count();
+    mark = now;
+  };
+  if (times) mark = std::chrono::steady_clock::now();
   const Intrinsics& k = intrinsics_;
   const CameraPose cam = make_camera(p);
   SynthFrame f;
   f.clean.reset(k.width, k.height);
   std::vector<uint8_t> body_of(size_t(k.width) * k.height, 0);  // 1 + body index, 0 = none
   std::vector<float> before;
-  // Draws into f.clean with the z-test; pixels it wins take `owner` in body_of.
+  bool drawn = false;
+  // Draws into f.clean with the z-test; pixels it wins take `owner` in body_of. The first draw
+  // starts from an all-zero depth, so there "changed" is "non-zero" and no copy is needed.
   auto draw = [&](const std::vector<Vec3f>& verts, const std::vector<std::array<uint32_t, 3>>& tris,
                   const std::vector<uint8_t>& labels, uint8_t owner) {
+    if (!drawn) {
+      drawn = true;
+      rasterize(k, verts, tris, labels, f.clean);
+      for (size_t i = 0; i < f.clean.depth.size(); ++i)
+        if (f.clean.depth[i] != 0.0f) body_of[i] = owner;
+      return;
+    }
     before = f.clean.depth;
     rasterize(k, verts, tris, labels, f.clean);
     for (size_t i = 0; i < before.size(); ++i)
@@ -234,6 +253,7 @@ SynthFrame Synthesizer::render(const FrameParams& p) const {
     // Shape, skeleton, pose, skin.
     const std::vector<Vec3f> shaped = shaped_vertices(assets_, o.shape);
     const Skeleton rest = measure_skeleton(assets_, shaped);
+    lap(&SynthStageTimes::shape);
     const Skeleton posed = pose_skeleton(assets_, rest, pose);
     thread_local std::vector<Vec3f> verts;
     skin_body(assets_, shaped, rest, posed, pose, verts);
@@ -274,8 +294,10 @@ SynthFrame Synthesizer::render(const FrameParams& p) const {
            mf[6] * x + mf[7] * y + mf[8] * z + oz};
     }
     for (Vec3& j : joints) j = m * j + offset;
+    lap(&SynthStageTimes::pose);
     draw(verts, assets_.body_triangles, *labels, uint8_t(b + 1));
     body_joints.push_back(joints);
+    lap(&SynthStageTimes::raster);
   }
 
   // Clutter: boxes (8 corners) and 16-sided cylinders, label kNoLabel.
@@ -315,9 +337,11 @@ SynthFrame Synthesizer::render(const FrameParams& p) const {
     const Vec3 n = cam.world_to_camera * Vec3{0, 1, 0};
     rasterize_plane(k, n, -p.camera_height_m, config_.noise.max_range_m, f.clean);
   }
+  lap(&SynthStageTimes::raster);
 
   Rng noise_rng(p.noise_seed);
   apply_sensor_noise(k, config_.noise, f.clean.depth, noise_rng, f.depth);
+  lap(&SynthStageTimes::noise);
   f.parts.width = k.width;
   f.parts.height = k.height;
   f.parts.pixels.assign(size_t(k.width) * k.height, dp::tools::kNotBodyLabel);
@@ -383,6 +407,7 @@ SynthFrame Synthesizer::render(const FrameParams& p) const {
     extra["clutter"] = items;
   }
   f.extra_json = extra.dump();
+  lap(&SynthStageTimes::finish);
   return f;
 }
 

@@ -94,6 +94,15 @@ struct SynthFrame {
   std::string extra_json;           // per-frame metadata for frames.jsonl
 };
 
+// Optional per-stage wall time of one render() call (seconds, added to what is there), for
+// build/bin/bench_synth. shape = shaped_vertices + measure_skeleton; pose = pose_skeleton,
+// skinning, joints, mirror and placement; raster = z-buffer depth + labels of bodies, clutter and
+// floor; noise = apply_sensor_noise; finish = parts/people images, joint visibility, metadata.
+struct SynthStageTimes {
+  double shape = 0, pose = 0, raster = 0, noise = 0, finish = 0;
+  double total() const { return shape + pose + raster + noise + finish; }
+};
+
 class Synthesizer {
  public:
   Synthesizer(const std::string& assets_dir, const SynthConfig& config);
@@ -106,7 +115,7 @@ class Synthesizer {
   const std::vector<std::string>& clip_names() const { return clip_names_; }
 
   FrameParams sample_frame_params(uint64_t seed, uint64_t frame_index) const;
-  SynthFrame render(const FrameParams& params) const;
+  SynthFrame render(const FrameParams& params, SynthStageTimes* times = nullptr) const;
   SynthFrame render_frame(uint64_t seed, uint64_t frame_index) const {
     return render(sample_frame_params(seed, frame_index));
   }
