@@ -20,16 +20,19 @@ step() {  # step NAME command...
   local t1=$(date +%s.%N)
   awk -v n="$name" -v a="$t0" -v b="$t1" 'BEGIN { printf "%s %.1f s\n", n, b - a }' | tee -a "$D/times.txt"
 }
-synth() {  # synth NAME SEED FRAMES CLIPS
-  [ -f "$D/$1/frames.jsonl" ] && [ "$(wc -l < "$D/$1/frames.jsonl")" -eq "$3" ] && return 0
-  rm -rf "$D/$1"
-  step "synth_$1" "$CLI" synth --assets "${ASSETS:-../shared/assets}" --out "$D/$1" --frames "$3" --seed "$2" \
-       --clips "$4" --width "$W" --height "$H" --preview "$D/$1_preview.png"
+synth() {  # synth NAME SEED FRAMES CLIPS [more synth options]
+  local name=$1 seed=$2 frames=$3 clips=$4; shift 4
+  [ -f "$D/$name/frames.jsonl" ] && [ "$(wc -l < "$D/$name/frames.jsonl")" -eq "$frames" ] && return 0
+  rm -rf "$D/$name"
+  step "synth_$name" "$CLI" synth --assets "${ASSETS:-../shared/assets}" --out "$D/$name" --frames "$frames" \
+       --seed "$seed" --clips "$clips" --width "$W" --height "$H" --preview "$D/${name}_preview.png" "$@"
 }
 synth train 101 "${TRAIN_FRAMES:-3000}" "$TRAIN_CLIPS"
 synth val   202 "${VAL_FRAMES:-300}"    "$VAL_CLIPS"
 synth test  303 "${TEST_FRAMES:-500}"   "$TEST_CLIPS"
-synth demo  404 "${DEMO_FRAMES:-60}"    "$DEMO_CLIPS"
+# The demo is a recording-like scene: one camera, a floor, furniture and two people moving through
+# a test clip (`make run` segments it and prints joints per user).
+synth demo  "${DEMO_SEED:-415}" "${DEMO_FRAMES:-45}" "$DEMO_CLIPS" --sequence --floor --clutter 3 --people 2
 
 step train_bpc "$CLI" train --data "$D/train" --method bpc --trees "${MODEL_TREES:-3}" --depth "${MODEL_DEPTH:-16}" \
      --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --offsets "$OFFSETS" --thresholds "$THRESHOLDS" \
@@ -44,5 +47,5 @@ for m in bpc ojr; do
   cp "$D/$m.blob" "$OUT/$m.blob"
   step "eval_$m" "$CLI" eval --blob "$OUT/$m.blob" --data "$D/test" --json "$D/eval_$m.json" --plots "$D/plots_$m"
 done
-step record_demo "$CLI" record --source "dataset:$D/demo" --out "$OUT/demo.oni"
+step record_demo "$CLI" record --source "dataset:$D/demo" --out "$OUT/demo.oni" --zero-border
 ls -l "$OUT"

@@ -295,6 +295,15 @@ TEST(AppRun, TheFrameLoopAllocatesNothing) {
   t_count_news = false;
   ASSERT_EQ(c.summary.frames_processed, 12) << c.log;
   EXPECT_EQ(news_in_loop, 0) << "frames 3..12 (read, process, JSON) must not allocate";
+  // With segmentation (segmenter, per-user votes and mean shift, users in the JSON) as well.
+  o.segment = SegmentMode::kOn;
+  news_in_loop = -1;
+  Captured s = run_captured(o);
+  t_count_news = false;
+  ASSERT_EQ(s.summary.frames_processed, 12) << s.log;
+  ASSERT_TRUE(s.summary.segmented);
+  ASSERT_TRUE(s.lines[11].contains("users"));
+  EXPECT_EQ(news_in_loop, 0) << "frames 3..12 with segmentation must not allocate";
 }
 
 TEST(AppRun, ReplaysARecordingMadeByRecord) {
@@ -305,6 +314,7 @@ TEST(AppRun, ReplaysARecordingMadeByRecord) {
   direct.blob_path = blob;
   direct.source_spec = "dataset:" + (dir / "ds");
   direct.json = true;
+  direct.segment = SegmentMode::kOff;  // same processing for both sources (auto differs)
   Captured a = run_captured(direct);
   const std::string spec = direct.source_spec;
   platform::record_oni([&] { return platform::open_source(spec); }, true, dir / "x.oni", {});

@@ -229,7 +229,7 @@ class Segmenter {
   bool passes_person_test(const DepthFrame& frame, const Candidate& candidate) const;
   void merge_fragments(const DepthFrame& frame, int32_t candidate_count);
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
-  void update_background(const DepthFrame& frame, const uint8_t* labels);
+  void update_background(const DepthFrame& frame, const uint8_t* labels, const SegmentationResult* result);
 };
 
 }  // namespace dp

@@ -16,6 +16,7 @@
 #include "forest_blob/blob_writer.h"
 #include "platform/hotplug_source.h"
 #include "platform/usb_devices.h"
+#include "runtime/segmentation/segmenter.h"
 #include "tools/app/overlay.h"
 #include "tools/common/error.h"
 #include "tools/common/png_io.h"
@@ -94,13 +95,9 @@ class TimeHistogram {
   double max_ = 0;
 };
 
-void write_frame_json(LineBuffer& line, const RunOptions& options, const blob::LoadedBlob& b, const Pipeline& pipeline,
-                      int64_t frame, const platform::FrameInfo& info, double frame_ms, const FrameResult& r) {
-  line.clear();
-  line.add("{\"frame\":%lld,\"source_index\":%lld,\"timestamp_us\":%llu,\"frame_ms\":", (long long)frame,
-           (long long)info.index, (unsigned long long)info.timestamp_us);
-  line.number(frame_ms, "%.3f");
-  line.add(",\"kernel\":\"%s\",\"joints\":[", kernel_isa_name(pipeline.kernel()));
+// [{"name":..,"x":..,"y":..,"z":..,"confidence":..}, ...]: the best proposal of every joint.
+void write_joints_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameResult& r) {
+  line.add("[");
   for (int j = 0; j < r.joint_count; ++j) {
     line.add(j ? ",{\"name\":" : "{\"name\":");
     line.string(b.meta->joint_names[j], blob::kNameBytes);
@@ -120,6 +117,66 @@ void write_frame_json(LineBuffer& line, const RunOptions& options, const blob::L
     line.add("}");
   }
   line.add("]");
+}
+
+// Segmentation output of one frame: what the frame loop hands to the writers.
+struct SegmentedFrame {
+  const SegmentationResult* seg = nullptr;  // null without segmentation
+  const FrameResult* users = nullptr;       // [seg->user_count]
+};
+
+const char* seg_flag_name(int bit) {
+  static const char* const names[] = {"floor_fitted", "floor_held", "background_learning", "candidates_truncated",
+                                      "users_truncated"};
+  return bit >= 0 && bit < int(sizeof names / sizeof names[0]) ? names[bit] : "unknown_flag";
+}
+
+void write_users_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameResult& r, const SegmentedFrame& sf) {
+  const SegmentationResult& s = *sf.seg;
+  line.add(",\"users\":[");
+  uint64_t frame_cycles = r.total_cycles + s.total_cycles;
+  for (int i = 0; i < s.user_count; ++i) {
+    const UserInfo& u = s.users[i];
+    line.add("%s{\"id\":%d,\"pixels\":%d,\"centroid\":[", i ? "," : "", u.id, u.pixel_count);
+    line.number(u.centroid_m[0]);
+    line.add(",");
+    line.number(u.centroid_m[1]);
+    line.add(",");
+    line.number(u.centroid_m[2]);
+    line.add("],\"frames_tracked\":%d,\"joints\":", u.frames_tracked);
+    write_joints_json(line, b, sf.users[i]);
+    line.add(",\"cycles\":%llu}", (unsigned long long)sf.users[i].total_cycles);
+    frame_cycles += sf.users[i].total_cycles;
+  }
+  line.add("],\"segmentation\":{\"floor\":");
+  if (s.floor.valid) {
+    line.add("[%.4f,%.4f,%.4f,%.4f]", s.floor.nx, s.floor.ny, s.floor.nz, s.floor.d);
+  } else {
+    line.add("null");
+  }
+  line.add(",\"candidate_pixels\":%d,\"flags\":[", s.candidate_pixels);
+  bool first = true;
+  for (int bit = 0; bit < 32; ++bit)
+    if (s.flags & (1u << bit)) {
+      line.add("%s\"%s\"", first ? "" : ",", seg_flag_name(bit));
+      first = false;
+    }
+  line.add("],\"stage_cycles\":{");
+  for (int st = 0; st < kSegStageCount; ++st)
+    line.add("%s\"%s\":%llu", st ? "," : "", segmentation_stage_name(st) + 4,  // drop "seg_"
+             (unsigned long long)s.stage_cycles[st]);
+  line.add("}},\"frame_cycles\":%llu", (unsigned long long)frame_cycles);
+}
+
+void write_frame_json(LineBuffer& line, const RunOptions& options, const blob::LoadedBlob& b, const Pipeline& pipeline,
+                      int64_t frame, const platform::FrameInfo& info, double frame_ms, const FrameResult& r,
+                      const SegmentedFrame& sf) {
+  line.clear();
+  line.add("{\"frame\":%lld,\"source_index\":%lld,\"timestamp_us\":%llu,\"frame_ms\":", (long long)frame,
+           (long long)info.index, (unsigned long long)info.timestamp_us);
+  line.number(frame_ms, "%.3f");
+  line.add(",\"kernel\":\"%s\",\"joints\":", kernel_isa_name(pipeline.kernel()));
+  write_joints_json(line, b, r);
   if (options.all_proposals) {
     line.add(",\"proposals\":[");
     for (int j = 0; j < r.joint_count; ++j) {
@@ -150,15 +207,14 @@ void write_frame_json(LineBuffer& line, const RunOptions& options, const blob::L
       line.add("%s\"%s\"", first ? "" : ",", frame_flag_name(bit));
       first = false;
     }
-  line.add("],\"over_budget\":%s,\"foreground_pixels\":%d,\"evaluated_pixels\":%d,\"pixel_stride\":%d}",
+  line.add("],\"over_budget\":%s,\"foreground_pixels\":%d,\"evaluated_pixels\":%d,\"pixel_stride\":%d",
            (r.flags & kFlagOverCycleBudget) ? "true" : "false", r.foreground_pixels, r.evaluated_pixels,
            r.pixel_stride);
+  if (sf.seg) write_users_json(line, b, r, sf);
+  line.add("}");
 }
 
-void write_frame_text(LineBuffer& line, const blob::LoadedBlob& b, int64_t frame, const platform::FrameInfo& info,
-                      double frame_ms, const FrameResult& r) {
-  line.clear();
-  line.add("frame %lld (source %lld, %.2f ms):", (long long)frame, (long long)info.index, frame_ms);
+void write_joints_text(LineBuffer& line, const blob::LoadedBlob& b, const FrameResult& r) {
   for (int j = 0; j < r.joint_count; ++j) {
     line.add(j ? " | %.*s" : " %.*s", blob::kNameBytes, b.meta->joint_names[j]);
     if (r.proposal_count[j] > 0) {
@@ -168,7 +224,25 @@ void write_frame_text(LineBuffer& line, const blob::LoadedBlob& b, int64_t frame
       line.add(" -");
     }
   }
+}
+
+void write_frame_text(LineBuffer& line, const blob::LoadedBlob& b, int64_t frame, const platform::FrameInfo& info,
+                      double frame_ms, const FrameResult& r, const SegmentedFrame& sf, FILE* out) {
+  line.clear();
+  line.add("frame %lld (source %lld, %.2f ms):", (long long)frame, (long long)info.index, frame_ms);
+  if (sf.seg) line.add(" %d user(s):", sf.seg->user_count);
+  write_joints_text(line, b, r);
   if (r.flags & kFlagOverCycleBudget) line.add(" [over budget]");
+  line.write(out);
+  if (!sf.seg) return;
+  for (int i = 0; i < sf.seg->user_count; ++i) {
+    const UserInfo& u = sf.seg->users[i];
+    line.clear();
+    line.add("frame %lld user %d (%d px, tracked %d frames):", (long long)frame, u.id, u.pixel_count,
+             u.frames_tracked);
+    write_joints_text(line, b, sf.users[i]);
+    line.write(out);
+  }
 }
 
 struct AlignedFree {
@@ -231,7 +305,29 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   }
   std::vector<uint16_t> depth(size_t(w) * h);
   const CameraIntrinsics intrinsics = source->intrinsics();
-  const DepthFrame frame{depth.data(), w, h, w, intrinsics, nullptr};
+  DepthFrame frame{depth.data(), w, h, w, intrinsics, nullptr};
+  // Segmentation: its arena, the label image (the frame's mask) and per-user results, once.
+  const bool sequential = source->live() || options.source_spec.rfind("oni:", 0) == 0;
+  const bool segment = options.segment == SegmentMode::kOn || (options.segment == SegmentMode::kAuto && sequential);
+  Segmenter segmenter;
+  std::unique_ptr<uint8_t, AlignedFree> seg_arena;
+  std::vector<uint8_t> labels;
+  std::vector<FrameResult> user_results;
+  auto seg_result = std::make_unique<SegmentationResult>();
+  if (segment) {
+    const size_t seg_bytes = segmenter_required_bytes(w, h);
+    if (!seg_bytes) fail("segmentation cannot run on " + std::to_string(w) + "x" + std::to_string(h) + " frames");
+    seg_arena.reset(static_cast<uint8_t*>(std::aligned_alloc(64, (seg_bytes + 63) / 64 * 64)));
+    if (!seg_arena) fail("cannot allocate the " + std::to_string(seg_bytes) + "-byte segmentation arena");
+    if (Status s = segmenter.init(default_segmenter_config(sequential), w, h, seg_arena.get(), seg_bytes);
+        s != Status::kOk)
+      fail(std::string("segmenter init: ") + status_message(s));
+    labels.assign(size_t(w) * h, 0);
+    user_results.resize(kMaxUsers);
+    seg_result->labels = labels.data();
+    frame.foreground_mask = labels.data();
+  }
+  std::vector<bool> ids_seen(kMaxUsers + 1, false);
   auto result = std::make_unique<FrameResult>();
   ImageRgb overlay;
   if (!options.overlay_dir.empty()) overlay.resize(w, h);
@@ -243,6 +339,10 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   std::fprintf(log, "run: %s on %s (%dx%d, fx %.1f fy %.1f cx %.1f cy %.1f), kernel %s, arena %zu bytes\n",
                options.blob_path.c_str(), options.source_spec.c_str(), w, h, intrinsics.fx, intrinsics.fy, intrinsics.cx,
                intrinsics.cy, kernel_isa_name(pipeline.kernel()), arena_bytes);
+  if (segment)
+    std::fprintf(log, "run: segmentation on (floor, %s, users), arena %zu bytes\n",
+                 sequential ? "background model" : "no background model", segmenter.arena_used_bytes());
+  summary.segmented = segment;
 
   // ---- the loop: no allocation from here on ----
   const auto loop_start = Clock::now();
@@ -295,7 +395,16 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
       if (now < due) std::this_thread::sleep_until(due);
     }
     const auto t0 = Clock::now();
-    const Status s = pipeline.process(frame, result.get());
+    Status s = Status::kOk;
+    SegmentedFrame sf;
+    if (segment) {
+      s = segmenter.process(frame, seg_result.get());
+      sf.seg = seg_result.get();
+      sf.users = user_results.data();
+    }
+    if (s == Status::kOk) s = pipeline.process(frame, result.get());
+    for (int i = 0; segment && s == Status::kOk && i < seg_result->user_count; ++i)
+      s = pipeline.process_user(frame, uint8_t(seg_result->users[i].id), &user_results[size_t(i)]);
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     if (s != Status::kOk) {
       std::fprintf(log, "run: frame %lld: %s (skipped)\n", (long long)info.index, status_message(s));
@@ -306,15 +415,26 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
     if (result->flags & kFlagOverCycleBudget) ++summary.overruns;
     if (result->flags & (kFlagPixelsStrided | kFlagVotesTruncated | kFlagStartsTruncated | kFlagProposalsTruncated))
       ++summary.degraded;
+    if (segment) {
+      summary.user_frames += seg_result->user_count;
+      summary.max_users_in_frame = std::max(summary.max_users_in_frame, int(seg_result->user_count));
+      for (int i = 0; i < seg_result->user_count; ++i) {
+        const int id = seg_result->users[i].id;
+        if (id >= 1 && id <= kMaxUsers && !ids_seen[size_t(id)]) {
+          ids_seen[size_t(id)] = true;
+          ++summary.distinct_user_ids;
+        }
+      }
+    }
     if (options.json) {
-      write_frame_json(line, options, b, pipeline, summary.frames_processed, info, ms, *result);
+      write_frame_json(line, options, b, pipeline, summary.frames_processed, info, ms, *result, sf);
       line.write(json_out);
     } else if (!options.quiet) {
-      write_frame_text(line, b, summary.frames_processed, info, ms, *result);
-      line.write(json_out);
+      write_frame_text(line, b, summary.frames_processed, info, ms, *result, sf, json_out);
     }
     if (!options.overlay_dir.empty()) {
-      draw_overlay(frame, pipeline, *result, &overlay);
+      if (segment) draw_overlay_users(frame, pipeline, user_results.data(), seg_result->user_count, &overlay);
+      else draw_overlay(frame, pipeline, *result, &overlay);
       std::snprintf(overlay_path.data(), overlay_path.size(), "%s/%06lld.png", options.overlay_dir.c_str(),
                     (long long)summary.frames_processed);
       try {
@@ -344,6 +464,10 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
                summary.seconds, summary.fps, summary.p50_ms, summary.p99_ms, summary.max_ms, (long long)summary.overruns,
                (long long)summary.degraded, (long long)summary.dropped, (long long)summary.corrupt,
                (long long)summary.device_lost, (long long)summary.reconnects);
+  if (segment)
+    std::fprintf(log, "segmentation: %.2f users per frame on average, at most %d in a frame, %d distinct ids\n",
+                 summary.frames_processed ? double(summary.user_frames) / double(summary.frames_processed) : 0.0,
+                 summary.max_users_in_frame, summary.distinct_user_ids);
   return summary;
 }
 

@@ -12,9 +12,19 @@
 //    "proposals":[[[x,y,z,c],...], ...],      // only with --all-proposals, per joint
 //    "stage_cycles":{"foreground":..,"forest":..,"votes":..,"mean_shift":..},"total_cycles":..,
 //    "flags":["pixels_strided",...],"over_budget":false,
-//    "foreground_pixels":..,"evaluated_pixels":..,"pixel_stride":..}
+//    "foreground_pixels":..,"evaluated_pixels":..,"pixel_stride":..,
+//    // with segmentation (--segment on, or auto on a live or .oni source):
+//    "users":[{"id":1,"pixels":..,"centroid":[x,y,z],"frames_tracked":..,"joints":[...same as above...],
+//              "cycles":..}, ...],          // by increasing id; ids stable across frames
+//    "segmentation":{"floor":[nx,ny,nz,d]|null,"candidate_pixels":..,"flags":[..],
+//                    "stage_cycles":{"floor":..,"background":..,"components":..,"users":..}},
+//    "frame_cycles":..}                     // segmentation + forest + every user's votes and mean shift
+// With segmentation the top-level "joints" are aggregated over every user's pixels together (for
+// one user: that user's joints); "users" carries each user's own.
 // Without --json each processed frame prints one text line instead:
 //   frame 3 (source 3, 0.41 ms): head 0.012 0.457 2.055 (812) | neck - | ...
+// and, with segmentation, one more line per user:
+//   frame 3 user 1 (5321 px, tracked 4 frames): head ... | ...
 // Events (device lost/back, skipped corrupt frames) and the closing summary go to `log`.
 #pragma once
 #include <cstdint>
@@ -26,6 +36,13 @@
 #include "runtime/depthpose.h"
 
 namespace dp::tools {
+
+// Segmentation (dp::Segmenter, docs/segmentation.md) before the forest: floor, background model,
+// users with stable ids. kAuto = on for live sources and .oni recordings (a room, a fixed camera:
+// background model on), off for raw files and datasets (frames usually already cut out; a dataset
+// with --floor wants kOn). kOn on raw/dataset sources leaves the background model off (their
+// frames may be unrelated).
+enum class SegmentMode { kAuto, kOn, kOff };
 
 struct RunOptions {
   std::string blob_path;
@@ -39,6 +56,7 @@ struct RunOptions {
   bool realtime = false;        // pace files at their timestamps; drop frames when late
   int64_t max_frames = -1;      // stop after this many processed frames (−1 = source end)
   KernelIsa kernel = KernelIsa::kBest;
+  SegmentMode segment = SegmentMode::kAuto;
   // Live sources: watch the USB bus (libusb) for the depth camera leaving and coming back.
   bool usb_watch = true;
   // Called after each processed frame (tests observe the loop with it). May be empty.
@@ -56,6 +74,10 @@ struct RunSummary {
   int64_t device_lost = 0, reconnects = 0;
   double seconds = 0, fps = 0;    // wall time of the loop; processed frames per second
   double p50_ms = 0, p99_ms = 0, max_ms = 0;  // process() time per frame
+  bool segmented = false;         // the Segmenter ran on every processed frame
+  int64_t user_frames = 0;        // Σ over processed frames of the users found
+  int max_users_in_frame = 0;
+  int distinct_user_ids = 0;      // ids ever reported
   bool source_failed = false;
   std::string source_error;
 };

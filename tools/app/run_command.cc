@@ -22,7 +22,7 @@ static KernelIsa parse_kernel(const std::string& name) {
 
 static int run_run(int argc, char** argv) {
   std::vector<std::string> options = kSourceOptionNames;
-  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--kernel"});
+  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--kernel", "--segment"});
   Args args(argc, argv,
             std::string("usage: depthpose run --blob BLOB --source SRC [--json] [--overlay DIR] [--every N]\n"
                         "                     [--realtime] [--all-proposals] [--frames N] [--kernel K]\n"
@@ -41,6 +41,9 @@ static int run_run(int argc, char** argv) {
                 "                       (live sources always deliver the newest frame)\n"
                 "  --frames N           stop after N processed frames\n"
                 "  --kernel K           forest kernel: scalar, avx2, avx512 or best (default best)\n"
+                "  --segment MODE       on, off or auto (default): find the people first (floor, background model,\n"
+                "                       users with stable ids; docs/segmentation.md) and report joints per user.\n"
+                "                       auto = on for live sources and .oni files, off for raw files and datasets\n"
                 "  --no-usb-watch       live sources: do not watch the USB bus for the camera leaving/returning\n",
             options, {"--json", "--quiet", "--realtime", "--all-proposals", "--no-usb-watch"});
   if (args.help_requested()) {
@@ -62,6 +65,11 @@ static int run_run(int argc, char** argv) {
   if (args.has("--frames") && o.max_frames < 1) fail("--frames must be at least 1");
   o.kernel = parse_kernel(args.get("--kernel", "best"));
   o.usb_watch = !args.flag("--no-usb-watch");
+  const std::string segment = args.get("--segment", "auto");
+  if (segment == "auto") o.segment = SegmentMode::kAuto;
+  else if (segment == "on") o.segment = SegmentMode::kOn;
+  else if (segment == "off") o.segment = SegmentMode::kOff;
+  else fail("--segment wants on, off or auto, got '" + segment + "'");
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
   RunSummary s = run_app(o, stdout, stderr);

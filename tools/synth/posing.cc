@@ -278,7 +278,8 @@ std::vector<size_t> furthest_neighbour_selection(const std::vector<JointSet>& it
   return selected;
 }
 
-PoseLibrary build_pose_library(const HumanAssets& a, const std::vector<MotionClip>& clips, double min_distance) {
+PoseLibrary build_pose_library(const HumanAssets& a, const std::vector<MotionClip>& clips, double min_distance,
+                               bool keep_order) {
   const Skeleton rest = measure_skeleton(a, a.base_vertices);
   const int hips = bone_or_fail(a, "Hips");
   std::vector<BodyPose> candidates;
@@ -297,6 +298,11 @@ PoseLibrary build_pose_library(const HumanAssets& a, const std::vector<MotionCli
   }
   PoseLibrary lib;
   lib.candidate_count = candidates.size();
+  if (keep_order) {
+    lib.poses = std::move(candidates);
+    lib.origin = std::move(origin);
+    return lib;
+  }
   for (size_t i : furthest_neighbour_selection(joints, min_distance)) {
     lib.poses.push_back(std::move(candidates[i]));
     lib.origin.push_back(origin[i]);

@@ -62,6 +62,8 @@ struct PoseLibrary {
 };
 // Samples every clip frame present (clips are already stride-sampled), measures joints relative
 // to the hips on the base body, and keeps the furthest-neighbour selection at `min_distance` m.
-PoseLibrary build_pose_library(const HumanAssets& assets, const std::vector<MotionClip>& clips, double min_distance);
+// keep_order: keep every frame in clip order instead (synth --sequence).
+PoseLibrary build_pose_library(const HumanAssets& assets, const std::vector<MotionClip>& clips, double min_distance,
+                               bool keep_order = false);
 
 }  // namespace dp::synth

@@ -96,11 +96,26 @@ Synthesizer::Synthesizer(const std::string& assets_dir, const SynthConfig& confi
   vertex_labels_ = vertex_part_labels(assets_);
   std::vector<MotionClip> clips = load_clips(assets_dir, config_.clips, config_.pose_frame_stride);
   for (auto& c : clips) clip_names_.push_back(c.name);
-  library_ = build_pose_library(assets_, clips, config_.pose_min_distance_m);
+  // A sequence walks through the clips frame by frame: no pruning, clip order kept.
+  library_ = build_pose_library(assets_, clips, config_.sequence ? 0.0 : config_.pose_min_distance_m,
+                                /*keep_order=*/config_.sequence);
   if (library_.poses.empty()) fail("no poses from the selected clips");
 }
 
 FrameParams Synthesizer::sample_frame_params(uint64_t seed, uint64_t frame_index) const {
+  if (config_.sequence) {
+    FrameParams p = sample_scene_params(seed, 0);
+    const size_t n = library_.poses.size();
+    p.frame_index = frame_index;
+    p.noise_seed = Rng::for_frame(seed, frame_index, kNoiseStream).next();
+    p.pose_index = (p.pose_index + frame_index) % n;
+    for (OtherPerson& o : p.others) o.pose_index = (o.pose_index + frame_index) % n;
+    return p;
+  }
+  return sample_scene_params(seed, frame_index);
+}
+
+FrameParams Synthesizer::sample_scene_params(uint64_t seed, uint64_t frame_index) const {
   Rng rng = Rng::for_frame(seed, frame_index, kParamStream);
   const SynthConfig& c = config_;
   FrameParams p;
@@ -429,6 +444,7 @@ dp::tools::DatasetMeta Synthesizer::dataset_meta() const {
   extra["noise"] = config_.noise.enabled;
   if (config_.people > 1) extra["people"] = config_.people;
   if (config_.clutter > 0) extra["clutter"] = config_.clutter;
+  if (config_.sequence) extra["sequence"] = true;
   m.extra_json = extra.dump();
   return m;
 }

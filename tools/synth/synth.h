@@ -32,6 +32,10 @@ struct SynthConfig {
   bool floor = false;                // render a floor plane behind the body (label 255)
   int people = 1;                    // bodies per frame, 1..8 (--people N); body 0 is `joints`
   int clutter = 0;                   // furniture on the floor per frame, 0..32 (--clutter N), label 255
+  // --sequence: one scene (camera, bodies, shapes, placements, clutter) drawn from frame 0 of the
+  // seed; frame i advances every body i steps through its clip (the pose library is then kept in
+  // clip order, unpruned) and draws fresh sensor noise. A recording-like sequence for trackers.
+  bool sequence = false;
   NoiseConfig noise;
   // Clips: "02" (all clips of subject 02), "02_01" (one clip), or a path to a .bvh file. Empty =
   // every ASF/AMC clip under assets/mocap/cmu.
@@ -131,6 +135,8 @@ class Synthesizer {
   dp::tools::ImageRgb render_parts_figure(const BodyPose& pose, double yaw_deg, int width, int height) const;
 
  private:
+  FrameParams sample_scene_params(uint64_t seed, uint64_t frame_index) const;
+
   SynthConfig config_;
   Intrinsics intrinsics_;
   HumanAssets assets_;

@@ -37,6 +37,9 @@ const char* kUsage =
     "  --people N          N bodies per frame (1..8, default 1): frames.jsonl gets \"people\", and\n"
     "                      people/NNNNNN.png (1 + body index per pixel) is written\n"
     "  --clutter N         N furniture-sized boxes/cylinders on the floor per frame (0..32, label 255)\n"
+    "  --sequence          one scene for all frames (camera, bodies, clutter from frame 0); each body\n"
+    "                      steps through its clip frame by frame (no pose pruning), fresh noise per\n"
+    "                      frame: a recording-like sequence (e.g. for depthpose record, run, segeval --live)\n"
     "  --no-noise          clean depth (no shadows, dropouts, quantization)\n"
     "  --pose-distance M   D_pose of the pose pruning in metres (default 0.05)\n"
     "  --pose-stride N     use every N-th mocap frame before pruning (default 4)\n"
@@ -62,7 +65,7 @@ int run_synth(int argc, char** argv) {
                        {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
                         "--pose-sheet", "--people", "--clutter"},
-                       {"--floor", "--no-noise"});
+                       {"--floor", "--no-noise", "--sequence"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
     return 0;
@@ -74,6 +77,7 @@ int run_synth(int argc, char** argv) {
   config.floor = args.flag("--floor");
   config.people = int(args.get_int("--people", 1));
   config.clutter = int(args.get_int("--clutter", 0));
+  config.sequence = args.flag("--sequence");
   config.noise.enabled = !args.flag("--no-noise");
   config.pose_min_distance_m = args.get_double("--pose-distance", 0.05);
   config.pose_frame_stride = int(args.get_int("--pose-stride", 4));
