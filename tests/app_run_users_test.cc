@@ -243,3 +243,17 @@ TEST(AppRunUsers, SegmentOffAndAutoOnDatasets) {
 TEST(AppRunUsers, BadSegmentModeIsRefused) {
   EXPECT_THROW(run_cli({"run", "--blob", kBlob, "--source", "oni:" + scene().oni, "--segment", "maybe"}), ToolError);
 }
+
+TEST(AppRunUsers, EvalSegmentReportsSegmentationQuality) {
+  // `depthpose eval --segment` measures the segmenter on a labelled dataset (segeval's protocol).
+  Scene& s = scene();
+  const std::string out = s.dir / "seg.json";
+  ASSERT_EQ(run_cli({"eval", "--segment", "--data", s.dataset, "--live", "--json", out}), 0);
+  std::ifstream f(out);
+  const json j = json::parse(f);
+  EXPECT_EQ(j["frames"].get<int>(), kFrames);
+  EXPECT_EQ(j["people"].get<int>(), 2 * kFrames);
+  EXPECT_GE(j["detection_rate"].get<double>(), 0.95);
+  EXPECT_GT(j["foreground_iou_pooled"].get<double>(), 0.8);
+  EXPECT_LE(j["false_users_per_frame"].get<double>(), 0.1);
+}

@@ -2,6 +2,8 @@
 // dataset in layout v1; optional JSON and PNG plots.
 #include <cstdio>
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
@@ -40,9 +42,23 @@ static const char* const kUsage =
     "  --silhouette         flatten the foreground to 2 m (paper 4.6.4); D_tp in pixels\n"
     "  --map-joints/--map-parts  rename dataset names to blob names (unmatched names are then skipped);\n"
     "                       the value may be @FILE (pairs separated by commas, spaces or newlines)\n"
+    "  --segment            measure segmentation instead (floor, background, users: foreground IoU, people\n"
+    "                       found, false users per frame, joint mAP with the segmenter's mask vs the ground-truth\n"
+    "                       mask); the same as `depthpose segeval` (its options: docs/segmentation.md)\n"
     "  docs/evaluation.md describes the protocol and the JSON.";
 
 static int run_eval(int argc, char** argv) {
+  // `eval --segment ...`: segmentation quality (and joint mAP with the segmenter's mask against the
+  // ground-truth mask) is measured by segeval; one entry point for users, one implementation.
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--segment") {
+      std::vector<char*> rest;
+      for (int k = 0; k < argc; ++k)
+        if (k != i) rest.push_back(argv[k]);
+      const cli::Command* segeval = cli::find_command("segeval");
+      if (!segeval) fail("eval --segment: the segeval command is not built in");
+      return segeval->run(int(rest.size()), rest.data());
+    }
   Args a(argc, argv, kUsage,
          {"--blob", "--data", "--json", "--plots", "--dtp", "--frames", "--kernel", "--map-joints", "--map-parts"},
          {"--penalize-occluded", "--silhouette"});
