@@ -13,6 +13,7 @@
 
 #include "forest_blob/blob_writer.h"
 #include "platform/oni_recorder.h"
+#include "tests/app_run_support.h"
 #include "tests/app_test_support.h"
 #include "tools/app/overlay.h"
 #include "tools/app/run.h"
@@ -22,7 +23,9 @@
 
 using namespace dp;
 using namespace dp::tools;
+using dp::apptest::Captured;
 using dp::apptest::TempDir;
+using dp::apptest::run_captured;
 using nlohmann::json;
 
 // Counts the allocations made by the thread that asked for it (other threads, e.g. OpenNI2's, are
@@ -64,36 +67,6 @@ std::string write_test_blob(const TempDir& dir) {
   c.joint_names = {"head", "neck", "hand_l"};
   blob::save_blob_file(path, blob::write_blob(c));
   return path;
-}
-
-struct Captured {
-  RunSummary summary;
-  std::vector<json> lines;        // with --json
-  std::vector<std::string> text;  // without
-  std::string log;
-};
-
-Captured run_captured(const RunOptions& o) {
-  Captured c;
-  FILE* out = std::tmpfile();
-  FILE* log = std::tmpfile();
-  c.summary = run_app(o, out, log);
-  auto slurp = [](FILE* f) {
-    std::string s;
-    std::rewind(f);
-    char buf[4096];
-    size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) s.append(buf, n);
-    std::fclose(f);
-    return s;
-  };
-  std::istringstream lines(slurp(out));
-  c.log = slurp(log);
-  for (std::string line; std::getline(lines, line);) {
-    if (o.json) c.lines.push_back(json::parse(line));
-    else c.text.push_back(line);
-  }
-  return c;
 }
 
 // Mean camera-frame point of the nonzero pixels.

@@ -12,7 +12,9 @@
 #include <sstream>
 
 #include "platform/oni_recorder.h"
+#include "tests/app_run_support.h"
 #include "tests/app_test_support.h"
+#include "tests/cli_test_support.h"
 #include "tools/app/run.h"
 #include "tools/cli/command.h"
 #include "tools/common/error.h"
@@ -20,7 +22,10 @@
 
 using namespace dp;
 using namespace dp::tools;
+using dp::apptest::Captured;
 using dp::apptest::TempDir;
+using dp::apptest::run_captured;
+using dp::testsupport::run_cli;
 using dp::synth::FrameParams;
 using dp::synth::SynthConfig;
 using dp::synth::SynthFrame;
@@ -32,45 +37,6 @@ namespace {
 const char* kAssets = "../shared/assets";
 const char* kBlob = "models/bpc.blob";  // the shipped 31-part forest
 constexpr int kFrames = 30;
-
-int run_cli(std::vector<std::string> args) {
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  const cli::Command* cmd = cli::find_command(argv[0]);
-  EXPECT_NE(cmd, nullptr) << argv[0];
-  return cmd ? cmd->run(int(argv.size()), argv.data()) : -1;
-}
-
-struct Captured {
-  RunSummary summary;
-  std::vector<json> lines;
-  std::vector<std::string> text;
-  std::string log;
-};
-
-std::string slurp(FILE* f) {
-  std::string s;
-  std::rewind(f);
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) s.append(buf, n);
-  std::fclose(f);
-  return s;
-}
-
-Captured run_captured(const RunOptions& o) {
-  Captured c;
-  FILE* out = std::tmpfile();
-  FILE* log = std::tmpfile();
-  c.summary = run_app(o, out, log);
-  std::istringstream lines(slurp(out));
-  c.log = slurp(log);
-  for (std::string line; std::getline(lines, line);) {
-    if (o.json) c.lines.push_back(json::parse(line));
-    else c.text.push_back(line);
-  }
-  return c;
-}
 
 // Ground truth per frame: people[k] = 16 joints (x, y, z, visible).
 std::vector<std::vector<std::vector<std::array<double, 4>>>> read_people(const std::string& dataset) {
@@ -201,7 +167,9 @@ TEST(AppRunUsers, TwoPeopleOnARecordingGetJointsUnderStableIds) {
     }
   }
   EXPECT_EQ(person_of_id.size(), 2u);
-  if (person_of_id.size() == 2u) EXPECT_NE(person_of_id.begin()->second, person_of_id.rbegin()->second);
+  if (person_of_id.size() == 2u) {
+    EXPECT_NE(person_of_id.begin()->second, person_of_id.rbegin()->second);
+  }
 }
 
 TEST(AppRunUsers, TextModePrintsOneLinePerUser) {

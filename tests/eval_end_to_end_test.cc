@@ -6,6 +6,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "tests/cli_test_support.h"
 #include "eval_dataset_fixture.h"
 #include "tools/cli/command.h"
 #include "tools/common/error.h"
@@ -15,19 +16,13 @@
 using namespace dp;
 using namespace dp::evaltest;
 
+using dp::testsupport::run_cli;
+
 namespace {
 
 std::unique_ptr<tools::EvalSession> session(const blob::BlobContents& c, const std::string& data,
                                             const tools::EvalOptions& o = {}) {
   return std::make_unique<tools::EvalSession>(blob::write_blob(c), "test blob", data, o);
-}
-
-int run_cli(std::vector<std::string> args) {
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  const cli::Command* cmd = cli::find_command(argv[0]);
-  EXPECT_NE(cmd, nullptr) << argv[0];
-  return cmd ? cmd->run(int(argv.size()), argv.data()) : -1;
 }
 
 }  // namespace

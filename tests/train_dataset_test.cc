@@ -7,6 +7,7 @@
 #include <set>
 #include <sstream>
 
+#include "tests/cli_test_support.h"
 #include "runtime/fixed_point.h"
 #include "tests/train_toy_data.h"
 #include "tools/cli/command.h"
@@ -15,6 +16,8 @@
 #include "tools/train/training_set.h"
 
 namespace dp::train {
+using dp::testsupport::run_cli;
+
 namespace {
 using testing_toy::TempDir;
 using testing_toy::write_toy_dataset;
@@ -162,14 +165,6 @@ TEST(TrainDataset, MissingLabelsOrJointsWhenNeeded) {
   std::ofstream(tmp.path + "/toy/frames.jsonl") << text;
   const std::string e = load_error(tmp.path + "/toy", so);
   EXPECT_NE(e.find("frame 000001 has no joints"), std::string::npos) << e;
-}
-
-int run_cli(std::vector<std::string> args) {
-  const cli::Command* c = cli::find_command("train");
-  if (!c) return -100;
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  return c->run(static_cast<int>(argv.size()), argv.data());
 }
 
 TEST(TrainCommand, TrainsBpcAndOjrForestFiles) {
