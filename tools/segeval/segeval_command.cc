@@ -37,6 +37,8 @@ static const char* const kUsage =
     "  --dtp D                true-positive radius in metres (default 0.1)\n"
     "  --min-visible-joints K a person counts for the detection rate with >= K of 16 joints visible (default 8)\n"
     "  --dump DIR             write DIR/NNNNNN.png per frame: depth in grey, users in colour, missed body red\n"
+    "  --per-frame OUT.jsonl  one line per frame: people (pixels, visible joints, box, border, matched user, IoU),\n"
+    "                         users (pixels, body pixels, top, matched person), missed and extra pixels by height\n"
     "  --set K=V,...          override SegmenterConfig numbers: min_person_height_m, min_person_area_m2,\n"
     "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
     "                         fragment_radius_m, floor_samples, floor_iterations";
@@ -84,7 +86,7 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
 }
 
 int run_segeval(int argc, char** argv) {
-  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--dump", "--set"}, {"--live"});
+  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--dump", "--set", "--per-frame"}, {"--live"});
   if (a.help_requested()) {
     std::printf("%s\n", a.usage().c_str());
     return 0;
@@ -152,6 +154,11 @@ int run_segeval(int argc, char** argv) {
   std::vector<JointSamples> seg_samples(joint_blob.size()), gt_samples(joint_blob.size());
 
   std::vector<uint8_t> labels(size_t(w) * h);
+  std::ofstream per_frame;
+  if (a.has("--per-frame")) {
+    per_frame.open(a.get("--per-frame"));
+    if (!per_frame) fail(a.get("--per-frame") + ": cannot write");
+  }
   double inter_total = 0, union_total = 0, iou_sum = 0;
   long people_total = 0, people_found = 0, findable_total = 0, findable_found = 0, false_users = 0;
   long frames_with_false = 0;
@@ -246,6 +253,68 @@ int run_segeval(int argc, char** argv) {
     }
     long false_here = 0;
     for (int u = 0; u < nu; ++u) false_here += person_of_user[size_t(u)] < 0;
+    if (per_frame.is_open()) {
+      // Diagnostics: where the IoU goes. Missed body pixels and extra user pixels by height above
+      // the segmenter's floor (when it has one): < 5 cm, 5..15 cm, higher (or no floor).
+      json line;
+      line["id"] = ds.frames[size_t(i)].id;
+      line["inter"] = inter;
+      line["union"] = uni;
+      line["floor"] = r.floor.valid != 0;
+      long missed[3] = {0, 0, 0}, extra[3] = {0, 0, 0}, missed_unmatched = 0;
+      for (int v = 0; v < h; ++v)
+        for (int u = 0; u < w; ++u) {
+          const size_t q = size_t(v) * w + u;
+          const bool lab = labels[q] != 0, tru = truth[q] != 0;
+          if (lab == tru) continue;
+          int bucket = 2;
+          if (r.floor.valid && depth.pixels[q]) {
+            const float z = depth.pixels[q] * 0.001f;
+            const float x = (u - intr.cx) * z / intr.fx, y = -(v - intr.cy) * z / intr.fy;
+            const float up = r.floor.nx * x + r.floor.ny * y + r.floor.nz * z + r.floor.d;
+            bucket = up < 0.05f ? 0 : up < 0.15f ? 1 : 2;
+          }
+          if (tru) {
+            if (user_of_person[size_t(truth[q] - 1)] < 0) ++missed_unmatched;
+            else ++missed[bucket];
+          } else {
+            ++extra[bucket];
+          }
+        }
+      line["missed_unmatched_person"] = missed_unmatched;
+      line["missed_matched_by_height"] = {missed[0], missed[1], missed[2]};
+      line["extra_by_height"] = {extra[0], extra[1], extra[2]};
+      json ps = json::array();
+      for (int p = 0; p < np; ++p) {
+        int u0 = w, u1 = -1, v0 = h, v1 = -1;
+        for (int v = 0; v < h; ++v)
+          for (int u = 0; u < w; ++u)
+            if (truth[size_t(v) * w + u] == p + 1) {
+              u0 = std::min(u0, u); u1 = std::max(u1, u); v0 = std::min(v0, v); v1 = std::max(v1, v);
+            }
+        const int mu = user_of_person[size_t(p)];
+        double best_iou = 0;
+        for (int u = 0; u < nu; ++u) {
+          const double o = double(overlap[size_t(u) * np + p]);
+          best_iou = std::max(best_iou, o / double(r.users[u].pixel_count + people[size_t(p)].pixels - o));
+        }
+        ps.push_back({{"pixels", people[size_t(p)].pixels}, {"visible_joints", people[size_t(p)].visible_joints},
+                      {"box", {u0, v0, u1, v1}}, {"border", u1 >= 0 && (u0 == 0 || v0 == 0 || u1 == w - 1 || v1 == h - 1)},
+                      {"user", mu >= 0 ? r.users[mu].id : 0}, {"best_iou", best_iou}});
+      }
+      line["people"] = ps;
+      json us = json::array();
+      for (int u = 0; u < nu; ++u) {
+        long body = 0;
+        for (int p = 0; p < np; ++p) body += overlap[size_t(u) * np + p];
+        const UserInfo& ui = r.users[u];
+        us.push_back({{"id", ui.id}, {"pixels", ui.pixel_count}, {"body_pixels", body}, {"top", ui.top_height_m},
+                      {"box", {ui.u_min, ui.v_min, ui.u_max, ui.v_max}}, {"z", ui.centroid_m[2]},
+                      {"person", person_of_user[size_t(u)]}});
+      }
+      line["users"] = us;
+      per_frame << line.dump() << "\n";
+    }
     false_users += false_here;
     frames_with_false += false_here > 0;
     for (int p = 0; p < np; ++p) {
