@@ -163,7 +163,9 @@ static bool config_valid(const SegmenterConfig& c) {
          c.background_absorb_frames >= 0 && c.background_absorb_frames <= 65535 && c.join_mm > 0.0f &&
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
-         c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f &&
+         c.cut_floor_contact_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -495,6 +497,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
     c.sx = c.sy = c.sz = 0.0;
     c.x_min = c.y_min = c.z_min = 1e30f;
     c.x_max = c.y_max = c.z_max = c.top = -1e30f;
+    c.bottom = 1e30f;
     c.u_min = c.v_min = 32767;
     c.u_max = c.v_max = -1;
     c.user = 0;
@@ -536,6 +539,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
       if (use_floor) {
         const float up = floor_->nx * x + floor_->ny * y + floor_->nz * z + floor_->d;
         if (up > c.top) c.top = up;
+        if (up < c.bottom) c.bottom = up;
       }
       if (u < c.u_min) c.u_min = int16_t(u);
       if (u > c.u_max) c.u_max = int16_t(u);
@@ -552,7 +556,12 @@ bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c) cons
   const SegmenterConfig& cfg = *config_;
   const float z = float(c.sz / c.pixels);
   const float need = cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (z * z);
-  return c.x_max - c.x_min <= cfg.max_person_width_m && float(c.pixels) >= need && c.top >= cfg.min_person_height_m;
+  if (c.x_max - c.x_min > cfg.max_person_width_m || float(c.pixels) < need) return false;
+  if (c.top >= cfg.min_person_height_m) return true;
+  // Cut by the top border: the height is out of view (header, cut_max_fill).
+  if (cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0 || c.bottom > cfg.cut_floor_contact_m) return false;
+  const float box = float(c.u_max - c.u_min + 1) * float(c.v_max - c.v_min + 1);
+  return float(c.pixels) <= cfg.cut_max_fill * box;
 }
 
 void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
@@ -601,6 +610,7 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     if (x.z_min < c.z_min) c.z_min = x.z_min;
     if (x.z_max > c.z_max) c.z_max = x.z_max;
     c.top = use_floor ? (x.top > c.top ? x.top : c.top) : c.y_max - c.y_min;
+    if (x.bottom < c.bottom) c.bottom = x.bottom;
     if (x.u_min < c.u_min) c.u_min = x.u_min;
     if (x.u_max > c.u_max) c.u_max = x.u_max;
     if (x.v_min < c.v_min) c.v_min = x.v_min;
@@ -615,20 +625,8 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     int32_t best = -1;
     float best_d2 = cfg.fragment_radius_m * cfg.fragment_radius_m;
     for (int32_t m = 0; m < n; ++m) {
-      if (!((touches[k] >> m) & 1u) || candidates_[m].pixels == 0) continue;
-      // Two halves of one body that each pass (a torso over its legs): the smaller joins.
-      if (person[k]) {
-        if (!person[m] || candidates_[m].pixels < candidates_[k].pixels) continue;
-        // Stacked in the image (same columns, little row overlap), unlike two people side by
-        // side or one behind the other.
-        const Candidate& a = candidates_[k];
-        const Candidate& b = candidates_[m];
-        const int32_t cols = (a.u_max < b.u_max ? a.u_max : b.u_max) - (a.u_min > b.u_min ? a.u_min : b.u_min) + 1;
-        const int32_t rows = (a.v_max < b.v_max ? a.v_max : b.v_max) - (a.v_min > b.v_min ? a.v_min : b.v_min) + 1;
-        const int32_t narrow = (a.u_max - a.u_min < b.u_max - b.u_min ? a.u_max - a.u_min : b.u_max - b.u_min) + 1;
-        const int32_t short_rows = (a.v_max - a.v_min < b.v_max - b.v_min ? a.v_max - a.v_min : b.v_max - b.v_min) + 1;
-        if (2 * cols < narrow || 10 * rows > 6 * short_rows) continue;
-      }
+      // touches[k] holds k itself once something merged into k.
+      if (m == k || !((touches[k] >> m) & 1u) || candidates_[m].pixels == 0) continue;
       const Candidate& body = candidates_[m];
       float d[3] = {float(frag.sx / frag.pixels - body.sx / body.pixels), float(frag.sy / frag.pixels - body.sy / body.pixels),
                     float(frag.sz / frag.pixels - body.sz / body.pixels)};
@@ -639,6 +637,21 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
         d[1] = 0.0f;
       }
       const float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+      // Two pieces of one body that each pass (a torso over its legs, an arm in front of the
+      // legs): the smaller joins.
+      if (person[k]) {
+        if (!person[m] || candidates_[m].pixels < candidates_[k].pixels) continue;
+        // Stacked in the image (same columns, little row overlap), or closer along the floor than
+        // two people can stand; unlike two people side by side or one behind the other.
+        const Candidate& a = candidates_[k];
+        const Candidate& b = candidates_[m];
+        const int32_t cols = (a.u_max < b.u_max ? a.u_max : b.u_max) - (a.u_min > b.u_min ? a.u_min : b.u_min) + 1;
+        const int32_t rows = (a.v_max < b.v_max ? a.v_max : b.v_max) - (a.v_min > b.v_min ? a.v_min : b.v_min) + 1;
+        const int32_t narrow = (a.u_max - a.u_min < b.u_max - b.u_min ? a.u_max - a.u_min : b.u_max - b.u_min) + 1;
+        const int32_t short_rows = (a.v_max - a.v_min < b.v_max - b.v_min ? a.v_max - a.v_min : b.v_max - b.v_min) + 1;
+        const bool stacked = 2 * cols >= narrow && 10 * rows <= 6 * short_rows;
+        if (!stacked && !(d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m)) continue;
+      }
       if (d2 <= best_d2 && passes_person_test(f, united(frag, body))) { best_d2 = d2; best = m; }
     }
     if (best < 0) continue;

@@ -89,6 +89,19 @@ struct SegmenterConfig {
   // when their centroids are within fragment_radius_m of each other along the floor.
   float fragment_join_mm = 450.0f;        // ≥ 0 (0 = no merging)
   float fragment_radius_m = 0.5f;         // ≥ 0
+  // Two touching components that both pass the person test are one body when they are stacked in
+  // the image (a torso over its legs) or when their centroids are within fragment_pair_radius_m
+  // of each other along the floor (an arm or the upper body in front of the legs): two people
+  // cannot stand closer than about a body's depth. 0 = stacked pieces only.
+  float fragment_pair_radius_m = 0.3f;    // ≥ 0, ≤ fragment_radius_m to have an effect
+  // People cut by the top image border (a low camera looking down at someone close: only the
+  // legs are in view) cannot show their height. A component that touches the top border, stands
+  // on the floor (lowest point within cut_floor_contact_m of it) and has the area and width of a
+  // person passes without the height test when its silhouette fills at most cut_max_fill of its
+  // image box: legs, arms and gaps, unlike the solid outline of a box or a cylinder cut by the
+  // same border. Needs a floor. cut_max_fill = 0 turns this off.
+  float cut_max_fill = 0.6f;              // 0..1
+  float cut_floor_contact_m = 0.15f;      // ≥ 0
 
   // Users.
   int32_t max_users = 8;                  // 1..kMaxUsers
@@ -192,6 +205,7 @@ class Segmenter {
     int32_t root, pixels;
     double sx, sy, sz;
     float x_min, x_max, y_min, y_max, z_min, z_max, top;
+    float bottom;          // lowest point above the floor (with a floor)
     int16_t u_min, v_min, u_max, v_max;
     int32_t user;          // id or 0
     int32_t owner;         // candidate this one was merged into (itself when not merged)

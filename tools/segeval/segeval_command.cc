@@ -41,7 +41,8 @@ static const char* const kUsage =
     "                         users (pixels, body pixels, top, matched person), missed and extra pixels by height\n"
     "  --set K=V,...          override SegmenterConfig numbers: min_person_height_m, min_person_area_m2,\n"
     "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
-    "                         fragment_radius_m, floor_samples, floor_iterations";
+    "                         fragment_radius_m, fragment_pair_radius_m, cut_max_fill, cut_floor_contact_m,\n"
+    "                         floor_margin_per_m2_mm, floor_min_inlier_fraction, floor_samples, floor_iterations";
 
 struct Person {
   std::vector<JointTruth> joints;
@@ -117,6 +118,11 @@ int run_segeval(int argc, char** argv) {
       else if (k == "join_mm_per_m") cfg.join_mm_per_m = float(v);
       else if (k == "fragment_join_mm") cfg.fragment_join_mm = float(v);
       else if (k == "fragment_radius_m") cfg.fragment_radius_m = float(v);
+      else if (k == "fragment_pair_radius_m") cfg.fragment_pair_radius_m = float(v);
+      else if (k == "cut_max_fill") cfg.cut_max_fill = float(v);
+      else if (k == "cut_floor_contact_m") cfg.cut_floor_contact_m = float(v);
+      else if (k == "floor_margin_per_m2_mm") cfg.floor_margin_per_m2_mm = float(v);
+      else if (k == "floor_min_inlier_fraction") cfg.floor_min_inlier_fraction = float(v);
       else if (k == "floor_samples") cfg.floor_samples = int32_t(v);
       else if (k == "floor_iterations") cfg.floor_iterations = int32_t(v);
       else fail("--set: unknown key '" + k + "'");
