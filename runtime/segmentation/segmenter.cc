@@ -620,13 +620,14 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
   // A fragment joins the nearest touching candidate with which it forms a person: a body cut in
   // two by a depth jump (both halves may pass on their own), or a piece of a body that passes.
   for (int32_t k = 0; k < n; ++k) {
-    if (!touches[k] || candidates_[k].pixels == 0) continue;
+    if (candidates_[k].pixels == 0) continue;
     Candidate& frag = candidates_[k];
     int32_t best = -1;
     float best_d2 = cfg.fragment_radius_m * cfg.fragment_radius_m;
     for (int32_t m = 0; m < n; ++m) {
       // touches[k] holds k itself once something merged into k.
-      if (m == k || !((touches[k] >> m) & 1u) || candidates_[m].pixels == 0) continue;
+      if (m == k || candidates_[m].pixels == 0) continue;
+      const bool touching = (touches[k] >> m) & 1u;
       const Candidate& body = candidates_[m];
       float d[3] = {float(frag.sx / frag.pixels - body.sx / body.pixels), float(frag.sy / frag.pixels - body.sy / body.pixels),
                     float(frag.sz / frag.pixels - body.sz / body.pixels)};
@@ -637,6 +638,10 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
         d[1] = 0.0f;
       }
       const float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+      const bool close = d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m;
+      // Pieces that do not touch (a person cut in two by someone standing in front) join only
+      // when closer along the floor than two people can stand.
+      if (!touching && !close) continue;
       // Two pieces of one body that each pass (a torso over its legs, an arm in front of the
       // legs): the smaller joins.
       if (person[k]) {
@@ -650,7 +655,7 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
         const int32_t narrow = (a.u_max - a.u_min < b.u_max - b.u_min ? a.u_max - a.u_min : b.u_max - b.u_min) + 1;
         const int32_t short_rows = (a.v_max - a.v_min < b.v_max - b.v_min ? a.v_max - a.v_min : b.v_max - b.v_min) + 1;
         const bool stacked = 2 * cols >= narrow && 10 * rows <= 6 * short_rows;
-        if (!stacked && !(d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m)) continue;
+        if (!stacked && !close) continue;
       }
       if (d2 <= best_d2 && passes_person_test(f, united(frag, body))) { best_d2 = d2; best = m; }
     }
