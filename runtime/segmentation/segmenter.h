@@ -47,7 +47,7 @@ struct SegmenterConfig {
   bool floor_enabled = true;
   float floor_sample_fraction = 0.5f;   // sample rows v ≥ (1 − fraction)·height, (0, 1]
   int32_t floor_samples = 800;          // grid sample size, 16..kMaxFloorSamples
-  int32_t floor_iterations = 160;       // hypotheses without a tracked plane, 1..kMaxFloorIterations
+  int32_t floor_iterations = 512;       // hypotheses without a tracked plane, 1..kMaxFloorIterations
   int32_t floor_tracked_iterations = 32;// hypotheses when last frame's plane still has ≥ half its
                                         // inliers (it is scored first), 0..max
   float floor_fit_mm = 30.0f;           // inlier distance for fitting, > 0
@@ -93,7 +93,7 @@ struct SegmenterConfig {
   // the image (a torso over its legs) or when their centroids are within fragment_pair_radius_m
   // of each other along the floor (an arm or the upper body in front of the legs): two people
   // cannot stand closer than about a body's depth. 0 = stacked pieces only.
-  float fragment_pair_radius_m = 0.3f;    // ≥ 0, ≤ fragment_radius_m to have an effect
+  float fragment_pair_radius_m = 0.4f;    // ≥ 0, ≤ fragment_radius_m to have an effect
   // People cut by the top image border (a low camera looking down at someone close: only the
   // legs are in view) cannot show their height. A component that touches the top border, stands
   // on the floor (lowest point within cut_floor_contact_m of it) and has the area and width of a
@@ -101,7 +101,7 @@ struct SegmenterConfig {
   // image box: legs, arms and gaps, unlike the solid outline of a box or a cylinder cut by the
   // same border. Needs a floor. cut_max_fill = 0 turns this off.
   float cut_max_fill = 0.6f;              // 0..1
-  float cut_floor_contact_m = 0.15f;      // ≥ 0
+  float cut_floor_contact_m = 0.3f;       // ≥ 0
 
   // Users.
   int32_t max_users = 8;                  // 1..kMaxUsers
