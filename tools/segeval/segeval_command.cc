@@ -36,6 +36,8 @@ static const char* const kUsage =
     "  --live                 background model on (frames in sequence from a fixed camera); default off\n"
     "  --dtp D                true-positive radius in metres (default 0.1)\n"
     "  --min-visible-joints K a person counts for the detection rate with >= K of 16 joints visible (default 8)\n"
+    "  --min-visible-area A  a third detection rate over people with >= A m^2 of body surface in view\n"
+    "                         (default 0.05, about a head and neck; a person showing less is not expected)\n"
     "  --dump DIR             write DIR/NNNNNN.png per frame: depth in grey, users in colour, missed body red\n"
     "  --per-frame OUT.jsonl  one line per frame: people (pixels, visible joints, box, border, matched user, IoU),\n"
     "                         users (pixels, body pixels, top, matched person), missed and extra pixels by height\n"
@@ -48,6 +50,7 @@ struct Person {
   std::vector<JointTruth> joints;
   int pixels = 0;
   int visible_joints = 0;
+  double visible_area_m2 = 0;  // Σ (z/fx)·(z/fy) over the person's pixels: body surface in view
 };
 
 struct AlignedFree {
@@ -87,7 +90,7 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
 }
 
 int run_segeval(int argc, char** argv) {
-  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--dump", "--set", "--per-frame"}, {"--live"});
+  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame"}, {"--live"});
   if (a.help_requested()) {
     std::printf("%s\n", a.usage().c_str());
     return 0;
@@ -100,6 +103,7 @@ int run_segeval(int argc, char** argv) {
   const long frames = max_frames > 0 ? std::min<long>(max_frames, long(ds.frames.size())) : long(ds.frames.size());
   const double d_tp = a.get_double("--dtp", 0.1);
   const int min_visible = int(a.get_int("--min-visible-joints", 8));
+  const double min_area = a.get_double("--min-visible-area", 0.05);
   const int w = ds.meta.width, h = ds.meta.height;
   const CameraIntrinsics intr{float(ds.meta.fx), float(ds.meta.fy), float(ds.meta.cx), float(ds.meta.cy)};
 
@@ -167,6 +171,7 @@ int run_segeval(int argc, char** argv) {
   }
   double inter_total = 0, union_total = 0, iou_sum = 0;
   long people_total = 0, people_found = 0, findable_total = 0, findable_found = 0, false_users = 0;
+  long sizable_total = 0, sizable_found = 0;
   long frames_with_false = 0;
   std::array<double, kSegStageCount> stage_cycles{};
   double seg_cycles = 0, seg_wall_s = 0, user_joint_cycles = 0;
@@ -189,7 +194,12 @@ int run_segeval(int argc, char** argv) {
       for (size_t p = 0; p < truth.size(); ++p) truth[p] = parts.pixels[p] != kNotBodyLabel && depth.pixels[p] ? 1 : 0;
     }
     for (size_t p = 0; p < truth.size(); ++p)
-      if (truth[p]) people[truth[p] - 1].pixels++;
+      if (truth[p]) {
+        Person& person = people[truth[p] - 1];
+        person.pixels++;
+        const double z = depth.pixels[p] * 0.001;
+        person.visible_area_m2 += z * z / (double(intr.fx) * double(intr.fy));
+      }
 
     // Without --live every frame is its own scene (another camera): nothing carries over.
     if (!a.flag("--live")) seg.reset();
@@ -305,6 +315,7 @@ int run_segeval(int argc, char** argv) {
           best_iou = std::max(best_iou, o / double(r.users[u].pixel_count + people[size_t(p)].pixels - o));
         }
         ps.push_back({{"pixels", people[size_t(p)].pixels}, {"visible_joints", people[size_t(p)].visible_joints},
+                      {"visible_area_m2", people[size_t(p)].visible_area_m2},
                       {"box", {u0, v0, u1, v1}}, {"border", u1 >= 0 && (u0 == 0 || v0 == 0 || u1 == w - 1 || v1 == h - 1)},
                       {"user", mu >= 0 ? r.users[mu].id : 0}, {"best_iou", best_iou}});
       }
@@ -327,6 +338,10 @@ int run_segeval(int argc, char** argv) {
       if (people[size_t(p)].pixels == 0) continue;
       ++people_total;
       people_found += user_of_person[size_t(p)] >= 0;
+      if (people[size_t(p)].visible_area_m2 >= min_area) {
+        ++sizable_total;
+        sizable_found += user_of_person[size_t(p)] >= 0;
+      }
       if (people[size_t(p)].visible_joints >= min_visible) {
         ++findable_total;
         findable_found += user_of_person[size_t(p)] >= 0;
@@ -388,6 +403,10 @@ int run_segeval(int argc, char** argv) {
   out["findable_found"] = findable_found;
   out["findable_detection_rate"] = findable_total ? double(findable_found) / double(findable_total) : 1.0;
   out["min_visible_joints"] = min_visible;
+  out["min_visible_area_m2"] = min_area;
+  out["sizable_people"] = sizable_total;
+  out["sizable_found"] = sizable_found;
+  out["sizable_detection_rate"] = sizable_total ? double(sizable_found) / double(sizable_total) : 1.0;
   out["false_users"] = false_users;
   out["false_users_per_frame"] = frames ? double(false_users) / double(frames) : 0.0;
   out["frames_with_false_users"] = frames_with_false;
@@ -402,6 +421,8 @@ int run_segeval(int argc, char** argv) {
   std::printf("  people found        %ld / %ld = %.4f (with >= %d visible joints: %ld / %ld = %.4f)\n", people_found,
               people_total, out["detection_rate"].get<double>(), min_visible, findable_found, findable_total,
               out["findable_detection_rate"].get<double>());
+  std::printf("                      with >= %.3f m^2 of body in view: %ld / %ld = %.4f\n", min_area, sizable_found,
+              sizable_total, out["sizable_detection_rate"].get<double>());
   std::printf("  false users         %ld = %.4f per frame (%ld frames with any)\n", false_users,
               out["false_users_per_frame"].get<double>(), frames_with_false);
   std::printf("  segmentation        %.0f cycles/frame (%.2f ms):", out["segmentation_cycles_per_frame"].get<double>(),
