@@ -51,8 +51,8 @@ struct SegmenterConfig {
   int32_t floor_tracked_iterations = 32;// hypotheses when last frame's plane still has ≥ half its
                                         // inliers (it is scored first), 0..max
   float floor_fit_mm = 30.0f;           // inlier distance for fitting, > 0
-  float floor_margin_mm = 25.0f;        // pixels closer than margin + margin_per_m2·z² to the
-  float floor_margin_per_m2_mm = 2.0f;  //   plane, or below it, are floor (z in metres), ≥ 0
+  float floor_margin_mm = 10.0f;        // pixels closer than margin + margin_per_m2·z² to the
+  float floor_margin_per_m2_mm = 1.0f;  //   plane, or below it, are floor (z in metres), ≥ 0
   float floor_max_tilt_deg = 60.0f;     // plane normal within this of the camera's up axis, (0, 90)
   float floor_min_inlier_fraction = 0.15f;  // of the sample, (0, 1]
   float camera_height_min_m = 0.15f;    // camera above the floor, 0 < min < max
@@ -86,7 +86,9 @@ struct SegmenterConfig {
   // Fragments: a component failing the person test that touches another (neighbouring pixels
   // within fragment_join_mm in depth: a person bending forward over their own legs, a limb cut
   // off by a depth jump) joins the nearest one with which the union passes the person test,
-  // when their centroids are within fragment_radius_m of each other along the floor.
+  // when their centroids are within fragment_radius_m of each other along the floor. Pieces
+  // that do not touch (a person cut in two by someone standing in front) join the same way when
+  // their centroids are within fragment_pair_radius_m.
   float fragment_join_mm = 450.0f;        // ≥ 0 (0 = no merging)
   float fragment_radius_m = 0.5f;         // ≥ 0
   // Two touching components that both pass the person test are one body when they are stacked in
