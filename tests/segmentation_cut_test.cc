@@ -199,3 +199,22 @@ TEST(SegmentationCut, TheFloorMarginKeepsTheSoles) {
   ASSERT_EQ(o.run(f), Status::kOk);
   EXPECT_LT(labelled_truth(o.labels, f, 1), labelled_truth(h.labels, f, 1));
 }
+
+TEST(SegmentationCut, ABoxCutByTheTopBorderAndHiddenInPartsIsNotAUser) {
+  // A stool in front of the box hides the middle of its lower part: what shows (an upside-down
+  // U) fills less than cut_max_fill of its image box, but what the stool hides counts as filled,
+  // so the box stays out.
+  tools::Scene s = low_camera();
+  s.boxes.push_back({0.1f, 0.9f, 0.0f, 0.78f, 1.3f, 1.7f, 7});
+  s.boxes.push_back({0.2f, 0.8f, 0.0f, 0.5f, 0.95f, 1.1f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool top = false;
+  float fill = 0.0f;
+  truth_box(f, 7, &top, &fill);
+  ASSERT_TRUE(top);
+  ASSERT_LT(fill, 0.6f) << "the poles should break the box's silhouette";
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  EXPECT_EQ(labelled_truth(h.labels, f, 7), 0) << "the box is (part of) a user";
+}

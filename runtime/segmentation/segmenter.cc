@@ -549,6 +549,20 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
   }
   if (!use_floor)
     for (int32_t k = 0; k < kept; ++k) candidates_[k].top = candidates_[k].y_max - candidates_[k].y_min;
+  // Components cut by the top border (the only ones whose fill matters, passes_person_test):
+  // pixels of the image box hidden by something in front count as filled, since what is behind
+  // them is unknown. At most kMaxCandidates boxes, each within the frame.
+  for (int32_t k = 0; k < kept; ++k) {
+    Candidate& c = candidates_[k];
+    c.occluded = 0;
+    if (!use_floor || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || c.pixels == 0) continue;
+    const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(cfg.join_mm);
+    for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+      const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+      for (int32_t u = c.u_min; u <= c.u_max; ++u)
+        c.occluded += row[u] != 0 && int32_t(row[u]) < front;
+    }
+  }
   return kept;
 }
 
@@ -561,7 +575,7 @@ bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c) cons
   // Cut by the top border: the height is out of view (header, cut_max_fill).
   if (cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0 || c.bottom > cfg.cut_floor_contact_m) return false;
   const float box = float(c.u_max - c.u_min + 1) * float(c.v_max - c.v_min + 1);
-  return float(c.pixels) <= cfg.cut_max_fill * box;
+  return float(c.pixels + c.occluded) <= cfg.cut_max_fill * box;
 }
 
 void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
@@ -611,6 +625,7 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     if (x.z_max > c.z_max) c.z_max = x.z_max;
     c.top = use_floor ? (x.top > c.top ? x.top : c.top) : c.y_max - c.y_min;
     if (x.bottom < c.bottom) c.bottom = x.bottom;
+    c.occluded += x.occluded;  // each counted in its own box: a lower bound for the union's
     if (x.u_min < c.u_min) c.u_min = x.u_min;
     if (x.u_max > c.u_max) c.u_max = x.u_max;
     if (x.v_min < c.v_min) c.v_min = x.v_min;

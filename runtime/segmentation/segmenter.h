@@ -101,7 +101,9 @@ struct SegmenterConfig {
   // on the floor (lowest point within cut_floor_contact_m of it) and has the area and width of a
   // person passes without the height test when its silhouette fills at most cut_max_fill of its
   // image box: legs, arms and gaps, unlike the solid outline of a box or a cylinder cut by the
-  // same border. Needs a floor. cut_max_fill = 0 turns this off.
+  // same border. Box pixels hidden by something nearer (farther than join_mm in front of the
+  // component's nearest point) count as filled: an occluded box shows gaps that are not its own.
+  // Needs a floor. cut_max_fill = 0 turns this off.
   float cut_max_fill = 0.6f;              // 0..1
   float cut_floor_contact_m = 0.3f;       // ≥ 0
 
@@ -208,6 +210,7 @@ class Segmenter {
     double sx, sy, sz;
     float x_min, x_max, y_min, y_max, z_min, z_max, top;
     float bottom;          // lowest point above the floor (with a floor)
+    int32_t occluded;      // box pixels hidden by something in front (top-border components)
     int16_t u_min, v_min, u_max, v_max;
     int32_t user;          // id or 0
     int32_t owner;         // candidate this one was merged into (itself when not merged)
