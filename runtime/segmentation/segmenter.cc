@@ -65,6 +65,25 @@ int32_t count_inliers(const Plane& p, const float* pts, int32_t n, float tol_m, 
 // point clearly below a hypothesis costs two inliers.
 inline int32_t floor_score(int32_t inliers, int32_t below) { return inliers - 2 * below; }
 
+// count_inliers for a RANSAC hypothesis that only matters when its floor_score beats `to_beat`:
+// stops (returning false) as soon as even all remaining points being inliers could not. Same
+// result as scoring every point whenever it returns true.
+bool score_beats(const Plane& p, const float* pts, int32_t n, float tol_m, int32_t to_beat, int32_t* inliers,
+                 int32_t* score) {
+  int32_t count = 0, under = 0;
+  const float under_m = tol_m * 3.0f > 0.1f ? tol_m * 3.0f : 0.1f;
+  for (int32_t i = 0; i < n; ++i) {
+    const float* q = pts + 3 * i;
+    const float s = p.nx * q[0] + p.ny * q[1] + p.nz * q[2] + p.d;
+    count += s <= tol_m && s >= -tol_m;
+    under += s < -under_m;
+    if ((i & 31) == 31 && floor_score(count, under) + (n - 1 - i) <= to_beat) return false;
+  }
+  *inliers = count;
+  *score = floor_score(count, under);
+  return *score > to_beat;
+}
+
 // Eigenvector of the smallest eigenvalue of a symmetric 3×3 matrix (cyclic Jacobi, ≤ 16 sweeps).
 void smallest_eigenvector(const double in[3][3], double out[3]) {
   double a[3][3], v[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
@@ -330,11 +349,11 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
     Plane p;
     if (!plane_from_points(samples_ + 3 * a, samples_ + 3 * b, samples_ + 3 * c, &p)) continue;
     if (!orient_and_check(&p, min_up, cfg.camera_height_min_m, cfg.camera_height_max_m)) continue;
-    const int32_t count = count_inliers(p, samples_, n, tol, nullptr, &below);
-    if (floor_score(count, below) > best_score) {
+    int32_t count = 0, score = 0;
+    if (score_beats(p, samples_, n, tol, best_score, &count, &score)) {
       best = p;
       best_count = count;
-      best_score = floor_score(count, below);
+      best_score = score;
     }
   }
   int32_t needed = int32_t(ceilf(cfg.floor_min_inlier_fraction * float(n)));
