@@ -174,7 +174,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.floor_iterations <= kMaxFloorIterations && c.floor_tracked_iterations >= 0 &&
          c.floor_tracked_iterations <= kMaxFloorIterations && c.floor_fit_mm > 0.0f && c.floor_margin_mm >= 0.0f &&
          c.floor_margin_per_m2_mm >= 0.0f && c.floor_max_tilt_deg > 0.0f && c.floor_max_tilt_deg < 90.0f &&
-         c.floor_min_inlier_fraction > 0.0f && c.floor_min_inlier_fraction <= 1.0f && c.camera_height_min_m > 0.0f &&
+         c.floor_min_inlier_fraction > 0.0f && c.floor_min_inlier_fraction <= 1.0f && c.floor_min_extent_m >= 0.0f && c.camera_height_min_m > 0.0f &&
          c.camera_height_max_m > c.camera_height_min_m && c.floor_keep_frames >= 0 &&
          c.background_learn_frames >= 1 && c.background_learn_frames <= 65535 && c.background_tolerance_mm > 0.0f &&
          c.background_tolerance_per_m2_mm >= 0.0f && c.background_update_shift >= 0 &&
@@ -371,8 +371,22 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
       if (!orient_and_check(&p, min_up, cfg.camera_height_min_m, cfg.camera_height_max_m)) break;
       best = p;
     }
-    best_count = count_inliers(best, samples_, n, tol, nullptr);
-    fitted = true;
+    best_count = count_inliers(best, samples_, n, tol, inlier_);
+    // A floor spans metres; a torso or a thigh seen from above is a plane too, and with no floor
+    // in view (nothing but people) it would win. The inliers' box must have a diagonal of at
+    // least floor_min_extent_m.
+    float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+    for (int32_t i = 0; i < n; ++i) {
+      if (!inlier_[i]) continue;
+      for (int k = 0; k < 3; ++k) {
+        const float c = samples_[3 * i + k];
+        if (c < lo[k]) lo[k] = c;
+        if (c > hi[k]) hi[k] = c;
+      }
+    }
+    float diag2 = 0.0f;
+    for (int k = 0; k < 3; ++k) diag2 += hi[k] > lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0.0f;
+    fitted = diag2 >= cfg.floor_min_extent_m * cfg.floor_min_extent_m;
   }
   if (fitted) {
     *floor_ = FloorPlane{best.nx, best.ny, best.nz, best.d, 1, best_count, n, 0};

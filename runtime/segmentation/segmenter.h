@@ -55,6 +55,8 @@ struct SegmenterConfig {
   float floor_margin_per_m2_mm = 1.0f;  //   plane, or below it, are floor (z in metres), ≥ 0
   float floor_max_tilt_deg = 60.0f;     // plane normal within this of the camera's up axis, (0, 90)
   float floor_min_inlier_fraction = 0.15f;  // of the sample, (0, 1]
+  float floor_min_extent_m = 1.0f;      // the inliers' bounding box diagonal at least this, ≥ 0
+                                        // (a torso seen from above is no floor)
   float camera_height_min_m = 0.15f;    // camera above the floor, 0 < min < max
   float camera_height_max_m = 5.0f;
   int32_t floor_keep_frames = 15;       // a plane not found again is kept this many frames, ≥ 0
