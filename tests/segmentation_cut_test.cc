@@ -218,3 +218,25 @@ TEST(SegmentationCut, ABoxCutByTheTopBorderAndHiddenInPartsIsNotAUser) {
   ASSERT_TRUE(h.result.floor.valid);
   EXPECT_EQ(labelled_truth(h.labels, f, 7), 0) << "the box is (part of) a user";
 }
+
+TEST(SegmentationCut, AHeadAboveTheBottomBorderIsAUser) {
+  // A high camera and someone close: only the head is above the bottom border. It is high above
+  // the floor (which is in view farther away) but smaller than the person area.
+  tools::Scene s;
+  s.camera.height_m = 2.0f;
+  s.camera.pitch_deg = 5.0f;
+  s.cylinders.push_back({0.0f, 0.9f, 0.2f, 0.0f, 1.45f, 1});   // torso, below the image
+  s.cylinders.push_back({0.0f, 0.9f, 0.1f, 1.45f, 1.7f, 1});   // head
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_EQ(h.result.users[0].v_max, f.height - 1);
+  EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.97 * truth_pixels(f, 1)));
+  SegmenterConfig off = default_segmenter_config(false);
+  off.cut_bottom_area_fraction = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 0) << "the head alone should be smaller than the person area";
+}

@@ -184,7 +184,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
          c.fragment_pair_radius_m >= 0.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f &&
-         c.cut_floor_contact_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -599,14 +599,20 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
   return kept;
 }
 
-bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c) const {
+bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool cut) const {
   const SegmenterConfig& cfg = *config_;
   const float z = float(c.sz / c.pixels);
   const float need = cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (z * z);
-  if (c.x_max - c.x_min > cfg.max_person_width_m || float(c.pixels) < need) return false;
+  if (c.x_max - c.x_min > cfg.max_person_width_m) return false;
+  // Cut by the bottom border (the head and shoulders of someone close): part of the area is out
+  // of view, the height is not (header, cut_bottom_area_fraction).
+  if (cut && cfg.cut_bottom_area_fraction > 0.0f && c.v_max == f.height - 1 && floor_->valid != 0 &&
+      c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.cut_bottom_area_fraction * need)
+    return true;
+  if (float(c.pixels) < need) return false;
   if (c.top >= cfg.min_person_height_m) return true;
   // Cut by the top border: the height is out of view (header, cut_max_fill).
-  if (cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0 || c.bottom > cfg.cut_floor_contact_m) return false;
+  if (!cut || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0 || c.bottom > cfg.cut_floor_contact_m) return false;
   const float box = float(c.u_max - c.u_min + 1) * float(c.v_max - c.v_min + 1);
   return float(c.pixels + c.occluded) <= cfg.cut_max_fill * box;
 }
@@ -644,7 +650,9 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     }
   }
   bool person[kMaxCandidates];
-  for (int32_t k = 0; k < n; ++k) person[k] = passes_person_test(f, candidates_[k]);
+  // Pieces that pass only as cut by the border are fragments here: they may still join the rest of
+  // their body.
+  for (int32_t k = 0; k < n; ++k) person[k] = passes_person_test(f, candidates_[k], false);
   const bool use_floor = floor_->valid != 0;
   auto united = [&](const Candidate& x, const Candidate& y) {
     Candidate c = y;

@@ -108,6 +108,11 @@ struct SegmenterConfig {
   // Needs a floor. cut_max_fill = 0 turns this off.
   float cut_max_fill = 0.6f;              // 0..1
   float cut_floor_contact_m = 0.3f;       // ≥ 0
+  // People cut by the bottom border (the head and shoulders of someone close to a high camera)
+  // keep their height above the floor but lose area: a component touching the bottom border with
+  // a floor known and its top at least min_person_height_m high needs only this fraction of the
+  // person area. 0 turns this off.
+  float cut_bottom_area_fraction = 0.3f;  // 0..1
 
   // Users.
   int32_t max_users = 8;                  // 1..kMaxUsers
@@ -247,7 +252,8 @@ class Segmenter {
   void fit_floor(const DepthFrame& frame, SegmentationResult* result);
   int32_t classify_pixels(const DepthFrame& frame);
   int32_t label_components(const DepthFrame& frame, SegmentationResult* result);
-  bool passes_person_test(const DepthFrame& frame, const Candidate& candidate) const;
+  // cut: also the relaxed tests for components cut by the image border.
+  bool passes_person_test(const DepthFrame& frame, const Candidate& candidate, bool cut = true) const;
   void merge_fragments(const DepthFrame& frame, int32_t candidate_count);
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
   void update_background(const DepthFrame& frame, const uint8_t* labels);
