@@ -673,8 +673,9 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     if (x.v_max > c.v_max) c.v_max = x.v_max;
     return c;
   };
-  // A fragment joins the nearest touching candidate with which it forms a person: a body cut in
-  // two by a depth jump (both halves may pass on their own), or a piece of a body that passes.
+  // A fragment joins the nearest touching (or, within fragment_pair_radius_m, not touching)
+  // candidate with which it forms a person: a body cut in two by a depth jump or by someone in
+  // front (both pieces may pass on their own), or a piece of a body that passes.
   for (int32_t k = 0; k < n; ++k) {
     if (candidates_[k].pixels == 0) continue;
     Candidate& frag = candidates_[k];

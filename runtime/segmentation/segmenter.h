@@ -93,7 +93,7 @@ struct SegmenterConfig {
   // their centroids are within fragment_pair_radius_m.
   float fragment_join_mm = 450.0f;        // ≥ 0 (0 = no merging)
   float fragment_radius_m = 0.5f;         // ≥ 0
-  // Two touching components that both pass the person test are one body when they are stacked in
+  // Two components that both pass the person test are one body when they are stacked in
   // the image (a torso over its legs) or when their centroids are within fragment_pair_radius_m
   // of each other along the floor (an arm or the upper body in front of the legs): two people
   // cannot stand closer than about a body's depth. 0 = stacked pieces only.
