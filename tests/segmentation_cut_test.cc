@@ -240,3 +240,24 @@ TEST(SegmentationCut, AHeadAboveTheBottomBorderIsAUser) {
   ASSERT_EQ(n.run(f), Status::kOk);
   EXPECT_EQ(n.result.user_count, 0) << "the head alone should be smaller than the person area";
 }
+
+TEST(SegmentationCut, AHandReachingOverABoxDoesNotMakeItAPerson) {
+  // A forearm (truth 1) held 25 cm in front of a box's upper edge and above it: a component of
+  // its own, touching the box within fragment_join_mm. Together they would pass the person test
+  // (the box's area, the forearm's height), but the forearm is a tiny share of the union.
+  tools::Scene s;
+  s.camera.height_m = 1.3f;
+  s.camera.pitch_deg = 12.0f;
+  s.boxes.push_back({-0.5f, 0.5f, 0.0f, 0.6f, 2.2f, 2.6f, 0});
+  s.boxes.push_back({-0.02f, 0.02f, 0.45f, 0.95f, 1.93f, 1.97f, 1});
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_GE(h.result.component_count, 2);
+  EXPECT_EQ(h.result.user_count, 0);
+  SegmenterConfig any = default_segmenter_config(false);
+  any.fragment_min_share = 0.0f;
+  SegmenterHarness a(any);
+  ASSERT_EQ(a.run(f), Status::kOk);
+  EXPECT_EQ(a.result.user_count, 1) << "the scene should offer the box and the forearm as one person";
+}

@@ -183,7 +183,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f &&
          c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
@@ -652,7 +652,11 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
   bool person[kMaxCandidates];
   // Pieces that pass only as cut by the border are fragments here: they may still join the rest of
   // their body.
-  for (int32_t k = 0; k < n; ++k) person[k] = passes_person_test(f, candidates_[k], false);
+  bool full[kMaxCandidates];  // with the relaxations for border cuts
+  for (int32_t k = 0; k < n; ++k) {
+    person[k] = passes_person_test(f, candidates_[k], false);
+    full[k] = person[k] || passes_person_test(f, candidates_[k], true);
+  }
   const bool use_floor = floor_->valid != 0;
   auto united = [&](const Candidate& x, const Candidate& y) {
     Candidate c = y;
@@ -714,11 +718,17 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
         const bool stacked = 2 * cols >= narrow && 10 * rows <= 6 * short_rows;
         if (!stacked && !close) continue;
       }
+      // Neither passes alone: the smaller piece must be a real share of the union, or a hand
+      // reaching over a box would lend the box its height.
+      if (!full[k] && !full[m]) {
+        const int32_t small = frag.pixels < body.pixels ? frag.pixels : body.pixels;
+        if (float(small) < cfg.fragment_min_share * float(frag.pixels + body.pixels)) continue;
+      }
       if (d2 <= best_d2 && passes_person_test(f, united(frag, body))) { best_d2 = d2; best = m; }
     }
     if (best < 0) continue;
     candidates_[best] = united(frag, candidates_[best]);
-    person[best] = true;
+    person[best] = full[best] = true;
     touches[best] |= touches[k];
     frag.owner = best;
     frag.pixels = 0;  // no longer a component of its own

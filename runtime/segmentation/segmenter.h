@@ -98,6 +98,9 @@ struct SegmenterConfig {
   // of each other along the floor (an arm or the upper body in front of the legs): two people
   // cannot stand closer than about a body's depth. 0 = stacked pieces only.
   float fragment_pair_radius_m = 0.4f;    // ≥ 0, ≤ fragment_radius_m to have an effect
+  // When neither piece passes on its own, the smaller must hold at least this share of the union's
+  // pixels: a hand reaching over a box is not what makes the box a person.
+  float fragment_min_share = 0.05f;       // 0..0.5
   // People cut by the top image border (a low camera looking down at someone close: only the
   // legs are in view) cannot show their height. A component that touches the top border, stands
   // on the floor (lowest point within cut_floor_contact_m of it) and has the area and width of a
