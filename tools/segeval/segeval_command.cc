@@ -34,6 +34,8 @@ static const char* const kUsage =
     "  With --blob: joint mAP per person with the segmenter's mask (Pipeline::process_user) against the\n"
     "  ground-truth mask of that person.\n"
     "  --live                 background model on (frames in sequence from a fixed camera); default off\n"
+    "  --forest-per-user      with --blob: run the forest once per user over that user's pixels alone, like the\n"
+    "                         ground-truth run (default: once per frame over all users, then process_user)\n"
     "  --dtp D                true-positive radius in metres (default 0.1)\n"
     "  --min-visible-joints K a person counts for the detection rate with >= K of 16 joints visible (default 8)\n"
     "  --min-visible-area A  a third detection rate over people with >= A m^2 of body surface in view\n"
@@ -92,7 +94,7 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
 }
 
 int run_segeval(int argc, char** argv) {
-  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame"}, {"--live"});
+  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame"}, {"--live", "--forest-per-user"});
   if (a.help_requested()) {
     std::printf("%s\n", a.usage().c_str());
     return 0;
@@ -171,7 +173,8 @@ int run_segeval(int argc, char** argv) {
   // of the people found rather than the people missed.
   std::vector<JointSamples> seg_found(joint_blob.size()), gt_found(joint_blob.size());
 
-  std::vector<uint8_t> labels(size_t(w) * h);
+  std::vector<uint8_t> labels(size_t(w) * h), own_mask(size_t(w) * h);
+  const bool forest_per_user = a.flag("--forest-per-user");
   std::ofstream per_frame;
   if (a.has("--per-frame")) {
     per_frame.open(a.get("--per-frame"));
@@ -335,7 +338,9 @@ int run_segeval(int argc, char** argv) {
         const UserInfo& ui = r.users[u];
         us.push_back({{"id", ui.id}, {"pixels", ui.pixel_count}, {"body_pixels", body}, {"top", ui.top_height_m},
                       {"box", {ui.u_min, ui.v_min, ui.u_max, ui.v_max}}, {"z", ui.centroid_m[2]},
-                      {"person", person_of_user[size_t(u)]}});
+                      {"person", person_of_user[size_t(u)]},
+                      {"person_pixels", person_of_user[size_t(u)] >= 0
+                                            ? overlap[size_t(u) * np + size_t(person_of_user[size_t(u)])] : 0}});
       }
       line["users"] = us;
       per_frame << line.dump() << "\n";
@@ -379,7 +384,16 @@ int run_segeval(int argc, char** argv) {
     for (int p = 0; p < np; ++p) {
       if (people[size_t(p)].pixels == 0) continue;
       const int u = user_of_person[size_t(p)];
-      if (u >= 0) {
+      if (u >= 0 && forest_per_user) {
+        // Like the ground-truth run: the forest over this user's pixels alone (other users are
+        // background to the probes), so the difference is the mask and nothing else.
+        for (size_t q = 0; q < labels.size(); ++q) own_mask[q] = labels[q] == r.users[u].id;
+        DepthFrame fo = frame;
+        fo.foreground_mask = own_mask.data();
+        if (Status s = pipeline.process(fo, &one); s != Status::kOk)
+          fail(ds.depth_path(size_t(i)) + ": runtime refused the frame: " + status_message(s));
+        user_joint_cycles += double(one.total_cycles);
+      } else if (u >= 0) {
         if (Status s = pipeline.process_user(frame, uint8_t(r.users[u].id), &one); s != Status::kOk)
           fail(std::string("segeval: process_user: ") + status_message(s));
         user_joint_cycles += double(one.total_cycles);
@@ -404,6 +418,7 @@ int run_segeval(int argc, char** argv) {
   out["dataset"] = dir;
   out["frames"] = frames;
   out["background_model"] = cfg.background_enabled;
+  out["forest_per_user"] = forest_per_user;
   out["foreground_iou_pooled"] = union_total > 0 ? inter_total / union_total : 1.0;
   out["foreground_iou_mean"] = frames ? iou_sum / double(frames) : 1.0;
   out["people"] = people_total;
