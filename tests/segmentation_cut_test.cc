@@ -66,7 +66,7 @@ TEST(SegmentationCut, LegsCutByTheTopBorderAreAUserAndABoxCutThereIsNot) {
   bool legs_top = false, box_top = false;
   float legs_fill = 0.0f, box_fill = 0.0f;
   truth_box(f, 1, &legs_top, &legs_fill);
-  // The box: background pixels right of the image centre above the floor region.
+  // The box rendered alone with a truth id of its own, to measure its silhouette.
   {
     tools::Scene only_box = low_camera();
     only_box.floor = false;
