@@ -141,3 +141,22 @@ TEST(SegmentationFloor, DisabledFloorRemovesNothing) {
   for (uint16_t z : frame.depth_mm) in_band += z >= cfg.near_mm && z <= cfg.far_mm;
   EXPECT_EQ(h.result.candidate_pixels, in_band);
 }
+
+TEST(SegmentationFloor, ASmallHorizontalSurfaceIsNoFloor) {
+  // No floor in view (nothing but a table top 0.7 × 0.4 m, 4 cm thick, below the camera): it is a
+  // horizontal plane holding almost every sample, but it spans less than floor_min_extent_m.
+  tools::Scene s;
+  s.floor = false;
+  s.camera.height_m = 1.6f;
+  s.camera.pitch_deg = 30.0f;
+  s.boxes.push_back({-0.35f, 0.35f, 0.86f, 0.9f, 0.8f, 1.2f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_EQ(h.result.floor.valid, 0);
+  SegmenterConfig any = default_segmenter_config(false);
+  any.floor_min_extent_m = 0.0f;
+  SegmenterHarness a(any);
+  ASSERT_EQ(a.run(f), Status::kOk);
+  EXPECT_EQ(a.result.floor.valid, 1) << "the test scene should offer the table top as a floor";
+}

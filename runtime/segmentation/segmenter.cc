@@ -65,6 +65,25 @@ int32_t count_inliers(const Plane& p, const float* pts, int32_t n, float tol_m, 
 // point clearly below a hypothesis costs two inliers.
 inline int32_t floor_score(int32_t inliers, int32_t below) { return inliers - 2 * below; }
 
+// count_inliers for a RANSAC hypothesis that only matters when its floor_score beats `to_beat`:
+// stops (returning false) as soon as even all remaining points being inliers could not. Same
+// result as scoring every point whenever it returns true.
+bool score_beats(const Plane& p, const float* pts, int32_t n, float tol_m, int32_t to_beat, int32_t* inliers,
+                 int32_t* score) {
+  int32_t count = 0, under = 0;
+  const float under_m = tol_m * 3.0f > 0.1f ? tol_m * 3.0f : 0.1f;
+  for (int32_t i = 0; i < n; ++i) {
+    const float* q = pts + 3 * i;
+    const float s = p.nx * q[0] + p.ny * q[1] + p.nz * q[2] + p.d;
+    count += s <= tol_m && s >= -tol_m;
+    under += s < -under_m;
+    if ((i & 31) == 31 && floor_score(count, under) + (n - 1 - i) <= to_beat) return false;
+  }
+  *inliers = count;
+  *score = floor_score(count, under);
+  return *score > to_beat;
+}
+
 // Eigenvector of the smallest eigenvalue of a symmetric 3×3 matrix (cyclic Jacobi, ≤ 16 sweeps).
 void smallest_eigenvector(const double in[3][3], double out[3]) {
   double a[3][3], v[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
@@ -155,7 +174,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.floor_iterations <= kMaxFloorIterations && c.floor_tracked_iterations >= 0 &&
          c.floor_tracked_iterations <= kMaxFloorIterations && c.floor_fit_mm > 0.0f && c.floor_margin_mm >= 0.0f &&
          c.floor_margin_per_m2_mm >= 0.0f && c.floor_max_tilt_deg > 0.0f && c.floor_max_tilt_deg < 90.0f &&
-         c.floor_min_inlier_fraction > 0.0f && c.floor_min_inlier_fraction <= 1.0f && c.camera_height_min_m > 0.0f &&
+         c.floor_min_inlier_fraction > 0.0f && c.floor_min_inlier_fraction <= 1.0f && c.floor_min_extent_m >= 0.0f && c.camera_height_min_m > 0.0f &&
          c.camera_height_max_m > c.camera_height_min_m && c.floor_keep_frames >= 0 &&
          c.background_learn_frames >= 1 && c.background_learn_frames <= 65535 && c.background_tolerance_mm > 0.0f &&
          c.background_tolerance_per_m2_mm >= 0.0f && c.background_update_shift >= 0 &&
@@ -163,7 +182,9 @@ static bool config_valid(const SegmenterConfig& c) {
          c.background_absorb_frames >= 0 && c.background_absorb_frames <= 65535 && c.join_mm > 0.0f &&
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
-         c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f &&
+         c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -328,11 +349,11 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
     Plane p;
     if (!plane_from_points(samples_ + 3 * a, samples_ + 3 * b, samples_ + 3 * c, &p)) continue;
     if (!orient_and_check(&p, min_up, cfg.camera_height_min_m, cfg.camera_height_max_m)) continue;
-    const int32_t count = count_inliers(p, samples_, n, tol, nullptr, &below);
-    if (floor_score(count, below) > best_score) {
+    int32_t count = 0, score = 0;
+    if (score_beats(p, samples_, n, tol, best_score, &count, &score)) {
       best = p;
       best_count = count;
-      best_score = floor_score(count, below);
+      best_score = score;
     }
   }
   int32_t needed = int32_t(ceilf(cfg.floor_min_inlier_fraction * float(n)));
@@ -350,8 +371,22 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
       if (!orient_and_check(&p, min_up, cfg.camera_height_min_m, cfg.camera_height_max_m)) break;
       best = p;
     }
-    best_count = count_inliers(best, samples_, n, tol, nullptr);
-    fitted = true;
+    best_count = count_inliers(best, samples_, n, tol, inlier_);
+    // A floor spans metres; a torso or a thigh seen from above is a plane too, and with no floor
+    // in view (nothing but people) it would win. The inliers' box must have a diagonal of at
+    // least floor_min_extent_m.
+    float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+    for (int32_t i = 0; i < n; ++i) {
+      if (!inlier_[i]) continue;
+      for (int k = 0; k < 3; ++k) {
+        const float c = samples_[3 * i + k];
+        if (c < lo[k]) lo[k] = c;
+        if (c > hi[k]) hi[k] = c;
+      }
+    }
+    float diag2 = 0.0f;
+    for (int k = 0; k < 3; ++k) diag2 += hi[k] > lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0.0f;
+    fitted = diag2 >= cfg.floor_min_extent_m * cfg.floor_min_extent_m;
   }
   if (fitted) {
     *floor_ = FloorPlane{best.nx, best.ny, best.nz, best.d, 1, best_count, n, 0};
@@ -531,6 +566,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
     c.sx = c.sy = c.sz = 0.0;
     c.x_min = c.y_min = c.z_min = 1e30f;
     c.x_max = c.y_max = c.z_max = c.top = -1e30f;
+    c.bottom = 1e30f;
     c.u_min = c.v_min = 32767;
     c.u_max = c.v_max = -1;
     c.user = 0;
@@ -572,6 +608,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
       if (use_floor) {
         const float up = floor_->nx * x + floor_->ny * y + floor_->nz * z + floor_->d;
         if (up > c.top) c.top = up;
+        if (up < c.bottom) c.bottom = up;
       }
       if (u < c.u_min) c.u_min = int16_t(u);
       if (u > c.u_max) c.u_max = int16_t(u);
@@ -581,14 +618,39 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
   }
   if (!use_floor)
     for (int32_t k = 0; k < kept; ++k) candidates_[k].top = candidates_[k].y_max - candidates_[k].y_min;
+  // Components cut by the top border (the only ones whose fill matters, passes_person_test):
+  // pixels of the image box hidden by something in front count as filled, since what is behind
+  // them is unknown. At most kMaxCandidates boxes, each within the frame.
+  for (int32_t k = 0; k < kept; ++k) {
+    Candidate& c = candidates_[k];
+    c.occluded = 0;
+    if (!use_floor || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || c.pixels == 0) continue;
+    const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(cfg.join_mm);
+    for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+      const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+      for (int32_t u = c.u_min; u <= c.u_max; ++u)
+        c.occluded += row[u] != 0 && int32_t(row[u]) < front;
+    }
+  }
   return kept;
 }
 
-bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c) const {
+bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool cut) const {
   const SegmenterConfig& cfg = *config_;
   const float z = float(c.sz / c.pixels);
   const float need = cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (z * z);
-  return c.x_max - c.x_min <= cfg.max_person_width_m && float(c.pixels) >= need && c.top >= cfg.min_person_height_m;
+  if (c.x_max - c.x_min > cfg.max_person_width_m) return false;
+  // Cut by the bottom border (the head and shoulders of someone close): part of the area is out
+  // of view, the height is not (header, cut_bottom_area_fraction).
+  if (cut && cfg.cut_bottom_area_fraction > 0.0f && c.v_max == f.height - 1 && floor_->valid != 0 &&
+      c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.cut_bottom_area_fraction * need)
+    return true;
+  if (float(c.pixels) < need) return false;
+  if (c.top >= cfg.min_person_height_m) return true;
+  // Cut by the top border: the height is out of view (header, cut_max_fill).
+  if (!cut || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0 || c.bottom > cfg.cut_floor_contact_m) return false;
+  const float box = float(c.u_max - c.u_min + 1) * float(c.v_max - c.v_min + 1);
+  return float(c.pixels + c.occluded) <= cfg.cut_max_fill * box;
 }
 
 void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
@@ -624,7 +686,13 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     }
   }
   bool person[kMaxCandidates];
-  for (int32_t k = 0; k < n; ++k) person[k] = passes_person_test(f, candidates_[k]);
+  // Pieces that pass only as cut by the border are fragments here: they may still join the rest of
+  // their body.
+  bool full[kMaxCandidates];  // with the relaxations for border cuts
+  for (int32_t k = 0; k < n; ++k) {
+    person[k] = passes_person_test(f, candidates_[k], false);
+    full[k] = person[k] || passes_person_test(f, candidates_[k], true);
+  }
   const bool use_floor = floor_->valid != 0;
   auto united = [&](const Candidate& x, const Candidate& y) {
     Candidate c = y;
@@ -637,34 +705,26 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     if (x.z_min < c.z_min) c.z_min = x.z_min;
     if (x.z_max > c.z_max) c.z_max = x.z_max;
     c.top = use_floor ? (x.top > c.top ? x.top : c.top) : c.y_max - c.y_min;
+    if (x.bottom < c.bottom) c.bottom = x.bottom;
+    c.occluded += x.occluded;  // each counted in its own box: a lower bound for the union's
     if (x.u_min < c.u_min) c.u_min = x.u_min;
     if (x.u_max > c.u_max) c.u_max = x.u_max;
     if (x.v_min < c.v_min) c.v_min = x.v_min;
     if (x.v_max > c.v_max) c.v_max = x.v_max;
     return c;
   };
-  // A fragment joins the nearest touching candidate with which it forms a person: a body cut in
-  // two by a depth jump (both halves may pass on their own), or a piece of a body that passes.
+  // A fragment joins the nearest touching (or, within fragment_pair_radius_m, not touching)
+  // candidate with which it forms a person: a body cut in two by a depth jump or by someone in
+  // front (both pieces may pass on their own), or a piece of a body that passes.
   for (int32_t k = 0; k < n; ++k) {
-    if (!touches[k] || candidates_[k].pixels == 0) continue;
+    if (candidates_[k].pixels == 0) continue;
     Candidate& frag = candidates_[k];
     int32_t best = -1;
     float best_d2 = cfg.fragment_radius_m * cfg.fragment_radius_m;
     for (int32_t m = 0; m < n; ++m) {
-      if (!((touches[k] >> m) & 1u) || candidates_[m].pixels == 0) continue;
-      // Two halves of one body that each pass (a torso over its legs): the smaller joins.
-      if (person[k]) {
-        if (!person[m] || candidates_[m].pixels < candidates_[k].pixels) continue;
-        // Stacked in the image (same columns, little row overlap), unlike two people side by
-        // side or one behind the other.
-        const Candidate& a = candidates_[k];
-        const Candidate& b = candidates_[m];
-        const int32_t cols = (a.u_max < b.u_max ? a.u_max : b.u_max) - (a.u_min > b.u_min ? a.u_min : b.u_min) + 1;
-        const int32_t rows = (a.v_max < b.v_max ? a.v_max : b.v_max) - (a.v_min > b.v_min ? a.v_min : b.v_min) + 1;
-        const int32_t narrow = (a.u_max - a.u_min < b.u_max - b.u_min ? a.u_max - a.u_min : b.u_max - b.u_min) + 1;
-        const int32_t short_rows = (a.v_max - a.v_min < b.v_max - b.v_min ? a.v_max - a.v_min : b.v_max - b.v_min) + 1;
-        if (2 * cols < narrow || 10 * rows > 6 * short_rows) continue;
-      }
+      // touches[k] holds k itself once something merged into k.
+      if (m == k || candidates_[m].pixels == 0) continue;
+      const bool touching = (touches[k] >> m) & 1u;
       const Candidate& body = candidates_[m];
       float d[3] = {float(frag.sx / frag.pixels - body.sx / body.pixels), float(frag.sy / frag.pixels - body.sy / body.pixels),
                     float(frag.sz / frag.pixels - body.sz / body.pixels)};
@@ -675,11 +735,36 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
         d[1] = 0.0f;
       }
       const float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+      const bool close = d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m;
+      // Pieces that do not touch (a person cut in two by someone standing in front) join only
+      // when closer along the floor than two people can stand.
+      if (!touching && !close) continue;
+      // Two pieces of one body that each pass (a torso over its legs, an arm in front of the
+      // legs): the smaller joins.
+      if (person[k]) {
+        if (!person[m] || candidates_[m].pixels < candidates_[k].pixels) continue;
+        // Stacked in the image (same columns, little row overlap), or closer along the floor than
+        // two people can stand; unlike two people side by side or one behind the other.
+        const Candidate& a = candidates_[k];
+        const Candidate& b = candidates_[m];
+        const int32_t cols = (a.u_max < b.u_max ? a.u_max : b.u_max) - (a.u_min > b.u_min ? a.u_min : b.u_min) + 1;
+        const int32_t rows = (a.v_max < b.v_max ? a.v_max : b.v_max) - (a.v_min > b.v_min ? a.v_min : b.v_min) + 1;
+        const int32_t narrow = (a.u_max - a.u_min < b.u_max - b.u_min ? a.u_max - a.u_min : b.u_max - b.u_min) + 1;
+        const int32_t short_rows = (a.v_max - a.v_min < b.v_max - b.v_min ? a.v_max - a.v_min : b.v_max - b.v_min) + 1;
+        const bool stacked = 2 * cols >= narrow && 10 * rows <= 6 * short_rows;
+        if (!stacked && !close) continue;
+      }
+      // Neither passes alone: the smaller piece must be a real share of the union, or a hand
+      // reaching over a box would lend the box its height.
+      if (!full[k] && !full[m]) {
+        const int32_t small = frag.pixels < body.pixels ? frag.pixels : body.pixels;
+        if (float(small) < cfg.fragment_min_share * float(frag.pixels + body.pixels)) continue;
+      }
       if (d2 <= best_d2 && passes_person_test(f, united(frag, body))) { best_d2 = d2; best = m; }
     }
     if (best < 0) continue;
     candidates_[best] = united(frag, candidates_[best]);
-    person[best] = true;
+    person[best] = full[best] = true;
     touches[best] |= touches[k];
     frag.owner = best;
     frag.pixels = 0;  // no longer a component of its own

@@ -47,14 +47,16 @@ struct SegmenterConfig {
   bool floor_enabled = true;
   float floor_sample_fraction = 0.5f;   // sample rows v ≥ (1 − fraction)·height, (0, 1]
   int32_t floor_samples = 800;          // grid sample size, 16..kMaxFloorSamples
-  int32_t floor_iterations = 160;       // hypotheses without a tracked plane, 1..kMaxFloorIterations
+  int32_t floor_iterations = 512;       // hypotheses without a tracked plane, 1..kMaxFloorIterations
   int32_t floor_tracked_iterations = 32;// hypotheses when last frame's plane still has ≥ half its
                                         // inliers (it is scored first), 0..max
   float floor_fit_mm = 30.0f;           // inlier distance for fitting, > 0
-  float floor_margin_mm = 25.0f;        // pixels closer than margin + margin_per_m2·z² to the
-  float floor_margin_per_m2_mm = 2.0f;  //   plane, or below it, are floor (z in metres), ≥ 0
+  float floor_margin_mm = 10.0f;        // pixels closer than margin + margin_per_m2·z² to the
+  float floor_margin_per_m2_mm = 1.0f;  //   plane, or below it, are floor (z in metres), ≥ 0
   float floor_max_tilt_deg = 60.0f;     // plane normal within this of the camera's up axis, (0, 90)
   float floor_min_inlier_fraction = 0.15f;  // of the sample, (0, 1]
+  float floor_min_extent_m = 1.0f;      // the inliers' bounding box diagonal at least this, ≥ 0
+                                        // (a torso seen from above is no floor)
   float camera_height_min_m = 0.15f;    // camera above the floor, 0 < min < max
   float camera_height_max_m = 5.0f;
   int32_t floor_keep_frames = 15;       // a plane not found again is kept this many frames, ≥ 0
@@ -86,9 +88,34 @@ struct SegmenterConfig {
   // Fragments: a component failing the person test that touches another (neighbouring pixels
   // within fragment_join_mm in depth: a person bending forward over their own legs, a limb cut
   // off by a depth jump) joins the nearest one with which the union passes the person test,
-  // when their centroids are within fragment_radius_m of each other along the floor.
+  // when their centroids are within fragment_radius_m of each other along the floor. Pieces
+  // that do not touch (a person cut in two by someone standing in front) join the same way when
+  // their centroids are within fragment_pair_radius_m.
   float fragment_join_mm = 450.0f;        // ≥ 0 (0 = no merging)
   float fragment_radius_m = 0.5f;         // ≥ 0
+  // Two components that both pass the person test are one body when they are stacked in
+  // the image (a torso over its legs) or when their centroids are within fragment_pair_radius_m
+  // of each other along the floor (an arm or the upper body in front of the legs): two people
+  // cannot stand closer than about a body's depth. 0 = stacked pieces only.
+  float fragment_pair_radius_m = 0.4f;    // ≥ 0, ≤ fragment_radius_m to have an effect
+  // When neither piece passes on its own, the smaller must hold at least this share of the union's
+  // pixels: a hand reaching over a box is not what makes the box a person.
+  float fragment_min_share = 0.05f;       // 0..0.5
+  // People cut by the top image border (a low camera looking down at someone close: only the
+  // legs are in view) cannot show their height. A component that touches the top border, stands
+  // on the floor (lowest point within cut_floor_contact_m of it) and has the area and width of a
+  // person passes without the height test when its silhouette fills at most cut_max_fill of its
+  // image box: legs, arms and gaps, unlike the solid outline of a box or a cylinder cut by the
+  // same border. Box pixels hidden by something nearer (farther than join_mm in front of the
+  // component's nearest point) count as filled: an occluded box shows gaps that are not its own.
+  // Needs a floor. cut_max_fill = 0 turns this off.
+  float cut_max_fill = 0.6f;              // 0..1
+  float cut_floor_contact_m = 0.3f;       // ≥ 0
+  // People cut by the bottom border (the head and shoulders of someone close to a high camera)
+  // keep their height above the floor but lose area: a component touching the bottom border with
+  // a floor known and its top at least min_person_height_m high needs only this fraction of the
+  // person area. 0 turns this off.
+  float cut_bottom_area_fraction = 0.3f;  // 0..1
 
   // Users.
   int32_t max_users = 8;                  // 1..kMaxUsers
@@ -192,6 +219,8 @@ class Segmenter {
     int32_t root, pixels;
     double sx, sy, sz;
     float x_min, x_max, y_min, y_max, z_min, z_max, top;
+    float bottom;          // lowest point above the floor (with a floor)
+    int32_t occluded;      // box pixels hidden by something in front (top-border components)
     int16_t u_min, v_min, u_max, v_max;
     int32_t user;          // id or 0
     int32_t owner;         // candidate this one was merged into (itself when not merged)
@@ -226,7 +255,8 @@ class Segmenter {
   void fit_floor(const DepthFrame& frame, SegmentationResult* result);
   int32_t classify_pixels(const DepthFrame& frame);
   int32_t label_components(const DepthFrame& frame, SegmentationResult* result);
-  bool passes_person_test(const DepthFrame& frame, const Candidate& candidate) const;
+  // cut: also the relaxed tests for components cut by the image border.
+  bool passes_person_test(const DepthFrame& frame, const Candidate& candidate, bool cut = true) const;
   void merge_fragments(const DepthFrame& frame, int32_t candidate_count);
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
   void update_background(const DepthFrame& frame, const uint8_t* labels, const SegmentationResult* result);

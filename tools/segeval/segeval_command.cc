@@ -34,17 +34,27 @@ static const char* const kUsage =
     "  With --blob: joint mAP per person with the segmenter's mask (Pipeline::process_user) against the\n"
     "  ground-truth mask of that person.\n"
     "  --live                 background model on (frames in sequence from a fixed camera); default off\n"
+    "  --forest-per-user      with --blob: run the forest once per user over that user's pixels alone, like the\n"
+    "                         ground-truth run (default: once per frame over all users, then process_user)\n"
     "  --dtp D                true-positive radius in metres (default 0.1)\n"
     "  --min-visible-joints K a person counts for the detection rate with >= K of 16 joints visible (default 8)\n"
+    "  --min-visible-area A  a third detection rate over people with >= A m^2 of body surface in view\n"
+    "                         (default 0.05, about a head and neck; a person showing less is not expected)\n"
     "  --dump DIR             write DIR/NNNNNN.png per frame: depth in grey, users in colour, missed body red\n"
+    "  --per-frame OUT.jsonl  one line per frame: people (pixels, visible joints, box, border, matched user, IoU),\n"
+    "                         users (pixels, body pixels, top, matched person), missed and extra pixels by height\n"
     "  --set K=V,...          override SegmenterConfig numbers: min_person_height_m, min_person_area_m2,\n"
     "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
-    "                         fragment_radius_m, floor_samples, floor_iterations";
+    "                         fragment_radius_m, fragment_pair_radius_m, cut_max_fill, cut_floor_contact_m,\n"
+    "                         cut_bottom_area_fraction, fragment_min_share,\n"
+    "                         floor_margin_per_m2_mm, floor_min_inlier_fraction, floor_min_extent_m, floor_samples,\n"
+    "                         floor_iterations";
 
 struct Person {
   std::vector<JointTruth> joints;
   int pixels = 0;
   int visible_joints = 0;
+  double visible_area_m2 = 0;  // Σ (z/fx)·(z/fy) over the person's pixels: body surface in view
 };
 
 struct AlignedFree {
@@ -84,7 +94,7 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
 }
 
 int run_segeval(int argc, char** argv) {
-  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--dump", "--set"}, {"--live"});
+  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame"}, {"--live", "--forest-per-user"});
   if (a.help_requested()) {
     std::printf("%s\n", a.usage().c_str());
     return 0;
@@ -97,6 +107,7 @@ int run_segeval(int argc, char** argv) {
   const long frames = max_frames > 0 ? std::min<long>(max_frames, long(ds.frames.size())) : long(ds.frames.size());
   const double d_tp = a.get_double("--dtp", 0.1);
   const int min_visible = int(a.get_int("--min-visible-joints", 8));
+  const double min_area = a.get_double("--min-visible-area", 0.05);
   const int w = ds.meta.width, h = ds.meta.height;
   const CameraIntrinsics intr{float(ds.meta.fx), float(ds.meta.fy), float(ds.meta.cx), float(ds.meta.cy)};
 
@@ -115,6 +126,14 @@ int run_segeval(int argc, char** argv) {
       else if (k == "join_mm_per_m") cfg.join_mm_per_m = float(v);
       else if (k == "fragment_join_mm") cfg.fragment_join_mm = float(v);
       else if (k == "fragment_radius_m") cfg.fragment_radius_m = float(v);
+      else if (k == "fragment_pair_radius_m") cfg.fragment_pair_radius_m = float(v);
+      else if (k == "cut_max_fill") cfg.cut_max_fill = float(v);
+      else if (k == "fragment_min_share") cfg.fragment_min_share = float(v);
+      else if (k == "cut_bottom_area_fraction") cfg.cut_bottom_area_fraction = float(v);
+      else if (k == "cut_floor_contact_m") cfg.cut_floor_contact_m = float(v);
+      else if (k == "floor_margin_per_m2_mm") cfg.floor_margin_per_m2_mm = float(v);
+      else if (k == "floor_min_inlier_fraction") cfg.floor_min_inlier_fraction = float(v);
+      else if (k == "floor_min_extent_m") cfg.floor_min_extent_m = float(v);
       else if (k == "floor_samples") cfg.floor_samples = int32_t(v);
       else if (k == "floor_iterations") cfg.floor_iterations = int32_t(v);
       else fail("--set: unknown key '" + k + "'");
@@ -150,10 +169,20 @@ int run_segeval(int argc, char** argv) {
     if (joint_blob.empty()) fail(a.get("--blob") + ": no joint name in common with " + dir + "/meta.json");
   }
   std::vector<JointSamples> seg_samples(joint_blob.size()), gt_samples(joint_blob.size());
+  // The same two runs over the people the Segmenter found only: how much of the gap is the masks
+  // of the people found rather than the people missed.
+  std::vector<JointSamples> seg_found(joint_blob.size()), gt_found(joint_blob.size());
 
-  std::vector<uint8_t> labels(size_t(w) * h);
+  std::vector<uint8_t> labels(size_t(w) * h), own_mask(size_t(w) * h);
+  const bool forest_per_user = a.flag("--forest-per-user");
+  std::ofstream per_frame;
+  if (a.has("--per-frame")) {
+    per_frame.open(a.get("--per-frame"));
+    if (!per_frame) fail(a.get("--per-frame") + ": cannot write");
+  }
   double inter_total = 0, union_total = 0, iou_sum = 0;
   long people_total = 0, people_found = 0, findable_total = 0, findable_found = 0, false_users = 0;
+  long sizable_total = 0, sizable_found = 0;
   long frames_with_false = 0;
   std::array<double, kSegStageCount> stage_cycles{};
   double seg_cycles = 0, seg_wall_s = 0, user_joint_cycles = 0;
@@ -176,7 +205,12 @@ int run_segeval(int argc, char** argv) {
       for (size_t p = 0; p < truth.size(); ++p) truth[p] = parts.pixels[p] != kNotBodyLabel && depth.pixels[p] ? 1 : 0;
     }
     for (size_t p = 0; p < truth.size(); ++p)
-      if (truth[p]) people[truth[p] - 1].pixels++;
+      if (truth[p]) {
+        Person& person = people[truth[p] - 1];
+        person.pixels++;
+        const double z = depth.pixels[p] * 0.001;
+        person.visible_area_m2 += z * z / (double(intr.fx) * double(intr.fy));
+      }
 
     // Without --live every frame is its own scene (another camera): nothing carries over.
     if (!a.flag("--live")) seg.reset();
@@ -246,12 +280,81 @@ int run_segeval(int argc, char** argv) {
     }
     long false_here = 0;
     for (int u = 0; u < nu; ++u) false_here += person_of_user[size_t(u)] < 0;
+    if (per_frame.is_open()) {
+      // Diagnostics: where the IoU goes. Missed body pixels and extra user pixels by height above
+      // the segmenter's floor (when it has one): < 5 cm, 5..15 cm, higher (or no floor).
+      json line;
+      line["id"] = ds.frames[size_t(i)].id;
+      line["inter"] = inter;
+      line["union"] = uni;
+      line["floor"] = r.floor.valid != 0;
+      long missed[3] = {0, 0, 0}, extra[3] = {0, 0, 0}, missed_unmatched = 0;
+      for (int v = 0; v < h; ++v)
+        for (int u = 0; u < w; ++u) {
+          const size_t q = size_t(v) * w + u;
+          const bool lab = labels[q] != 0, tru = truth[q] != 0;
+          if (lab == tru) continue;
+          int bucket = 2;
+          if (r.floor.valid && depth.pixels[q]) {
+            const float z = depth.pixels[q] * 0.001f;
+            const float x = (u - intr.cx) * z / intr.fx, y = -(v - intr.cy) * z / intr.fy;
+            const float up = r.floor.nx * x + r.floor.ny * y + r.floor.nz * z + r.floor.d;
+            bucket = up < 0.05f ? 0 : up < 0.15f ? 1 : 2;
+          }
+          if (tru) {
+            if (user_of_person[size_t(truth[q] - 1)] < 0) ++missed_unmatched;
+            else ++missed[bucket];
+          } else {
+            ++extra[bucket];
+          }
+        }
+      line["missed_unmatched_person"] = missed_unmatched;
+      line["missed_matched_by_height"] = {missed[0], missed[1], missed[2]};
+      line["extra_by_height"] = {extra[0], extra[1], extra[2]};
+      json ps = json::array();
+      for (int p = 0; p < np; ++p) {
+        int u0 = w, u1 = -1, v0 = h, v1 = -1;
+        for (int v = 0; v < h; ++v)
+          for (int u = 0; u < w; ++u)
+            if (truth[size_t(v) * w + u] == p + 1) {
+              u0 = std::min(u0, u); u1 = std::max(u1, u); v0 = std::min(v0, v); v1 = std::max(v1, v);
+            }
+        const int mu = user_of_person[size_t(p)];
+        double best_iou = 0;
+        for (int u = 0; u < nu; ++u) {
+          const double o = double(overlap[size_t(u) * np + p]);
+          best_iou = std::max(best_iou, o / double(r.users[u].pixel_count + people[size_t(p)].pixels - o));
+        }
+        ps.push_back({{"pixels", people[size_t(p)].pixels}, {"visible_joints", people[size_t(p)].visible_joints},
+                      {"visible_area_m2", people[size_t(p)].visible_area_m2},
+                      {"box", {u0, v0, u1, v1}}, {"border", u1 >= 0 && (u0 == 0 || v0 == 0 || u1 == w - 1 || v1 == h - 1)},
+                      {"user", mu >= 0 ? r.users[mu].id : 0}, {"best_iou", best_iou}});
+      }
+      line["people"] = ps;
+      json us = json::array();
+      for (int u = 0; u < nu; ++u) {
+        long body = 0;
+        for (int p = 0; p < np; ++p) body += overlap[size_t(u) * np + p];
+        const UserInfo& ui = r.users[u];
+        us.push_back({{"id", ui.id}, {"pixels", ui.pixel_count}, {"body_pixels", body}, {"top", ui.top_height_m},
+                      {"box", {ui.u_min, ui.v_min, ui.u_max, ui.v_max}}, {"z", ui.centroid_m[2]},
+                      {"person", person_of_user[size_t(u)]},
+                      {"person_pixels", person_of_user[size_t(u)] >= 0
+                                            ? overlap[size_t(u) * np + size_t(person_of_user[size_t(u)])] : 0}});
+      }
+      line["users"] = us;
+      per_frame << line.dump() << "\n";
+    }
     false_users += false_here;
     frames_with_false += false_here > 0;
     for (int p = 0; p < np; ++p) {
       if (people[size_t(p)].pixels == 0) continue;
       ++people_total;
       people_found += user_of_person[size_t(p)] >= 0;
+      if (people[size_t(p)].visible_area_m2 >= min_area) {
+        ++sizable_total;
+        sizable_found += user_of_person[size_t(p)] >= 0;
+      }
       if (people[size_t(p)].visible_joints >= min_visible) {
         ++findable_total;
         findable_found += user_of_person[size_t(p)] >= 0;
@@ -281,12 +384,22 @@ int run_segeval(int argc, char** argv) {
     for (int p = 0; p < np; ++p) {
       if (people[size_t(p)].pixels == 0) continue;
       const int u = user_of_person[size_t(p)];
-      if (u >= 0) {
+      if (u >= 0 && forest_per_user) {
+        // Like the ground-truth run: the forest over this user's pixels alone (other users are
+        // background to the probes), so the difference is the mask and nothing else.
+        for (size_t q = 0; q < labels.size(); ++q) own_mask[q] = labels[q] == r.users[u].id;
+        DepthFrame fo = frame;
+        fo.foreground_mask = own_mask.data();
+        if (Status s = pipeline.process(fo, &one); s != Status::kOk)
+          fail(ds.depth_path(size_t(i)) + ": runtime refused the frame: " + status_message(s));
+        user_joint_cycles += double(one.total_cycles);
+      } else if (u >= 0) {
         if (Status s = pipeline.process_user(frame, uint8_t(r.users[u].id), &one); s != Status::kOk)
           fail(std::string("segeval: process_user: ") + status_message(s));
         user_joint_cycles += double(one.total_cycles);
       }
       add(seg_samples, people[size_t(p)], u >= 0 ? &one : nullptr);
+      if (u >= 0) add(seg_found, people[size_t(p)], &one);
     }
     // ... and with each person's ground-truth mask.
     std::vector<uint8_t> mask(truth.size());
@@ -297,6 +410,7 @@ int run_segeval(int argc, char** argv) {
       if (Status s = pipeline.process(frame, &one); s != Status::kOk)
         fail(ds.depth_path(size_t(i)) + ": runtime refused the frame: " + status_message(s));
       add(gt_samples, people[size_t(p)], &one);
+      if (user_of_person[size_t(p)] >= 0) add(gt_found, people[size_t(p)], &one);
     }
   }
 
@@ -304,6 +418,7 @@ int run_segeval(int argc, char** argv) {
   out["dataset"] = dir;
   out["frames"] = frames;
   out["background_model"] = cfg.background_enabled;
+  out["forest_per_user"] = forest_per_user;
   out["foreground_iou_pooled"] = union_total > 0 ? inter_total / union_total : 1.0;
   out["foreground_iou_mean"] = frames ? iou_sum / double(frames) : 1.0;
   out["people"] = people_total;
@@ -313,6 +428,10 @@ int run_segeval(int argc, char** argv) {
   out["findable_found"] = findable_found;
   out["findable_detection_rate"] = findable_total ? double(findable_found) / double(findable_total) : 1.0;
   out["min_visible_joints"] = min_visible;
+  out["min_visible_area_m2"] = min_area;
+  out["sizable_people"] = sizable_total;
+  out["sizable_found"] = sizable_found;
+  out["sizable_detection_rate"] = sizable_total ? double(sizable_found) / double(sizable_total) : 1.0;
   out["false_users"] = false_users;
   out["false_users_per_frame"] = frames ? double(false_users) / double(frames) : 0.0;
   out["frames_with_false_users"] = frames_with_false;
@@ -327,6 +446,8 @@ int run_segeval(int argc, char** argv) {
   std::printf("  people found        %ld / %ld = %.4f (with >= %d visible joints: %ld / %ld = %.4f)\n", people_found,
               people_total, out["detection_rate"].get<double>(), min_visible, findable_found, findable_total,
               out["findable_detection_rate"].get<double>());
+  std::printf("                      with >= %.3f m^2 of body in view: %ld / %ld = %.4f\n", min_area, sizable_found,
+              sizable_total, out["sizable_detection_rate"].get<double>());
   std::printf("  false users         %ld = %.4f per frame (%ld frames with any)\n", false_users,
               out["false_users_per_frame"].get<double>(), frames_with_false);
   std::printf("  segmentation        %.0f cycles/frame (%.2f ms):", out["segmentation_cycles_per_frame"].get<double>(),
@@ -345,6 +466,14 @@ int run_segeval(int argc, char** argv) {
                                                           {"ground_truth_mask", ap_gt.back() ? json(*ap_gt.back()) : json()}};
     }
     const auto m_seg = mean_average_precision(ap_seg), m_gt = mean_average_precision(ap_gt);
+    std::vector<std::optional<double>> ap_seg_found, ap_gt_found;
+    for (size_t k = 0; k < joint_blob.size(); ++k) {
+      ap_seg_found.push_back(average_precision(match_joint(seg_found[k], mo)));
+      ap_gt_found.push_back(average_precision(match_joint(gt_found[k], mo)));
+    }
+    const auto f_seg = mean_average_precision(ap_seg_found), f_gt = mean_average_precision(ap_gt_found);
+    out["map_segmented_people_found"] = f_seg ? json(*f_seg) : json();
+    out["map_ground_truth_mask_people_found"] = f_gt ? json(*f_gt) : json();
     out["d_tp_m"] = d_tp;
     out["map_segmented"] = m_seg ? json(*m_seg) : json();
     out["map_ground_truth_mask"] = m_gt ? json(*m_gt) : json();
@@ -352,6 +481,8 @@ int run_segeval(int argc, char** argv) {
     out["pipeline_cycles_per_frame_segmented"] = frames ? user_joint_cycles / double(frames) : 0;
     std::printf("  joint mAP (D_tp %.2f m)  segmented %.4f, ground-truth mask %.4f, difference %+.4f\n", d_tp,
                 m_seg.value_or(0), m_gt.value_or(0), m_seg.value_or(0) - m_gt.value_or(0));
+    std::printf("    over the people found only      segmented %.4f, ground-truth mask %.4f, difference %+.4f\n",
+                f_seg.value_or(0), f_gt.value_or(0), f_seg.value_or(0) - f_gt.value_or(0));
   }
   if (a.has("--json")) {
     const std::string path = a.get("--json");

@@ -1,0 +1,263 @@
+// People cut by the top image border, bodies cut in pieces by depth jumps or by someone in front,
+// and the floor margin at the soles (docs/segmentation.md, "Users").
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "tests/segmentation_test_util.h"
+
+using namespace dp;
+using dp::testing_seg::SegmenterHarness;
+using dp::testing_seg::count_pixels;
+using dp::testing_seg::person_at;
+
+namespace {
+
+int truth_pixels(const tools::RenderedScene& f, uint8_t truth) {
+  int n = 0;
+  for (uint8_t t : f.truth) n += t == truth;
+  return n;
+}
+
+// Labelled pixels whose truth is `truth`, whatever the label.
+int labelled_truth(const std::vector<uint8_t>& labels, const tools::RenderedScene& f, uint8_t truth) {
+  int n = 0;
+  for (size_t i = 0; i < f.truth.size(); ++i) n += labels[i] != 0 && f.truth[i] == truth;
+  return n;
+}
+
+// A low camera looking down at someone close: only the legs and the hips are in view.
+tools::Scene low_camera() {
+  tools::Scene s;
+  s.camera.height_m = 0.8f;
+  s.camera.pitch_deg = 25.0f;
+  s.camera.roll_deg = 2.0f;
+  return s;
+}
+
+// Legs apart (A-stance) and the hips; the torso is above the image.
+void add_legs(tools::Scene* s, float x, float z, uint8_t truth) {
+  s->cylinders.push_back({x - 0.22f, z, 0.07f, 0.0f, 0.7f, truth});
+  s->cylinders.push_back({x + 0.22f, z, 0.07f, 0.0f, 0.7f, truth});
+  s->boxes.push_back({x - 0.29f, x + 0.29f, 0.62f, 1.0f, z - 0.1f, z + 0.12f, truth});
+  s->cylinders.push_back({x, z, 0.2f, 1.0f, 1.7f, truth});
+}
+
+// Whether some pixel of `truth` lies in the top image row, and the fill of its image box.
+void truth_box(const tools::RenderedScene& f, uint8_t truth, bool* top_row, float* fill) {
+  int u0 = f.width, u1 = -1, v0 = f.height, v1 = -1, n = 0;
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u)
+      if (f.truth[size_t(v) * f.width + u] == truth) {
+        u0 = std::min(u0, u); u1 = std::max(u1, u); v0 = std::min(v0, v); v1 = std::max(v1, v);
+        ++n;
+      }
+  *top_row = v0 == 0;
+  *fill = n ? float(n) / float((u1 - u0 + 1) * (v1 - v0 + 1)) : 0.0f;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, LegsCutByTheTopBorderAreAUserAndABoxCutThereIsNot) {
+  tools::Scene s = low_camera();
+  add_legs(&s, -0.45f, 1.4f, 1);
+  s.boxes.push_back({0.25f, 0.85f, 0.0f, 0.78f, 1.3f, 1.7f, 0});  // a cupboard, as tall as furniture gets
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool legs_top = false, box_top = false;
+  float legs_fill = 0.0f, box_fill = 0.0f;
+  truth_box(f, 1, &legs_top, &legs_fill);
+  // The box rendered alone with a truth id of its own, to measure its silhouette.
+  {
+    tools::Scene only_box = low_camera();
+    only_box.floor = false;
+    only_box.boxes.push_back({0.25f, 0.85f, 0.0f, 0.78f, 1.3f, 1.7f, 7});
+    truth_box(tools::render_scene(only_box), 7, &box_top, &box_fill);
+  }
+  ASSERT_TRUE(legs_top) << "the scene should cut the legs at the top border";
+  ASSERT_TRUE(box_top) << "the scene should cut the box at the top border";
+  ASSERT_LT(legs_fill, 0.6f);
+  ASSERT_GT(box_fill, 0.6f);
+
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_LT(h.result.users[0].top_height_m, 0.85f) << "the height test alone would refuse them";
+  EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.9 * truth_pixels(f, 1)));
+  EXPECT_EQ(count_pixels(h.labels, f, 1, 0), 0) << "the box joined the legs";
+
+  // Without the relaxation the legs are dropped like the box.
+  SegmenterConfig off = default_segmenter_config(false);
+  off.cut_max_fill = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 0);
+}
+
+TEST(SegmentationCut, ACutComponentMustStandOnTheFloor) {
+  // Legs lifted 0.35 m (standing on something out of the floor's reach, or a fragment
+  // hanging in the air) are not a person: the lowest point is above cut_floor_contact_m.
+  tools::Scene s = low_camera();
+  s.cylinders.push_back({-0.75f, 1.4f, 0.07f, 0.35f, 0.7f, 1});
+  s.cylinders.push_back({-0.15f, 1.4f, 0.07f, 0.35f, 0.7f, 1});
+  s.boxes.push_back({-0.82f, -0.08f, 0.66f, 1.0f, 1.3f, 1.52f, 1});
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool top = false;
+  float fill = 0.0f;
+  truth_box(f, 1, &top, &fill);
+  ASSERT_TRUE(top);
+  ASSERT_LT(fill, 0.6f);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_EQ(h.result.user_count, 0);
+  EXPECT_GT(h.result.component_count, 0) << h.result.candidate_pixels << " candidate pixels";
+  SegmenterConfig low = default_segmenter_config(false);
+  low.cut_floor_contact_m = 0.5f;
+  SegmenterHarness l(low);
+  ASSERT_EQ(l.run(f), Status::kOk);
+  EXPECT_EQ(l.result.user_count, 1);
+}
+
+TEST(SegmentationCut, APersonCutInTwoBySomeoneInFrontIsOneUser) {
+  // A thin person (truth 2) close to the camera hides the middle of a person (truth 1) farther
+  // away: two pieces that do not touch and each pass the person test on their own.
+  tools::Scene s;
+  s.camera.height_m = 1.3f;
+  s.camera.pitch_deg = 12.0f;
+  s.cylinders.push_back(person_at(0.0f, 3.5f, 1));
+  s.cylinders.push_back({0.0f, 2.0f, 0.06f, 0.0f, 1.8f, 2});
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_EQ(h.result.user_count, 2);
+  uint8_t far_id = 0;
+  for (size_t i = 0; i < f.truth.size(); ++i)
+    if (f.truth[i] == 1 && h.labels[i]) far_id = h.labels[i];
+  ASSERT_NE(far_id, 0);
+  EXPECT_GE(count_pixels(h.labels, f, far_id, 1), int(0.97 * truth_pixels(f, 1)));
+  EXPECT_EQ(count_pixels(h.labels, f, far_id, 2), 0) << "the person in front joined";
+  // Without pair merging the far person is two users.
+  SegmenterConfig off = default_segmenter_config(false);
+  off.fragment_pair_radius_m = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 3);
+}
+
+TEST(SegmentationCut, AnArmInFrontOfTheBodyIsNotAUserOfItsOwn) {
+  // A forearm held 30 cm in front of the body beside the torso: a depth jump makes it its own
+  // component, large and tall enough to pass, touching the body but not stacked on it.
+  tools::Scene s;
+  s.camera.height_m = 1.3f;
+  s.camera.pitch_deg = 12.0f;
+  s.cylinders.push_back(person_at(0.0f, 3.0f, 1));
+  s.cylinders.push_back({0.27f, 2.72f, 0.07f, 0.5f, 1.45f, 1});
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_GE(h.result.component_count, 2);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_GE(count_pixels(h.labels, f, h.result.users[0].id, 1), int(0.97 * truth_pixels(f, 1)));
+  SegmenterConfig off = default_segmenter_config(false);
+  off.fragment_pair_radius_m = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 2);
+}
+
+TEST(SegmentationCut, TheFloorMarginKeepsTheSoles) {
+  // A person at 2.5 m: pixels 2..4 cm above the floor are body, not floor (margin 10 mm +
+  // 1 mm/m² · z²; it was 25 mm + 2 mm/m² · z², which removed them).
+  tools::Scene s;
+  s.camera.height_m = 1.0f;
+  s.camera.pitch_deg = 15.0f;
+  s.cylinders.push_back(person_at(0.0f, 2.5f, 1));
+  const tools::RenderedScene f = tools::render_scene(s);
+  float n[3], d;
+  tools::floor_plane_in_camera(s.camera, n, &d);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  int low = 0, kept = 0;
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u) {
+      const size_t i = size_t(v) * f.width + u;
+      if (f.truth[i] != 1 || !f.depth_mm[i]) continue;
+      const float z = f.depth_mm[i] * 0.001f;
+      const float x = (u - f.intrinsics.cx) * z / f.intrinsics.fx, y = -(v - f.intrinsics.cy) * z / f.intrinsics.fy;
+      const float up = n[0] * x + n[1] * y + n[2] * z + d;
+      if (up < 0.02f || up > 0.04f) continue;
+      ++low;
+      kept += h.labels[i] != 0;
+    }
+  ASSERT_GT(low, 10);
+  EXPECT_GE(kept, int(0.9 * low));
+  SegmenterConfig old = default_segmenter_config(false);
+  old.floor_margin_mm = 25.0f;
+  old.floor_margin_per_m2_mm = 2.0f;
+  SegmenterHarness o(old);
+  ASSERT_EQ(o.run(f), Status::kOk);
+  EXPECT_LT(labelled_truth(o.labels, f, 1), labelled_truth(h.labels, f, 1));
+}
+
+TEST(SegmentationCut, ABoxCutByTheTopBorderAndHiddenInPartsIsNotAUser) {
+  // A stool in front of the box hides the middle of its lower part: what shows (an upside-down
+  // U) fills less than cut_max_fill of its image box, but what the stool hides counts as filled,
+  // so the box stays out.
+  tools::Scene s = low_camera();
+  s.boxes.push_back({0.1f, 0.9f, 0.0f, 0.78f, 1.3f, 1.7f, 7});
+  s.boxes.push_back({0.2f, 0.8f, 0.0f, 0.5f, 0.95f, 1.1f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool top = false;
+  float fill = 0.0f;
+  truth_box(f, 7, &top, &fill);
+  ASSERT_TRUE(top);
+  ASSERT_LT(fill, 0.6f) << "the poles should break the box's silhouette";
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  EXPECT_EQ(labelled_truth(h.labels, f, 7), 0) << "the box is (part of) a user";
+}
+
+TEST(SegmentationCut, AHeadAboveTheBottomBorderIsAUser) {
+  // A high camera and someone close: only the head is above the bottom border. It is high above
+  // the floor (which is in view farther away) but smaller than the person area.
+  tools::Scene s;
+  s.camera.height_m = 2.0f;
+  s.camera.pitch_deg = 5.0f;
+  s.cylinders.push_back({0.0f, 0.9f, 0.2f, 0.0f, 1.45f, 1});   // torso, below the image
+  s.cylinders.push_back({0.0f, 0.9f, 0.1f, 1.45f, 1.7f, 1});   // head
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_EQ(h.result.users[0].v_max, f.height - 1);
+  EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.97 * truth_pixels(f, 1)));
+  SegmenterConfig off = default_segmenter_config(false);
+  off.cut_bottom_area_fraction = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 0) << "the head alone should be smaller than the person area";
+}
+
+TEST(SegmentationCut, AHandReachingOverABoxDoesNotMakeItAPerson) {
+  // A forearm (truth 1) held 25 cm in front of a box's upper edge and above it: a component of
+  // its own, touching the box within fragment_join_mm. Together they would pass the person test
+  // (the box's area, the forearm's height), but the forearm is a tiny share of the union.
+  tools::Scene s;
+  s.camera.height_m = 1.3f;
+  s.camera.pitch_deg = 12.0f;
+  s.boxes.push_back({-0.5f, 0.5f, 0.0f, 0.6f, 2.2f, 2.6f, 0});
+  s.boxes.push_back({-0.02f, 0.02f, 0.45f, 0.95f, 1.93f, 1.97f, 1});
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_GE(h.result.component_count, 2);
+  EXPECT_EQ(h.result.user_count, 0);
+  SegmenterConfig any = default_segmenter_config(false);
+  any.fragment_min_share = 0.0f;
+  SegmenterHarness a(any);
+  ASSERT_EQ(a.run(f), Status::kOk);
+  EXPECT_EQ(a.result.user_count, 1) << "the scene should offer the box and the forearm as one person";
+}
