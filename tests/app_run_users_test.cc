@@ -139,6 +139,14 @@ TEST(AppRunUsers, TwoPeopleOnARecordingGetJointsUnderStableIds) {
     ASSERT_EQ(line["users"].size(), 2u) << line["users"].dump();
     EXPECT_TRUE(line.contains("segmentation") && line["segmentation"]["stage_cycles"].contains("components"));
     EXPECT_GE(line["frame_cycles"].get<uint64_t>(), line["total_cycles"].get<uint64_t>());
+    // The top level is the primary user's (most pixels); cycles and pixels are summed over users.
+    const json& users = line["users"];
+    const json& primary = users[0]["pixels"].get<int>() >= users[1]["pixels"].get<int>() ? users[0] : users[1];
+    EXPECT_EQ(line["primary_user"].get<int>(), primary["id"].get<int>());
+    EXPECT_EQ(line["joints"], primary["joints"]);
+    EXPECT_EQ(line["evaluated_pixels"].get<int>(),
+              users[0]["evaluated_pixels"].get<int>() + users[1]["evaluated_pixels"].get<int>());
+    EXPECT_EQ(line["total_cycles"].get<uint64_t>(), users[0]["cycles"].get<uint64_t>() + users[1]["cycles"].get<uint64_t>());
     for (const json& u : line["users"]) {
       const int id = u["id"].get<int>();
       EXPECT_EQ(u["frames_tracked"].get<int>(), frame + 1) << "id " << id << " was lost or renumbered";

@@ -70,13 +70,12 @@ bool project(const CameraIntrinsics& k, float x, float y, float z, float* u, flo
 }
 
 void draw_overlay(const DepthFrame& frame, const Pipeline& pipeline, const FrameResult& result, ImageRgb* image) {
-  draw_overlay_users(frame, pipeline, &result, 1, image);
+  draw_depth_grey(frame, pipeline.config(), image);
+  draw_evaluated_pixels(pipeline, image);
+  draw_skeleton(frame, *pipeline.blob().meta, result, image);
 }
 
-void draw_overlay_users(const DepthFrame& frame, const Pipeline& pipeline, const FrameResult* skeletons, int count,
-                        ImageRgb* image) {
-  const blob::LoadedBlob& b = pipeline.blob();
-  const blob::RuntimeConfig& config = pipeline.config();
+void draw_depth_grey(const DepthFrame& frame, const blob::RuntimeConfig& config, ImageRgb* image) {
   // Depth in grey: near = bright, far = dark, no reading = black.
   const int near = config.near_mm, far = std::max<int>(config.far_mm, near + 1);
   for (int v = 0; v < frame.height; ++v)
@@ -87,6 +86,10 @@ void draw_overlay_users(const DepthFrame& frame, const Pipeline& pipeline, const
       uint8_t* p = &image->pixels[(size_t(v) * frame.width + u) * 3];
       p[0] = p[1] = p[2] = g;
     }
+}
+
+void draw_evaluated_pixels(const Pipeline& pipeline, ImageRgb* image) {
+  const blob::LoadedBlob& b = pipeline.blob();
   const bool bpc = b.method() == blob::Method::kBpc && b.meta->part_count > 0;
   uint16_t distribution[blob::kMaxParts];
   const uint8_t ojr_tint[3] = {90, 170, 255};
@@ -102,26 +105,26 @@ void draw_overlay_users(const DepthFrame& frame, const Pipeline& pipeline, const
     }
     image->set(px.u, px.v, rgb[0], rgb[1], rgb[2]);
   }
+}
+
+void draw_skeleton(const DepthFrame& frame, const blob::ForestMeta& meta, const FrameResult& result, ImageRgb* image) {
   const uint8_t bone[3] = {255, 255, 255}, joint[3] = {255, 40, 40};
-  for (int k = 0; k < count; ++k) {
-    const FrameResult& result = skeletons[k];
-    for (const auto& pair : kBones) {
-      const int a = joint_index(*b.meta, pair[0]), c = joint_index(*b.meta, pair[1]);
-      if (a < 0 || c < 0 || a >= result.joint_count || c >= result.joint_count) continue;
-      if (!result.proposal_count[a] || !result.proposal_count[c]) continue;
-      const JointProposal& pa = result.proposals[a][0];
-      const JointProposal& pc = result.proposals[c][0];
-      float u0, v0, u1, v1;
-      if (project(frame.intrinsics, pa.x_m, pa.y_m, pa.z_m, &u0, &v0) &&
-          project(frame.intrinsics, pc.x_m, pc.y_m, pc.z_m, &u1, &v1))
-        draw_line(image, u0, v0, u1, v1, bone);
-    }
-    for (int j = 0; j < result.joint_count; ++j) {
-      if (!result.proposal_count[j]) continue;
-      const JointProposal& p = result.proposals[j][0];
-      float u, v;
-      if (project(frame.intrinsics, p.x_m, p.y_m, p.z_m, &u, &v)) draw_dot(image, u, v, 4, joint);
-    }
+  for (const auto& pair : kBones) {
+    const int a = joint_index(meta, pair[0]), c = joint_index(meta, pair[1]);
+    if (a < 0 || c < 0 || a >= result.joint_count || c >= result.joint_count) continue;
+    if (!result.proposal_count[a] || !result.proposal_count[c]) continue;
+    const JointProposal& pa = result.proposals[a][0];
+    const JointProposal& pc = result.proposals[c][0];
+    float u0, v0, u1, v1;
+    if (project(frame.intrinsics, pa.x_m, pa.y_m, pa.z_m, &u0, &v0) &&
+        project(frame.intrinsics, pc.x_m, pc.y_m, pc.z_m, &u1, &v1))
+      draw_line(image, u0, v0, u1, v1, bone);
+  }
+  for (int j = 0; j < result.joint_count; ++j) {
+    if (!result.proposal_count[j]) continue;
+    const JointProposal& p = result.proposals[j][0];
+    float u, v;
+    if (project(frame.intrinsics, p.x_m, p.y_m, p.z_m, &u, &v)) draw_dot(image, u, v, 4, joint);
   }
 }
 

@@ -125,6 +125,15 @@ struct SegmentedFrame {
   const FrameResult* users = nullptr;       // [seg->user_count]
 };
 
+void write_flag_names(LineBuffer& line, uint32_t flags, const char* (*name)(int)) {
+  bool first = true;
+  for (int bit = 0; bit < 32; ++bit)
+    if (flags & (1u << bit)) {
+      line.add("%s\"%s\"", first ? "" : ",", name(bit));
+      first = false;
+    }
+}
+
 const char* seg_flag_name(int bit) {
   static const char* const names[] = {"floor_fitted", "floor_held", "background_learning", "candidates_truncated",
                                       "users_truncated"};
@@ -133,8 +142,14 @@ const char* seg_flag_name(int bit) {
 
 void write_users_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameResult& r, const SegmentedFrame& sf) {
   const SegmentationResult& s = *sf.seg;
+  // With users, r sums their cycles (combine_users); without, it is the one empty pass.
+  const uint64_t frame_cycles = r.total_cycles + s.total_cycles;
+  int primary = 0;
+  for (int i = 1; i < s.user_count; ++i)
+    if (s.users[i].pixel_count > s.users[primary].pixel_count) primary = i;
+  if (s.user_count > 0) line.add(",\"primary_user\":%d", s.users[primary].id);
+  else line.add(",\"primary_user\":null");
   line.add(",\"users\":[");
-  uint64_t frame_cycles = r.total_cycles + s.total_cycles;
   for (int i = 0; i < s.user_count; ++i) {
     const UserInfo& u = s.users[i];
     line.add("%s{\"id\":%d,\"pixels\":%d,\"centroid\":[", i ? "," : "", u.id, u.pixel_count);
@@ -145,8 +160,10 @@ void write_users_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameRe
     line.number(u.centroid_m[2]);
     line.add("],\"frames_tracked\":%d,\"joints\":", u.frames_tracked);
     write_joints_json(line, b, sf.users[i]);
-    line.add(",\"cycles\":%llu}", (unsigned long long)sf.users[i].total_cycles);
-    frame_cycles += sf.users[i].total_cycles;
+    line.add(",\"cycles\":%llu,\"evaluated_pixels\":%d,\"flags\":[", (unsigned long long)sf.users[i].total_cycles,
+             sf.users[i].evaluated_pixels);
+    write_flag_names(line, sf.users[i].flags, frame_flag_name);
+    line.add("]}");
   }
   line.add("],\"segmentation\":{\"floor\":");
   if (s.floor.valid) {
@@ -155,12 +172,7 @@ void write_users_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameRe
     line.add("null");
   }
   line.add(",\"candidate_pixels\":%d,\"flags\":[", s.candidate_pixels);
-  bool first = true;
-  for (int bit = 0; bit < 32; ++bit)
-    if (s.flags & (1u << bit)) {
-      line.add("%s\"%s\"", first ? "" : ",", seg_flag_name(bit));
-      first = false;
-    }
+  write_flag_names(line, s.flags, seg_flag_name);
   line.add("],\"stage_cycles\":{");
   for (int st = 0; st < kSegStageCount; ++st)
     line.add("%s\"%s\":%llu", st ? "," : "", segmentation_stage_name(st) + 4,  // drop "seg_"
@@ -201,12 +213,7 @@ void write_frame_json(LineBuffer& line, const RunOptions& options, const blob::L
   for (int s = 0; s < kStageCount; ++s)
     line.add("%s\"%s\":%llu", s ? "," : "", stage_name(s), (unsigned long long)r.stage_cycles[s]);
   line.add("},\"total_cycles\":%llu,\"flags\":[", (unsigned long long)r.total_cycles);
-  bool first = true;
-  for (int bit = 0; bit < 32; ++bit)
-    if (r.flags & (1u << bit)) {
-      line.add("%s\"%s\"", first ? "" : ",", frame_flag_name(bit));
-      first = false;
-    }
+  write_flag_names(line, r.flags, frame_flag_name);
   line.add("],\"over_budget\":%s,\"foreground_pixels\":%d,\"evaluated_pixels\":%d,\"pixel_stride\":%d",
            (r.flags & kFlagOverCycleBudget) ? "true" : "false", r.foreground_pixels, r.evaluated_pixels,
            r.pixel_stride);
@@ -242,6 +249,28 @@ void write_frame_text(LineBuffer& line, const blob::LoadedBlob& b, int64_t frame
              u.frames_tracked);
     write_joints_text(line, b, sf.users[i]);
     line.write(out);
+  }
+}
+
+// The frame-level result of a segmented frame processed per user: the joints and proposals of
+// the user with the most pixels (the primary user), cycles and pixel counts summed over users,
+// budget flags or-ed, the largest stride.
+void combine_users(const SegmentationResult& seg, const FrameResult* users, FrameResult* out) {
+  int primary = 0;
+  for (int i = 1; i < seg.user_count; ++i)
+    if (seg.users[i].pixel_count > seg.users[primary].pixel_count) primary = i;
+  *out = users[primary];
+  out->total_cycles = 0;
+  out->flags = 0;
+  out->foreground_pixels = out->evaluated_pixels = 0;
+  for (int s = 0; s < kStageCount; ++s) out->stage_cycles[s] = 0;
+  for (int i = 0; i < seg.user_count; ++i) {
+    for (int s = 0; s < kStageCount; ++s) out->stage_cycles[s] += users[i].stage_cycles[s];
+    out->total_cycles += users[i].total_cycles;
+    out->flags |= users[i].flags;
+    out->foreground_pixels += users[i].foreground_pixels;
+    out->evaluated_pixels += users[i].evaluated_pixels;
+    out->pixel_stride = std::max(out->pixel_stride, users[i].pixel_stride);
   }
 }
 
@@ -311,7 +340,7 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   const bool segment = options.segment == SegmentMode::kOn || (options.segment == SegmentMode::kAuto && sequential);
   Segmenter segmenter;
   std::unique_ptr<uint8_t, AlignedFree> seg_arena;
-  std::vector<uint8_t> labels;
+  std::vector<uint8_t> labels, user_mask;
   std::vector<FrameResult> user_results;
   auto seg_result = std::make_unique<SegmentationResult>();
   if (segment) {
@@ -323,6 +352,7 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
         s != Status::kOk)
       fail(std::string("segmenter init: ") + status_message(s));
     labels.assign(size_t(w) * h, 0);
+    user_mask.assign(size_t(w) * h, 0);
     user_results.resize(kMaxUsers);
     seg_result->labels = labels.data();
     frame.foreground_mask = labels.data();
@@ -402,9 +432,27 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
       sf.seg = seg_result.get();
       sf.users = user_results.data();
     }
-    if (s == Status::kOk) s = pipeline.process(frame, result.get());
-    for (int i = 0; segment && s == Status::kOk && i < seg_result->user_count; ++i)
-      s = pipeline.process_user(frame, uint8_t(seg_result->users[i].id), &user_results[size_t(i)]);
+    const bool draw = !options.overlay_dir.empty();
+    if (s == Status::kOk && segment && seg_result->user_count > 0) {
+      // The whole chain once per user over that user's pixels alone: to each user's probes the
+      // other people are background, as every person was alone in the training images.
+      if (draw) draw_depth_grey(frame, pipeline.config(), &overlay);
+      for (int i = 0; s == Status::kOk && i < seg_result->user_count; ++i) {
+        const uint8_t id = uint8_t(seg_result->users[i].id);
+        for (size_t q = 0; q < labels.size(); ++q) user_mask[q] = labels[q] == id;
+        DepthFrame own = frame;
+        own.foreground_mask = user_mask.data();
+        s = pipeline.process(own, &user_results[size_t(i)]);
+        if (draw && s == Status::kOk) draw_evaluated_pixels(pipeline, &overlay);
+      }
+      if (s == Status::kOk) combine_users(*seg_result, user_results.data(), result.get());
+    } else if (s == Status::kOk) {
+      s = pipeline.process(frame, result.get());  // no segmentation, or nobody: labels all zero
+      if (draw && s == Status::kOk) {
+        draw_depth_grey(frame, pipeline.config(), &overlay);
+        draw_evaluated_pixels(pipeline, &overlay);
+      }
+    }
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     if (s != Status::kOk) {
       std::fprintf(log, "run: frame %lld: %s (skipped)\n", (long long)info.index, status_message(s));
@@ -433,8 +481,12 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
       write_frame_text(line, b, summary.frames_processed, info, ms, *result, sf, json_out);
     }
     if (!options.overlay_dir.empty()) {
-      if (segment) draw_overlay_users(frame, pipeline, user_results.data(), seg_result->user_count, &overlay);
-      else draw_overlay(frame, pipeline, *result, &overlay);
+      if (segment && seg_result->user_count > 0) {
+        for (int i = 0; i < seg_result->user_count; ++i)
+          draw_skeleton(frame, *b.meta, user_results[size_t(i)], &overlay);
+      } else {
+        draw_skeleton(frame, *b.meta, *result, &overlay);
+      }
       std::snprintf(overlay_path.data(), overlay_path.size(), "%s/%06lld.png", options.overlay_dir.c_str(),
                     (long long)summary.frames_processed);
       try {

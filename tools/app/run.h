@@ -1,8 +1,9 @@
 // `depthpose run`: the app loop. One blob, one source, one pipeline, one JSON line per frame.
 //
 // Memory: the blob bytes, the arena (required_arena_bytes for the source's frame size), the frame
-// buffer, the overlay image, the JSON line buffer and the frame-time histogram are allocated once
-// before the first frame; the per-frame loop allocates nothing (PNG encoding for --overlay happens
+// buffer, the overlay image, the JSON line buffer, the frame-time histogram and, with
+// segmentation, the segmenter's arena, label image, one-user mask and per-user results are
+// allocated once before the first frame; the per-frame loop allocates nothing (PNG encoding for --overlay happens
 // inside libpng, which keeps its own state).
 //
 // Output (stdout with --json), one line per processed frame:
@@ -14,13 +15,15 @@
 //    "flags":["pixels_strided",...],"over_budget":false,
 //    "foreground_pixels":..,"evaluated_pixels":..,"pixel_stride":..,
 //    // with segmentation (--segment on, or auto on a live or .oni source):
+//    "primary_user":1|null,                 // the user with the most pixels
 //    "users":[{"id":1,"pixels":..,"centroid":[x,y,z],"frames_tracked":..,"joints":[...same as above...],
-//              "cycles":..}, ...],          // by increasing id; ids stable across frames
+//              "cycles":..,"evaluated_pixels":..,"flags":[..]}, ...],  // by increasing id; ids stable
 //    "segmentation":{"floor":[nx,ny,nz,d]|null,"candidate_pixels":..,"flags":[..],
 //                    "stage_cycles":{"floor":..,"background":..,"components":..,"users":..}},
-//    "frame_cycles":..}                     // segmentation + forest + every user's votes and mean shift
-// With segmentation the top-level "joints" are aggregated over every user's pixels together (for
-// one user: that user's joints); "users" carries each user's own.
+//    "frame_cycles":..}                     // segmentation + every user's pass
+// With segmentation the pipeline runs once per user over that user's pixels alone (the other
+// people are background to its probes, as in training); the top-level "joints" are the primary
+// user's, the top-level cycles and pixel counts summed over users, the flags or-ed.
 // Without --json each processed frame prints one text line instead:
 //   frame 3 (source 3, 0.41 ms): head 0.012 0.457 2.055 (812) | neck - | ...
 // and, with segmentation, one more line per user:

@@ -31,11 +31,11 @@ static const char* const kUsage =
     "  Runs dp::Segmenter over a labelled dataset (layout v1 with parts/; people/ and the \"people\" key of\n"
     "  frames.jsonl for several bodies, see docs/dataset_format.md) and reports foreground IoU against the\n"
     "  ground-truth body mask, the share of people found, false users per frame and the segmenter's cycles.\n"
-    "  With --blob: joint mAP per person with the segmenter's mask (Pipeline::process_user) against the\n"
-    "  ground-truth mask of that person.\n"
+    "  With --blob: joint mAP per person with the segmenter's mask against the ground-truth mask of that\n"
+    "  person (the whole chain per user over that user's pixels alone, as depthpose run does).\n"
     "  --live                 background model on (frames in sequence from a fixed camera); default off\n"
-    "  --forest-per-user      with --blob: run the forest once per user over that user's pixels alone, like the\n"
-    "                         ground-truth run (default: once per frame over all users, then process_user)\n"
+    "  --forest-once          with --blob: run the forest once per frame over all users, then votes and mean\n"
+    "                         shift per user (Pipeline::process_user), instead of the whole chain per user\n"
     "  --dtp D                true-positive radius in metres (default 0.1)\n"
     "  --min-visible-joints K a person counts for the detection rate with >= K of 16 joints visible (default 8)\n"
     "  --min-visible-area A  a third detection rate over people with >= A m^2 of body surface in view\n"
@@ -94,7 +94,7 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
 }
 
 int run_segeval(int argc, char** argv) {
-  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame"}, {"--live", "--forest-per-user"});
+  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame"}, {"--live", "--forest-once"});
   if (a.help_requested()) {
     std::printf("%s\n", a.usage().c_str());
     return 0;
@@ -174,7 +174,7 @@ int run_segeval(int argc, char** argv) {
   std::vector<JointSamples> seg_found(joint_blob.size()), gt_found(joint_blob.size());
 
   std::vector<uint8_t> labels(size_t(w) * h), own_mask(size_t(w) * h);
-  const bool forest_per_user = a.flag("--forest-per-user");
+  const bool forest_per_user = !a.flag("--forest-once");
   std::ofstream per_frame;
   if (a.has("--per-frame")) {
     per_frame.open(a.get("--per-frame"));
