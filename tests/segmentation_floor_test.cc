@@ -160,3 +160,24 @@ TEST(SegmentationFloor, ASmallHorizontalSurfaceIsNoFloor) {
   ASSERT_EQ(a.run(f), Status::kOk);
   EXPECT_EQ(a.result.floor.valid, 1) << "the test scene should offer the table top as a floor";
 }
+
+TEST(SegmentationFloor, PlanesTiltedBeyondTheLimitAreNoFloor) {
+  // floor_max_tilt_deg (45° by default: a Kinect tilts ±27°, plus roll) keeps steep surfaces out:
+  // on real frames with no floor in view, points on two people's torsos formed a plane 59° from
+  // the camera's up axis. Seen from a camera pitched 55° down, a true floor is such a plane too:
+  // refused by default, fitted once the limit allows it.
+  tools::Scene s;
+  s.camera.height_m = 1.5f;
+  s.camera.pitch_deg = 55.0f;
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_EQ(h.result.floor.valid, 0) << "plane n = (" << h.result.floor.nx << ", " << h.result.floor.ny << ", "
+                                      << h.result.floor.nz << "), d = " << h.result.floor.d;
+  SegmenterConfig steep = default_segmenter_config(false);
+  steep.floor_max_tilt_deg = 60.0f;
+  SegmenterHarness a(steep);
+  ASSERT_EQ(a.run(f), Status::kOk);
+  EXPECT_EQ(a.result.floor.valid, 1);
+  EXPECT_NEAR(a.result.floor.d, 1.5f, 0.05f);
+}

@@ -363,12 +363,18 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
     // Least-squares refinement on the inliers with a shrinking band: objects standing on the floor
     // put points just above it inside the RANSAC band and would tilt the plane; a symmetric band
     // around the refined plane keeps the fit unbiased under noise.
+    // A refined plane outside the limits means the hypothesis only grazed a steeper (or otherwise
+    // refused) surface near the limit: no floor then, rather than the grazing plane.
     static const float kBand[3] = {1.0f, 0.5f, 0.3f};
+    bool refused = false;
     for (float band : kBand) {
       if (count_inliers(best, samples_, n, tol * band, inlier_) < 3) break;
       Plane p;
       if (!refine_plane(samples_, inlier_, n, &p)) break;
-      if (!orient_and_check(&p, min_up, cfg.camera_height_min_m, cfg.camera_height_max_m)) break;
+      if (!orient_and_check(&p, min_up, cfg.camera_height_min_m, cfg.camera_height_max_m)) {
+        refused = true;
+        break;
+      }
       best = p;
     }
     best_count = count_inliers(best, samples_, n, tol, inlier_);
@@ -386,7 +392,7 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
     }
     float diag2 = 0.0f;
     for (int k = 0; k < 3; ++k) diag2 += hi[k] > lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0.0f;
-    fitted = diag2 >= cfg.floor_min_extent_m * cfg.floor_min_extent_m;
+    fitted = !refused && diag2 >= cfg.floor_min_extent_m * cfg.floor_min_extent_m;
   }
   if (fitted) {
     *floor_ = FloorPlane{best.nx, best.ny, best.nz, best.d, 1, best_count, n, 0};

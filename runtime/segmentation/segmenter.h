@@ -53,7 +53,7 @@ struct SegmenterConfig {
   float floor_fit_mm = 30.0f;           // inlier distance for fitting, > 0
   float floor_margin_mm = 10.0f;        // pixels closer than margin + margin_per_m2·z² to the
   float floor_margin_per_m2_mm = 1.0f;  //   plane, or below it, are floor (z in metres), ≥ 0
-  float floor_max_tilt_deg = 60.0f;     // plane normal within this of the camera's up axis, (0, 90)
+  float floor_max_tilt_deg = 45.0f;     // plane normal within this of the camera's up axis, (0, 90)
   float floor_min_inlier_fraction = 0.15f;  // of the sample, (0, 1]
   float floor_min_extent_m = 1.0f;      // the inliers' bounding box diagonal at least this, ≥ 0
                                         // (a torso seen from above is no floor)
