@@ -140,13 +140,19 @@ const char* seg_flag_name(int bit) {
   return bit >= 0 && bit < int(sizeof names / sizeof names[0]) ? names[bit] : "unknown_flag";
 }
 
+// Index (into seg.users) of the user with the most pixels; 0 when there is none.
+int primary_user_index(const SegmentationResult& seg) {
+  int primary = 0;
+  for (int i = 1; i < seg.user_count; ++i)
+    if (seg.users[i].pixel_count > seg.users[primary].pixel_count) primary = i;
+  return primary;
+}
+
 void write_users_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameResult& r, const SegmentedFrame& sf) {
   const SegmentationResult& s = *sf.seg;
   // With users, r sums their cycles (combine_users); without, it is the one empty pass.
   const uint64_t frame_cycles = r.total_cycles + s.total_cycles;
-  int primary = 0;
-  for (int i = 1; i < s.user_count; ++i)
-    if (s.users[i].pixel_count > s.users[primary].pixel_count) primary = i;
+  const int primary = primary_user_index(s);
   if (s.user_count > 0) line.add(",\"primary_user\":%d", s.users[primary].id);
   else line.add(",\"primary_user\":null");
   line.add(",\"users\":[");
@@ -256,10 +262,7 @@ void write_frame_text(LineBuffer& line, const blob::LoadedBlob& b, int64_t frame
 // the user with the most pixels (the primary user), cycles and pixel counts summed over users,
 // budget flags or-ed, the largest stride.
 void combine_users(const SegmentationResult& seg, const FrameResult* users, FrameResult* out) {
-  int primary = 0;
-  for (int i = 1; i < seg.user_count; ++i)
-    if (seg.users[i].pixel_count > seg.users[primary].pixel_count) primary = i;
-  *out = users[primary];
+  *out = users[primary_user_index(seg)];
   out->total_cycles = 0;
   out->flags = 0;
   out->foreground_pixels = out->evaluated_pixels = 0;
@@ -448,10 +451,6 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
       if (s == Status::kOk) combine_users(*seg_result, user_results.data(), result.get());
     } else if (s == Status::kOk) {
       s = pipeline.process(frame, result.get());  // no segmentation, or nobody: labels all zero
-      if (draw && s == Status::kOk) {
-        draw_depth_grey(frame, pipeline.config(), &overlay);
-        draw_evaluated_pixels(pipeline, &overlay);
-      }
     }
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     if (s != Status::kOk) {
@@ -481,11 +480,11 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
       write_frame_text(line, b, summary.frames_processed, info, ms, *result, sf, json_out);
     }
     if (!options.overlay_dir.empty()) {
-      if (segment && seg_result->user_count > 0) {
+      if (segment && seg_result->user_count > 0) {  // depth and pixels were drawn pass by pass
         for (int i = 0; i < seg_result->user_count; ++i)
           draw_skeleton(frame, *b.meta, user_results[size_t(i)], &overlay);
       } else {
-        draw_skeleton(frame, *b.meta, *result, &overlay);
+        draw_overlay(frame, pipeline, *result, &overlay);
       }
       std::snprintf(overlay_path.data(), overlay_path.size(), "%s/%06lld.png", options.overlay_dir.c_str(),
                     (long long)summary.frames_processed);
