@@ -7,6 +7,7 @@ using namespace dp;
 using dp::testing_seg::SegmenterHarness;
 using dp::testing_seg::count_pixels;
 using dp::testing_seg::person_at;
+using dp::testing_seg::truth_pixels;
 
 namespace {
 
@@ -27,12 +28,6 @@ SegmenterConfig model_only() {
   c.floor_enabled = false;
   c.background_learn_frames = 5;
   return c;
-}
-
-int truth_pixels(const tools::RenderedScene& f, uint8_t truth) {
-  int n = 0;
-  for (uint8_t t : f.truth) n += t == truth;
-  return n;
 }
 
 }  // namespace

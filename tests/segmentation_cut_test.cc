@@ -10,14 +10,9 @@ using namespace dp;
 using dp::testing_seg::SegmenterHarness;
 using dp::testing_seg::count_pixels;
 using dp::testing_seg::person_at;
+using dp::testing_seg::truth_pixels;
 
 namespace {
-
-int truth_pixels(const tools::RenderedScene& f, uint8_t truth) {
-  int n = 0;
-  for (uint8_t t : f.truth) n += t == truth;
-  return n;
-}
 
 // Labelled pixels whose truth is `truth`, whatever the label.
 int labelled_truth(const std::vector<uint8_t>& labels, const tools::RenderedScene& f, uint8_t truth) {

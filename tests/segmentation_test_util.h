@@ -41,6 +41,13 @@ inline tools::SceneCylinder person_at(float x, float z, uint8_t truth, float hei
   return tools::SceneCylinder{x, z, 0.2f, 0.0f, height, truth};
 }
 
+// Pixels whose truth is `truth`.
+inline int truth_pixels(const tools::RenderedScene& s, uint8_t truth) {
+  int n = 0;
+  for (uint8_t t : s.truth) n += t == truth;
+  return n;
+}
+
 // Pixels labelled `label` whose truth is `truth`.
 inline int count_pixels(const std::vector<uint8_t>& labels, const tools::RenderedScene& s, uint8_t label, uint8_t truth) {
   int n = 0;

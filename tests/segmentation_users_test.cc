@@ -11,6 +11,7 @@ using namespace dp;
 using dp::testing_seg::SegmenterHarness;
 using dp::testing_seg::count_pixels;
 using dp::testing_seg::person_at;
+using dp::testing_seg::truth_pixels;
 
 namespace {
 
@@ -20,12 +21,6 @@ tools::Scene room() {
   s.camera.pitch_deg = 12.0f;
   s.camera.roll_deg = 3.0f;
   return s;
-}
-
-int truth_pixels(const tools::RenderedScene& f, uint8_t truth) {
-  int n = 0;
-  for (uint8_t t : f.truth) n += t == truth;
-  return n;
 }
 
 }  // namespace
