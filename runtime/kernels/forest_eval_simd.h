@@ -8,7 +8,10 @@
 //   address       (v + 1)·stride + (u + 1) by pmaddwd, stride ≤ 4098.
 // Speed (docs/runtime_speed.md): pixels are evaluated breadth-first, one tree level at a time over
 // a chunk of pixels, so the visits of a level are independent and their node fetches overlap;
-// from kPrefetchFromLevel on, the node of the pixel kPrefetchAhead positions later is prefetched.
+// from kPrefetchFromLevel on, a pixel's next node is prefetched as soon as the visit has chosen it, a
+// whole pass over the chunk (kChunkPixels visits) before it is read. That costs one instruction per
+// visit; reading the index of a pixel some positions ahead and prefetching its node cost two, and
+// measured 5–7 % slower (tests/bench/runtime_bench.cc, docs/runtime_speed.md).
 #pragma once
 #include <immintrin.h>
 #include <stdint.h>
@@ -19,8 +22,7 @@ namespace dp::kernels {
 namespace {
 
 constexpr int32_t kChunkPixels = 2048;
-constexpr int32_t kPrefetchAhead = 96;
-constexpr int32_t kPrefetchFromLevel = 6;
+constexpr int32_t kPrefetchFromLevel = 6;  // levels above fit in L1/L2: no prefetch
 
 // Per pixel of a chunk, kept in two arrays so the setups of two neighbouring pixels are one 16-byte
 // load: scale_q13 (s in 4 int16 lanes) and origin (u + 1, v + 1, u + 1, v + 1, padded coordinates).
@@ -113,15 +115,15 @@ void evaluate_breadth_first(const ForestKernelArgs& a) {
       node[i] = 0;
     }
     for (int32_t level = 0; level < a.depth; ++level) {
-      int32_t i = 0;
-      if (level >= kPrefetchFromLevel) {
-        for (; i + kPrefetchAhead + 2 <= even; i += 2) {
-          prefetch_node<kPacked>(a, node[i + kPrefetchAhead]);
-          prefetch_node<kPacked>(a, node[i + kPrefetchAhead + 1]);
+      if (level + 1 >= kPrefetchFromLevel && level + 1 < a.depth) {
+        for (int32_t i = 0; i < even; i += 2) {
           visit_pair<kPacked>(a, node, setup, i, c);
+          prefetch_node<kPacked>(a, node[i]);
+          prefetch_node<kPacked>(a, node[i + 1]);
         }
+      } else {
+        for (int32_t i = 0; i < even; i += 2) visit_pair<kPacked>(a, node, setup, i, c);
       }
-      for (; i < even; i += 2) visit_pair<kPacked>(a, node, setup, i, c);
     }
     for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - first_leaf];
   }
