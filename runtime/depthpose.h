@@ -80,6 +80,17 @@ enum FrameFlag : uint32_t {
   kFlagBudgetIterations = 1u << 9,   // mean-shift iterations below mean_shift_iterations
   kFlagBudgetInfeasible = 1u << 10,  // even fully degraded the predicted cost exceeds the budget
 };
+constexpr int32_t kFrameFlagBits = 11;
+
+// The snake_case name of FrameFlag bit `bit` ("pixels_strided", "budget_votes", ...), as the tools print
+// it; "unknown_flag" outside 0..kFrameFlagBits−1.
+inline const char* frame_flag_name(int32_t bit) {
+  constexpr const char* kNames[kFrameFlagBits] = {
+      "no_foreground",  "pixels_strided", "votes_truncated", "starts_truncated",  "proposals_truncated",
+      "over_cycle_budget", "budget_pixels", "budget_votes",   "budget_starts",    "budget_iterations",
+      "budget_infeasible"};
+  return bit >= 0 && bit < kFrameFlagBits ? kNames[bit] : "unknown_flag";
+}
 
 struct FrameResult {
   int32_t joint_count;                         // = blob joint_count

@@ -283,11 +283,6 @@ struct AlignedFree {
 
 }  // namespace
 
-const char* frame_flag_name(int bit) {
-  static const char* const names[] = {"no_foreground", "pixels_strided", "votes_truncated",
-                                      "starts_truncated", "proposals_truncated", "over_cycle_budget"};
-  return bit >= 0 && bit < int(sizeof names / sizeof names[0]) ? names[bit] : "unknown_flag";
-}
 
 void request_stop() { g_stop = 1; }
 
@@ -329,6 +324,13 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
     fail(std::string("pipeline init: ") + status_message(s));
   if (Status s = pipeline.set_kernel(options.kernel); s != Status::kOk)
     fail(std::string("kernel ") + kernel_isa_name(options.kernel) + ": " + status_message(s));
+  if (options.budget.any()) {
+    const blob::RuntimeConfig c = with_budget(*b.config, options.budget, b.config->max_evaluated_pixels);
+    if (Status s = pipeline.set_config(c); s != Status::kOk)
+      fail("budget " + describe_budget(options.budget) + ": " + status_message(s));
+    std::fprintf(log, "run: %s (blob: pixel budget %u, cycle budget %llu)\n", describe_budget(options.budget).c_str(),
+                 unsigned(b.config->max_evaluated_pixels), (unsigned long long)b.config->cycle_budget);
+  }
   if (!options.overlay_dir.empty()) {
     ::mkdir(options.overlay_dir.c_str(), 0755);
     struct stat st{};

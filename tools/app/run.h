@@ -37,6 +37,7 @@
 
 #include "platform/frame_source.h"
 #include "runtime/depthpose.h"
+#include "tools/common/budget_options.h"
 
 namespace dp::tools {
 
@@ -60,6 +61,7 @@ struct RunOptions {
   int64_t max_frames = -1;      // stop after this many processed frames (−1 = source end)
   KernelIsa kernel = KernelIsa::kBest;
   SegmentMode segment = SegmentMode::kAuto;
+  BudgetOverrides budget;        // --pixel-budget / --cycle-budget over the blob's config (docs/budget.md)
   // Live sources: watch the USB bus (libusb) for the depth camera leaving and coming back.
   bool usb_watch = true;
   // Called after each processed frame (tests observe the loop with it). May be empty.
@@ -89,8 +91,6 @@ struct RunSummary {
 // Throws ToolError for setup problems (blob, source, overlay directory, kernel).
 RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log);
 
-// Names of the FrameFlag bits, in bit order ("no_foreground", "pixels_strided", ...).
-const char* frame_flag_name(int bit);
 
 // Asks a running run_app to stop after the current frame (signal safe).
 void request_stop();

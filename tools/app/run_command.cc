@@ -6,6 +6,7 @@
 #include "tools/app/run.h"
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
+#include "tools/common/budget_options.h"
 #include "tools/common/error.h"
 
 namespace dp::tools {
@@ -22,7 +23,8 @@ static KernelIsa parse_kernel(const std::string& name) {
 
 static int run_run(int argc, char** argv) {
   std::vector<std::string> options = kSourceOptionNames;
-  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--kernel", "--segment"});
+  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--kernel", "--segment",
+                                    kBudgetOptionNames[0], kBudgetOptionNames[1]});
   Args args(argc, argv,
             std::string("usage: depthpose run --blob BLOB --source SRC [--json] [--overlay DIR] [--every N]\n"
                         "                     [--realtime] [--all-proposals] [--frames N] [--kernel K]\n"
@@ -40,7 +42,8 @@ static int run_run(int argc, char** argv) {
                 "  --realtime           replay files at their recorded pace, dropping frames when late\n"
                 "                       (live sources always deliver the newest frame)\n"
                 "  --frames N           stop after N processed frames\n"
-                "  --kernel K           forest kernel: scalar, avx2, avx512 or best (default best)\n"
+                "  --kernel K           forest kernel: scalar, avx2, avx512 or best (default best)\n" +
+                std::string(kBudgetOptionsUsage) +
                 "  --segment MODE       on, off or auto (default): find the people first (floor, background model,\n"
                 "                       users with stable ids; docs/segmentation.md) and report joints per user.\n"
                 "                       auto = on for live sources and .oni files, off for raw files and datasets\n"
@@ -65,6 +68,7 @@ static int run_run(int argc, char** argv) {
   if (args.has("--frames") && o.max_frames < 1) fail("--frames must be at least 1");
   o.kernel = parse_kernel(args.get("--kernel", "best"));
   o.usb_watch = !args.flag("--no-usb-watch");
+  o.budget = budget_overrides_from_args(args);
   const std::string segment = args.get("--segment", "auto");
   if (segment == "auto") o.segment = SegmentMode::kAuto;
   else if (segment == "on") o.segment = SegmentMode::kOn;

@@ -26,13 +26,14 @@ EvalOptions eval_options_from_args(const Args& a) {
   o.kernel = parse_kernel(a.get("--kernel", "best"));
   if (a.has("--map-joints")) o.joint_map = parse_name_map(a.get("--map-joints"), "--map-joints");
   if (a.has("--map-parts")) o.part_map = parse_name_map(a.get("--map-parts"), "--map-parts");
+  o.budget = budget_overrides_from_args(a);
   return o;
 }
 
-static const char* const kUsage =
-    "usage: depthpose eval --blob BLOB --data DATASET [--json OUT.json] [--plots DIR] [--dtp D]\n"
+static const std::string kUsage =
+    std::string("usage: depthpose eval --blob BLOB --data DATASET [--json OUT.json] [--plots DIR] [--dtp D]\n"
     "                      [--penalize-occluded] [--silhouette] [--frames N] [--kernel scalar|avx2|avx512|best]\n"
-    "                      [--map-joints DS=BLOB,...] [--map-parts DS=BLOB,...]\n"
+    "                      [--map-joints DS=BLOB,...] [--map-parts DS=BLOB,...] [--pixel-budget N] [--cycle-budget C]\n"
     "  Runs the blob through the runtime over every frame of a dataset (layout v1) and reports per-joint\n"
     "  average precision and mAP (paper section 4.2), mAP against D_tp, per-class segmentation accuracy and\n"
     "  the confusion matrix (BPC, labelled datasets), and speed. Foreground = ground-truth body mask when the\n"
@@ -41,7 +42,8 @@ static const char* const kUsage =
     "  --penalize-occluded  count invisible joints as false negatives when missed\n"
     "  --silhouette         flatten the foreground to 2 m (paper 4.6.4); D_tp in pixels\n"
     "  --map-joints/--map-parts  rename dataset names to blob names (unmatched names are then skipped);\n"
-    "                       the value may be @FILE (pairs separated by commas, spaces or newlines)\n"
+    "                       the value may be @FILE (pairs separated by commas, spaces or newlines)\n") +
+    kBudgetOptionsUsage +
     "  --segment            measure segmentation instead (floor, background, users: foreground IoU, people\n"
     "                       found, false users per frame, joint mAP with the segmenter's mask vs the ground-truth\n"
     "                       mask); the same as `depthpose segeval` (its options: docs/segmentation.md)\n"
@@ -60,7 +62,8 @@ static int run_eval(int argc, char** argv) {
       return segeval->run(int(rest.size()), rest.data());
     }
   Args a(argc, argv, kUsage,
-         {"--blob", "--data", "--json", "--plots", "--dtp", "--frames", "--kernel", "--map-joints", "--map-parts"},
+         {"--blob", "--data", "--json", "--plots", "--dtp", "--frames", "--kernel", "--map-joints", "--map-parts",
+          kBudgetOptionNames[0], kBudgetOptionNames[1]},
          {"--penalize-occluded", "--silhouette"});
   if (a.help_requested()) {
     std::printf("%s\n", a.usage().c_str());

@@ -217,7 +217,9 @@ void EvalSession::collect(long frame, const FrameResult& r, std::vector<JointSam
 }
 
 EvalReport EvalSession::evaluate(const blob::RuntimeConfig* config) {
-  if (Status s = pipeline_.set_config(config ? *config : *blob_.config); s != Status::kOk)
+  const blob::RuntimeConfig effective =
+      config ? *config : with_budget(*blob_.config, options_.budget, blob_.config->max_evaluated_pixels);
+  if (Status s = pipeline_.set_config(effective); s != Status::kOk)
     fail(blob_label_ + ": runtime config refused: " + status_message(s));
   const blob::ForestMeta& m = *blob_.meta;
   const bool bpc = blob_.method() == blob::Method::kBpc;
@@ -228,6 +230,7 @@ EvalReport EvalSession::evaluate(const blob::RuntimeConfig* config) {
   rep.penalize_occluded = options_.penalize_occluded;
   rep.d_tp = options_.silhouette ? options_.d_tp_px : options_.d_tp_m;
   rep.d_tp_unit = options_.silhouette ? "px" : "m";
+  if (!config) rep.budget = describe_budget(options_.budget);
   rep.kernel = kernel_isa_name(pipeline_.kernel());
   for (int j : eval_joints_) rep.joint_names.push_back(fixed_name(m.joint_names[j]));
   rep.has_confusion = bpc && !blob_part_of_label_.empty();

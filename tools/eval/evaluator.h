@@ -12,6 +12,7 @@
 
 #include "forest_blob/blob_loader.h"
 #include "runtime/depthpose.h"
+#include "tools/common/budget_options.h"
 #include "tools/common/dataset.h"
 #include "tools/eval/metrics.h"
 
@@ -31,6 +32,7 @@ struct EvalOptions {
   KernelIsa kernel = KernelIsa::kBest;
   NameMap joint_map, part_map;      // given ⇒ unmatched names are skipped instead of refused
   int overlay_frames = 4;           // frames kept for example overlays
+  BudgetOverrides budget;           // --pixel-budget / --cycle-budget over the blob's config
 };
 constexpr uint16_t kSilhouetteDepthMm = 2000;
 
@@ -70,7 +72,8 @@ struct EvalReport {
   std::array<double, kStageCount> stage_ms{};  // mean per frame
   std::string kernel;
   double mean_evaluated_pixels = 0;
-  std::array<long, 6> flag_frames{};      // frames with each FrameFlag bit
+  std::string budget;                    // the overrides in force ("" = the blob's config)
+  std::array<long, kFrameFlagBits> flag_frames{};  // frames with each FrameFlag bit
   std::vector<OverlayFrame> overlays;
 };
 

@@ -7,8 +7,6 @@ namespace {
 
 nlohmann::json optional_number(const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(nullptr); }
 
-const char* const kFlagNames[6] = {"no_foreground", "pixels_strided", "votes_truncated", "starts_truncated",
-                                   "proposals_truncated", "over_cycle_budget"};
 
 std::string fmt_ap(const std::optional<double>& v) {
   if (!v) return "  n/a";
@@ -64,8 +62,9 @@ nlohmann::json report_to_json(const EvalReport& r) {
   for (int s = 0; s < kStageCount; ++s) stages[stage_name(s)] = r.stage_ms[size_t(s)];
   j["speed"] = {{"fps", r.fps}, {"ms_per_frame", r.ms_per_frame}, {"stage_ms", stages}, {"kernel", r.kernel},
                 {"mean_evaluated_pixels", r.mean_evaluated_pixels}};
+  j["budget_override"] = r.budget.empty() ? json(nullptr) : json(r.budget);
   json flags = json::object();
-  for (size_t b = 0; b < r.flag_frames.size(); ++b) flags[kFlagNames[b]] = r.flag_frames[b];
+  for (size_t b = 0; b < r.flag_frames.size(); ++b) flags[frame_flag_name(int32_t(b))] = r.flag_frames[b];
   j["flag_frames"] = flags;
   return j;
 }
@@ -99,12 +98,13 @@ void print_report(const EvalReport& r, FILE* out) {
       std::fprintf(out, "\n");
     }
   }
+  if (!r.budget.empty()) std::fprintf(out, "budget override: %s\n", r.budget.c_str());
   std::fprintf(out, "speed: %.1f fps (%.3f ms/frame, kernel %s, %.0f evaluated pixels/frame);", r.fps, r.ms_per_frame,
                r.kernel.c_str(), r.mean_evaluated_pixels);
   for (int s = 0; s < kStageCount; ++s) std::fprintf(out, " %s %.3f ms", stage_name(s), r.stage_ms[size_t(s)]);
   std::fprintf(out, "\n");
   for (size_t b = 0; b < r.flag_frames.size(); ++b)
-    if (r.flag_frames[b]) std::fprintf(out, "budget: %ld frames flagged %s\n", r.flag_frames[b], kFlagNames[b]);
+    if (r.flag_frames[b]) std::fprintf(out, "budget: %ld frames flagged %s\n", r.flag_frames[b], frame_flag_name(int32_t(b)));
 }
 
 }  // namespace dp::tools
