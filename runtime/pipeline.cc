@@ -315,14 +315,15 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   // Stage 2: the forest.
   const float fref = blob_.meta->reference_focal_px;
   const int32_t focal = focal_factor_mm(0.5f * (f.intrinsics.fx + f.intrinsics.fy), fref);
-  const kernels::ForestKernelFn kernel = kernels::forest_kernel(kernel_);
+  kernels::ForestKernelArgs per_tree[blob::kMaxTrees];
   for (int t = 0; t < blob_.tree_count(); ++t) {
     const kernels::PackedNode* packed =
         packed_nodes_ ? packed_nodes_ + size_t(t) * blob::nodes_per_tree(blob_.depth()) : nullptr;
-    kernels::ForestKernelArgs a{probe_image_, probe_stride, w, h, focal, pixels_, n, blob_.tree_nodes(t), packed,
-                                blob_.tree_leaf_index(t), blob_.depth(), leaves_ + size_t(t) * max_pixels_};
-    kernel(a);
+    per_tree[t] = kernels::ForestKernelArgs{probe_image_, probe_stride, w, h, focal, pixels_, n, blob_.tree_nodes(t),
+                                            packed, blob_.tree_leaf_index(t), blob_.depth(),
+                                            leaves_ + size_t(t) * max_pixels_};
   }
+  kernels::forest_trees_kernel(kernel_)(per_tree, blob_.tree_count());
   const uint64_t t2 = cycles_now();
   r->stage_cycles[kStageForest] = t2 - t1;
 

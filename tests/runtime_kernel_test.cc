@@ -181,6 +181,49 @@ TEST(KernelExactness, KernelsAgreeOnBothLayoutsDirectly) {
     }
 }
 
+TEST(KernelExactness, AllTreesInOneCallEqualOneCallPerTree) {
+  // evaluate_trees shares each chunk's setup between trees; every tree's leaves must still equal the
+  // reference's, whatever the layout of each tree and across chunk boundaries (> 2048 pixels).
+  const blob::BlobContents c = tools::random_bpc_forest(12, 3, 13, 8, 1500, 400);
+  const std::vector<uint8_t> bytes = blob::write_blob(c);
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+  const SyntheticFrame f = noisy_frame(8, 160, 120);
+  std::vector<uint16_t> probe(kernels::padded_probe_elements(f.width, f.height));
+  kernels::fill_probe_border(probe.data(), f.width, f.height);
+  std::vector<EvaluatedPixel> pixels;
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u) {
+      const uint16_t z = f.depth_mm[size_t(v) * f.width + u];
+      probe[size_t(v + 1) * (f.width + 2) + u + 1] = z ? z : kBackgroundDepthMm;
+      if (z) pixels.push_back(EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0});
+    }
+  pixels.pop_back();  // an odd count: the last chunk gets a padding pixel
+  ASSERT_GT(pixels.size(), 2u * 2048u);
+  const size_t per_tree = blob::nodes_per_tree(b.depth());
+  std::vector<kernels::PackedNode> packed;
+  for (size_t i = 0; i < 3 * per_tree; ++i) packed.push_back(kernels::pack_node(b.nodes[i]));
+  const int32_t n = int32_t(pixels.size());
+  std::vector<std::vector<uint32_t>> ref(3, std::vector<uint32_t>(pixels.size()));
+  auto args = [&](int t, bool use_packed, uint32_t* out) {
+    return kernels::ForestKernelArgs{probe.data(), f.width + 2, f.width, f.height, focal_factor_mm(300.0f, 525.0f),
+                                     pixels.data(), n, b.tree_nodes(t), use_packed ? packed.data() + t * per_tree : nullptr,
+                                     b.tree_leaf_index(t), b.depth(), out};
+  };
+  for (int t = 0; t < 3; ++t) kernels::forest_kernel(KernelIsa::kScalar)(args(t, false, ref[size_t(t)].data()));
+  for (KernelIsa isa : {KernelIsa::kScalar, KernelIsa::kAvx2, KernelIsa::kAvx512, KernelIsa::kBest}) {
+    if (!kernel_isa_supported(isa)) continue;
+    for (int layout = 0; layout < 3; ++layout) {  // none packed, tree 1 packed, all packed
+      std::vector<std::vector<uint32_t>> out(3, std::vector<uint32_t>(pixels.size(), 0xFFFFFFFFu));
+      kernels::ForestKernelArgs a[3];
+      for (int t = 0; t < 3; ++t) a[t] = args(t, layout == 2 || (layout == 1 && t == 1), out[size_t(t)].data());
+      kernels::forest_trees_kernel(isa)(a, 3);
+      for (int t = 0; t < 3; ++t)
+        EXPECT_EQ(out[size_t(t)], ref[size_t(t)]) << kernel_isa_name(isa) << " layout " << layout << " tree " << t;
+    }
+  }
+}
+
 class PclRealFrames : public testing::Test {
  protected:
   static void SetUpTestSuite() {

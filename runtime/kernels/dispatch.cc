@@ -69,6 +69,18 @@ ForestKernelFn forest_kernel(KernelIsa isa) {
   }
   return nullptr;
 }
+
+ForestTreesKernelFn forest_trees_kernel(KernelIsa isa) {
+  const CpuFeatures f = cached_features();
+  switch (isa) {
+    case KernelIsa::kScalar: return &ref::evaluate_trees;
+    case KernelIsa::kAvx2: return f.avx2 ? &avx2::evaluate_trees : nullptr;
+    case KernelIsa::kAvx512: return f.avx512 ? &avx512::evaluate_trees : nullptr;
+    case KernelIsa::kBest:
+      return f.avx512 ? &avx512::evaluate_trees : f.avx2 ? &avx2::evaluate_trees : &ref::evaluate_trees;
+  }
+  return nullptr;
+}
 }  // namespace kernels
 
 }  // namespace dp

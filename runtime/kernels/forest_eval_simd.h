@@ -88,8 +88,32 @@ inline void prefetch_node(const ForestKernelArgs& a, uint32_t n) {
     _mm_prefetch(reinterpret_cast<const char*>(a.nodes + n), _MM_HINT_T0);
 }
 
+// The levels of one tree over a chunk whose setup is filled; node[] holds the chunk's node indices
+// (the first `count` leaf-record indices are written to a.leaf_out + base).
 template <bool kPacked>
-void evaluate_breadth_first(const ForestKernelArgs& a) {
+void evaluate_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, const Consts& c, uint32_t* node, int32_t base,
+                    int32_t count, int32_t even) {
+  for (int32_t i = 0; i < even; ++i) node[i] = 0;
+  for (int32_t level = 0; level < a.depth; ++level) {
+    if (level + 1 >= kPrefetchFromLevel && level + 1 < a.depth) {
+      for (int32_t i = 0; i < even; i += 2) {
+        visit_pair<kPacked>(a, node, setup, i, c);
+        prefetch_node<kPacked>(a, node[i]);
+        prefetch_node<kPacked>(a, node[i + 1]);
+      }
+    } else {
+      for (int32_t i = 0; i < even; i += 2) visit_pair<kPacked>(a, node, setup, i, c);
+    }
+  }
+  const uint32_t first_leaf = (1u << a.depth) - 1;
+  for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - first_leaf];
+}
+
+// Every tree over the same pixels, chunk by chunk: a chunk's per-pixel setup (a division per pixel)
+// is made once for all trees, then each tree runs its levels over it.
+inline void evaluate_trees_simd(const ForestKernelArgs* per_tree, int32_t tree_count) {
+  if (tree_count <= 0) return;
+  const ForestKernelArgs& a = per_tree[0];
   ChunkSetup setup;
   Consts c;
   c.low = _mm_setzero_si128();
@@ -97,14 +121,11 @@ void evaluate_breadth_first(const ForestKernelArgs& a) {
   c.high = _mm_setr_epi16(w1, h1, w1, h1, w1, h1, w1, h1);
   c.row_madd = _mm_setr_epi16(1, st, 1, st, 1, st, 1, st);
   c.lane_mask = _mm_set1_epi16(int16_t(0xFFF0));
-  const uint32_t first_leaf = (1u << a.depth) - 1;
+  uint32_t node[kChunkPixels];
   for (int32_t base = 0; base < a.pixel_count; base += kChunkPixels) {
     const int32_t count = a.pixel_count - base < kChunkPixels ? a.pixel_count - base : kChunkPixels;
-    // Node indices live in leaf_out until the last level. An odd chunk gets one padding pixel (a copy
-    // of the last) whose result is discarded; it lives in `spare`, not past the caller's array.
+    // An odd chunk gets one padding pixel (a copy of the last) whose result is discarded.
     const int32_t even = (count + 1) & ~1;
-    uint32_t spare[kChunkPixels];
-    uint32_t* node = even == count ? a.leaf_out + base : spare;
     for (int32_t i = 0; i < even; ++i) {
       const EvaluatedPixel px = a.pixels[base + (i < count ? i : count - 1)];
       const int16_t s = int16_t(scale_q13_of(a.focal_factor, px.z_mm));
@@ -112,29 +133,17 @@ void evaluate_breadth_first(const ForestKernelArgs& a) {
       for (int k = 0; k < 4; ++k) setup.scale_q13[i][k] = s;
       setup.origin[i][0] = setup.origin[i][2] = u;
       setup.origin[i][1] = setup.origin[i][3] = v;
-      node[i] = 0;
     }
-    for (int32_t level = 0; level < a.depth; ++level) {
-      if (level + 1 >= kPrefetchFromLevel && level + 1 < a.depth) {
-        for (int32_t i = 0; i < even; i += 2) {
-          visit_pair<kPacked>(a, node, setup, i, c);
-          prefetch_node<kPacked>(a, node[i]);
-          prefetch_node<kPacked>(a, node[i + 1]);
-        }
-      } else {
-        for (int32_t i = 0; i < even; i += 2) visit_pair<kPacked>(a, node, setup, i, c);
-      }
+    for (int32_t t = 0; t < tree_count; ++t) {
+      if (per_tree[t].packed_nodes)
+        evaluate_chunk<true>(per_tree[t], setup, c, node, base, count, even);
+      else
+        evaluate_chunk<false>(per_tree[t], setup, c, node, base, count, even);
     }
-    for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - first_leaf];
   }
 }
 
-inline void evaluate_tree_simd(const ForestKernelArgs& a) {
-  if (a.packed_nodes)
-    evaluate_breadth_first<true>(a);
-  else
-    evaluate_breadth_first<false>(a);
-}
+inline void evaluate_tree_simd(const ForestKernelArgs& a) { evaluate_trees_simd(&a, 1); }
 
 }  // namespace
 }  // namespace dp::kernels

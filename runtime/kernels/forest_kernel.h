@@ -70,12 +70,27 @@ struct ForestKernelArgs {
 };
 
 using ForestKernelFn = void (*)(const ForestKernelArgs& args);
+// Every tree of a forest over the same pixels, in one call: per_tree[0 .. tree_count) differ only in
+// nodes, packed_nodes, leaf_index and leaf_out (the probe image, pixels, focal factor and depth are
+// the same). Results equal tree_count calls of the single-tree kernel; the SIMD kernels make each
+// pixel's setup once for all trees.
+using ForestTreesKernelFn = void (*)(const ForestKernelArgs* per_tree, int32_t tree_count);
 
-namespace ref { void evaluate_tree(const ForestKernelArgs& args); }
-namespace avx2 { void evaluate_tree(const ForestKernelArgs& args); }
-namespace avx512 { void evaluate_tree(const ForestKernelArgs& args); }
+namespace ref {
+void evaluate_tree(const ForestKernelArgs& args);
+void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count);
+}  // namespace ref
+namespace avx2 {
+void evaluate_tree(const ForestKernelArgs& args);
+void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count);
+}  // namespace avx2
+namespace avx512 {
+void evaluate_tree(const ForestKernelArgs& args);
+void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count);
+}  // namespace avx512
 
 // The kernel for `isa`, or nullptr when this build or this CPU lacks it (kBest never nullptr).
 ForestKernelFn forest_kernel(KernelIsa isa);
+ForestTreesKernelFn forest_trees_kernel(KernelIsa isa);
 
 }  // namespace dp::kernels

@@ -4,4 +4,5 @@
 
 namespace dp::kernels::avx2 {
 void evaluate_tree(const ForestKernelArgs& args) { evaluate_tree_simd(args); }
+void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count) { evaluate_trees_simd(per_tree, tree_count); }
 }  // namespace dp::kernels::avx2

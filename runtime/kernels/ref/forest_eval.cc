@@ -30,4 +30,8 @@ void evaluate_tree(const ForestKernelArgs& a) {
   }
 }
 
+void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count) {
+  for (int32_t t = 0; t < tree_count; ++t) evaluate_tree(per_tree[t]);
+}
+
 }  // namespace dp::kernels::ref
