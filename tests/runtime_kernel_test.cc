@@ -146,6 +146,20 @@ TEST(KernelExactness, RandomForestsRandomFramesBothLayouts) {
   }
 }
 
+// The kernels' inputs for a frame, made the pipeline's way: the padded probe image (background
+// border, background where there is no reading) and every pixel with a reading.
+static void kernel_input(const SyntheticFrame& f, std::vector<uint16_t>* probe, std::vector<EvaluatedPixel>* pixels) {
+  probe->assign(kernels::padded_probe_elements(f.width, f.height), 0);
+  kernels::fill_probe_border(probe->data(), f.width, f.height);
+  pixels->clear();
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u) {
+      const uint16_t z = f.depth_mm[size_t(v) * f.width + u];
+      (*probe)[size_t(v + 1) * (f.width + 2) + u + 1] = z ? z : kBackgroundDepthMm;
+      if (z) pixels->push_back(EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0});
+    }
+}
+
 TEST(KernelExactness, KernelsAgreeOnBothLayoutsDirectly) {
   // Calls the kernels without the pipeline: blob nodes vs packed nodes, every kernel.
   const blob::BlobContents c = tools::random_bpc_forest(11, 1, 14, 8, 1500, 400);
@@ -153,15 +167,9 @@ TEST(KernelExactness, KernelsAgreeOnBothLayoutsDirectly) {
   blob::LoadedBlob b;
   ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
   const SyntheticFrame f = noisy_frame(5, 200, 150);
-  std::vector<uint16_t> probe(kernels::padded_probe_elements(f.width, f.height));
-  kernels::fill_probe_border(probe.data(), f.width, f.height);
+  std::vector<uint16_t> probe;
   std::vector<EvaluatedPixel> pixels;
-  for (int v = 0; v < f.height; ++v)
-    for (int u = 0; u < f.width; ++u) {
-      const uint16_t z = f.depth_mm[size_t(v) * f.width + u];
-      probe[size_t(v + 1) * (f.width + 2) + u + 1] = z ? z : kBackgroundDepthMm;
-      if (z) pixels.push_back(EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0});
-    }
+  kernel_input(f, &probe, &pixels);
   std::vector<kernels::PackedNode> packed;
   for (size_t i = 0; i < blob::nodes_per_tree(b.depth()); ++i) packed.push_back(kernels::pack_node(b.nodes[i]));
   const int32_t n = int32_t(pixels.size());
@@ -189,15 +197,9 @@ TEST(KernelExactness, AllTreesInOneCallEqualOneCallPerTree) {
   blob::LoadedBlob b;
   ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
   const SyntheticFrame f = noisy_frame(8, 160, 120);
-  std::vector<uint16_t> probe(kernels::padded_probe_elements(f.width, f.height));
-  kernels::fill_probe_border(probe.data(), f.width, f.height);
+  std::vector<uint16_t> probe;
   std::vector<EvaluatedPixel> pixels;
-  for (int v = 0; v < f.height; ++v)
-    for (int u = 0; u < f.width; ++u) {
-      const uint16_t z = f.depth_mm[size_t(v) * f.width + u];
-      probe[size_t(v + 1) * (f.width + 2) + u + 1] = z ? z : kBackgroundDepthMm;
-      if (z) pixels.push_back(EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0});
-    }
+  kernel_input(f, &probe, &pixels);
   pixels.pop_back();  // an odd count: the last chunk gets a padding pixel
   ASSERT_GT(pixels.size(), 2u * 2048u);
   const size_t per_tree = blob::nodes_per_tree(b.depth());
@@ -320,7 +322,9 @@ TEST(CycleBudget, DegradesInTheDocumentedOrderAndStaysWithinThePlan) {
     ASSERT_EQ(r.pipeline.process(f.view(), &res), Status::kOk);
     EXPECT_TRUE(res.flags & kFlagBudgetPixels) << budget;
     for (int k = 1; k < 4; ++k)
-      if (res.flags & order[k]) EXPECT_TRUE(res.flags & order[k - 1]) << "flag " << k << " without its predecessor";
+      if (res.flags & order[k]) {
+        EXPECT_TRUE(res.flags & order[k - 1]) << "flag " << k << " without its predecessor";
+      }
     if (res.flags & kFlagBudgetInfeasible) {
       saw_infeasible = true;
       EXPECT_EQ(res.votes_per_joint_used, 32);

@@ -58,28 +58,27 @@ const char* kernel_isa_name(KernelIsa isa) {
 }
 
 namespace kernels {
-ForestKernelFn forest_kernel(KernelIsa isa) {
+namespace {
+// One choice rule for every kernel entry point: the reference, or an ISA's version when the CPU has it.
+template <typename Fn>
+Fn choose(KernelIsa isa, Fn scalar, Fn avx2_fn, Fn avx512_fn) {
   const CpuFeatures f = cached_features();
   switch (isa) {
-    case KernelIsa::kScalar: return &ref::evaluate_tree;
-    case KernelIsa::kAvx2: return f.avx2 ? &avx2::evaluate_tree : nullptr;
-    case KernelIsa::kAvx512: return f.avx512 ? &avx512::evaluate_tree : nullptr;
-    case KernelIsa::kBest:
-      return f.avx512 ? &avx512::evaluate_tree : f.avx2 ? &avx2::evaluate_tree : &ref::evaluate_tree;
+    case KernelIsa::kScalar: return scalar;
+    case KernelIsa::kAvx2: return f.avx2 ? avx2_fn : nullptr;
+    case KernelIsa::kAvx512: return f.avx512 ? avx512_fn : nullptr;
+    case KernelIsa::kBest: return f.avx512 ? avx512_fn : f.avx2 ? avx2_fn : scalar;
   }
   return nullptr;
 }
+}  // namespace
+
+ForestKernelFn forest_kernel(KernelIsa isa) {
+  return choose<ForestKernelFn>(isa, &ref::evaluate_tree, &avx2::evaluate_tree, &avx512::evaluate_tree);
+}
 
 ForestTreesKernelFn forest_trees_kernel(KernelIsa isa) {
-  const CpuFeatures f = cached_features();
-  switch (isa) {
-    case KernelIsa::kScalar: return &ref::evaluate_trees;
-    case KernelIsa::kAvx2: return f.avx2 ? &avx2::evaluate_trees : nullptr;
-    case KernelIsa::kAvx512: return f.avx512 ? &avx512::evaluate_trees : nullptr;
-    case KernelIsa::kBest:
-      return f.avx512 ? &avx512::evaluate_trees : f.avx2 ? &avx2::evaluate_trees : &ref::evaluate_trees;
-  }
-  return nullptr;
+  return choose<ForestTreesKernelFn>(isa, &ref::evaluate_trees, &avx2::evaluate_trees, &avx512::evaluate_trees);
 }
 }  // namespace kernels
 
