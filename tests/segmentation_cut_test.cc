@@ -256,3 +256,40 @@ TEST(SegmentationCut, AHandReachingOverABoxDoesNotMakeItAPerson) {
   ASSERT_EQ(a.run(f), Status::kOk);
   EXPECT_EQ(a.result.user_count, 1) << "the scene should offer the box and the forearm as one person";
 }
+
+TEST(SegmentationCut, LegsApartCutByTheTopBorderAreAUserByTheirHull) {
+  // Legs in an A-stance (slanted, built of 5 cm slices) with thick thighs fill more than
+  // cut_max_fill of their image box, like a box; the gap between them still leaves their row-wise
+  // convex hull unfilled (below cut_max_solidity), where a box cut by the same border fills its
+  // hull.
+  tools::Scene s = low_camera();
+  const float x = -0.35f, z = 1.4f;
+  for (int k = 0; k < 14; ++k) {
+    const float y0 = 0.05f * float(k), spread = 0.26f - 0.2f * float(k) / 13.0f, half = 0.075f + 0.03f * float(k) / 13.0f;
+    for (float side : {-1.0f, 1.0f})
+      s.boxes.push_back({x + side * spread - half, x + side * spread + half, y0, y0 + 0.05f, z - 0.07f, z + 0.07f, 1});
+  }
+  s.boxes.push_back({x - 0.17f, x + 0.17f, 0.62f, 1.0f, z - 0.1f, z + 0.12f, 1});
+  s.boxes.push_back({0.25f, 0.85f, 0.0f, 0.78f, 1.3f, 1.7f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool legs_top = false;
+  float legs_fill = 0.0f;
+  truth_box(f, 1, &legs_top, &legs_fill);
+  ASSERT_TRUE(legs_top) << "the scene should cut the legs at the top border";
+  ASSERT_GT(legs_fill, 0.6f) << "the legs should fill their box like furniture";
+
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_LT(h.result.users[0].top_height_m, 0.85f) << "the height test alone would refuse them";
+  EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.9 * truth_pixels(f, 1)));
+  EXPECT_EQ(count_pixels(h.labels, f, 1, 0), 0) << "the box is (part of) the user";
+
+  // Without the hull test they are dropped like the box.
+  SegmenterConfig off = default_segmenter_config(false);
+  off.cut_max_solidity = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 0);
+}

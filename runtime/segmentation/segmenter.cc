@@ -183,7 +183,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
          c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
@@ -200,6 +200,7 @@ bool Segmenter::carve(ArenaCarver& c, int32_t w, int32_t h, Segmenter* into) {
   float* samples = c.head<float>(size_t(kMaxFloorSamples) * 3);
   uint8_t* inlier = c.head<uint8_t>(kMaxFloorSamples);
   Candidate* candidates = c.head<Candidate>(kMaxCandidates);
+  int16_t* hull_rows = c.head<int16_t>(size_t(h) * 4);
   if (!c.ok()) return false;
   if (into) {
     into->config_ = config;
@@ -212,6 +213,7 @@ bool Segmenter::carve(ArenaCarver& c, int32_t w, int32_t h, Segmenter* into) {
     into->samples_ = samples;
     into->inlier_ = inlier;
     into->candidates_ = candidates;
+    into->hull_rows_ = hull_rows;
   }
   return true;
 }
@@ -629,7 +631,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
   // them is unknown. At most kMaxCandidates boxes, each within the frame.
   for (int32_t k = 0; k < kept; ++k) {
     Candidate& c = candidates_[k];
-    c.occluded = 0;
+    c.occluded = c.hull = c.hull_filled = 0;
     if (!use_floor || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || c.pixels == 0) continue;
     const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(cfg.join_mm);
     for (int32_t v = c.v_min; v <= c.v_max; ++v) {
@@ -637,8 +639,82 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
       for (int32_t u = c.u_min; u <= c.u_max; ++u)
         c.occluded += row[u] != 0 && int32_t(row[u]) < front;
     }
+    measure_hull(f, &c);
   }
   return kept;
+}
+
+// The component's row-wise convex hull: per image row, the span between the convex chain of its
+// leftmost pixels and the concave chain of its rightmost ones (Andrew's monotone chain with the
+// row as abscissa). hull = pixels in those spans; hull_filled = the component's own pixels plus
+// the readings in the spans nearer than its nearest point less join_mm (hidden by something in
+// front: unknown, counted as filled). A solid box or cylinder fills its hull whatever the camera's
+// roll; two legs leave the gap between them. Work: 3 passes over the candidate's image box.
+void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand) {
+  Candidate& c = *cand;
+  const int32_t w = f.width;
+  const int32_t rows = c.v_max - c.v_min + 1;
+  int16_t* left = hull_rows_;             // leftmost u per row (−1: none)
+  int16_t* right = hull_rows_ + rows;     // rightmost u per row
+  int16_t* lchain = hull_rows_ + 2 * rows;// row offsets of the left chain's vertices
+  int16_t* rchain = hull_rows_ + 3 * rows;
+  for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+    const int32_t* parent = parent_ + size_t(v) * w;
+    int16_t lo = -1, hi = -1;
+    for (int32_t u = c.u_min; u <= c.u_max; ++u) {
+      const int32_t p = parent[u];
+      if (p < 0 || aux_[p] < 0 || &candidates_[aux_[p]] != cand) continue;
+      if (lo < 0) lo = int16_t(u);
+      hi = int16_t(u);
+    }
+    left[v - c.v_min] = lo;
+    right[v - c.v_min] = hi;
+  }
+    // Chains: left = lower convex hull of (row, left), right = upper hull of (row, right).
+  int32_t nl = 0, nr = 0;
+  for (int32_t r = 0; r < rows; ++r) {
+    if (left[r] < 0) continue;
+    while (nl >= 2) {
+      const int32_t a = lchain[nl - 2], b = lchain[nl - 1];
+      // cross((b − a), (r − a)) in (row, u): pop b when it is not strictly left of a→r's chain.
+      const int32_t cross = (b - a) * (left[r] - left[a]) - (left[b] - left[a]) * (r - a);
+      if (cross <= 0) --nl; else break;
+    }
+    lchain[nl++] = int16_t(r);
+    while (nr >= 2) {
+      const int32_t a = rchain[nr - 2], b = rchain[nr - 1];
+      const int32_t cross = (b - a) * (right[r] - right[a]) - (right[b] - right[a]) * (r - a);
+      if (cross >= 0) --nr; else break;
+    }
+    rchain[nr++] = int16_t(r);
+  }
+  c.hull = c.hull_filled = 0;
+  if (nl == 0) return;
+  const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(config_->join_mm);
+  int32_t li = 0, ri = 0;
+  for (int32_t r = lchain[0]; r <= lchain[nl - 1]; ++r) {
+    while (li + 1 < nl && lchain[li + 1] < r) ++li;
+    while (ri + 1 < nr && rchain[ri + 1] < r) ++ri;
+    float lu = left[lchain[li]], ru = right[rchain[ri]];
+    if (li + 1 < nl && lchain[li + 1] > lchain[li]) {
+      const float t = float(r - lchain[li]) / float(lchain[li + 1] - lchain[li]);
+      lu = float(left[lchain[li]]) + t * float(left[lchain[li + 1]] - left[lchain[li]]);
+    }
+    if (ri + 1 < nr && rchain[ri + 1] > rchain[ri]) {
+      const float t = float(r - rchain[ri]) / float(rchain[ri + 1] - rchain[ri]);
+      ru = float(right[rchain[ri]]) + t * float(right[rchain[ri + 1]] - right[rchain[ri]]);
+    }
+    const int32_t u0 = int32_t(ceilf(lu - 1e-3f)), u1 = int32_t(floorf(ru + 1e-3f));
+    const int32_t v = c.v_min + r;
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    const int32_t* parent = parent_ + size_t(v) * w;
+    for (int32_t u = u0; u <= u1; ++u) {
+      ++c.hull;
+      const int32_t p = parent[u];
+      const bool own = p >= 0 && aux_[p] >= 0 && &candidates_[aux_[p]] == cand;
+      c.hull_filled += own || (row[u] != 0 && int32_t(row[u]) < front);
+    }
+  }
 }
 
 bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool cut) const {
@@ -656,7 +732,11 @@ bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool
   // Cut by the top border: the height is out of view (header, cut_max_fill).
   if (!cut || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0 || c.bottom > cfg.cut_floor_contact_m) return false;
   const float box = float(c.u_max - c.u_min + 1) * float(c.v_max - c.v_min + 1);
-  return float(c.pixels + c.occluded) <= cfg.cut_max_fill * box;
+  if (float(c.pixels + c.occluded) <= cfg.cut_max_fill * box) return true;
+  // The hull only where nothing in front cuts the silhouette: an object seen partly behind legs
+  // takes their outline (header, cut_solidity_max_hidden).
+  return c.hull > 0 && float(c.hull_filled) <= cfg.cut_max_solidity * float(c.hull) &&
+         float(c.occluded) <= cfg.cut_solidity_max_hidden * float(c.pixels);
 }
 
 void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
@@ -713,6 +793,8 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     c.top = use_floor ? (x.top > c.top ? x.top : c.top) : c.y_max - c.y_min;
     if (x.bottom < c.bottom) c.bottom = x.bottom;
     c.occluded += x.occluded;  // each counted in its own box: a lower bound for the union's
+    c.hull += x.hull;          // each piece's own hull: the union's hull is at least as large,
+    c.hull_filled += x.hull_filled;  // so its solidity comes out higher (more box-like), not lower
     if (x.u_min < c.u_min) c.u_min = x.u_min;
     if (x.u_max > c.u_max) c.u_max = x.u_max;
     if (x.v_min < c.v_min) c.v_min = x.v_min;
