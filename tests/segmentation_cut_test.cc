@@ -293,3 +293,87 @@ TEST(SegmentationCut, LegsApartCutByTheTopBorderAreAUserByTheirHull) {
   ASSERT_EQ(n.run(f), Status::kOk);
   EXPECT_EQ(n.result.user_count, 0);
 }
+
+namespace {
+// Body surface in view of `truth` (m²): Σ z²/(fx·fy) over its pixels.
+float visible_area(const tools::RenderedScene& f, uint8_t truth) {
+  double a = 0.0;
+  for (size_t i = 0; i < f.truth.size(); ++i)
+    if (f.truth[i] == truth && f.depth_mm[i] != 0) {
+      const double z = f.depth_mm[i] * 0.001;
+      a += z * z / (double(f.intrinsics.fx) * f.intrinsics.fy);
+    }
+  return float(a);
+}
+}  // namespace
+
+TEST(SegmentationCut, SomeoneMostlyHiddenBehindSomeoneElseIsAUser) {
+  // Person 2 stands behind person 1 and shows a strip beside them: less than the person area, but
+  // next to something much nearer and as high as a person. A box behind person 1 shows the same
+  // way but is as low as furniture, and stays out.
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 5.0f;
+  s.cylinders.push_back(person_at(0.0f, 2.0f, 1));
+  s.cylinders.push_back(person_at(0.17f, 3.4f, 2, 1.75f));
+  s.boxes.push_back({-0.9f, -0.2f, 0.0f, 0.7f, 3.2f, 3.7f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  const float area2 = visible_area(f, 2);
+  const SegmenterConfig cfg = default_segmenter_config(false);
+  ASSERT_LT(area2, cfg.min_person_area_m2) << "person 2 should show less than the person area";
+  ASSERT_GT(area2, cfg.hidden_area_fraction * cfg.min_person_area_m2);
+
+  SegmenterHarness h(cfg);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 2);
+  int id2 = 0;
+  for (size_t i = 0; i < f.truth.size() && id2 == 0; ++i)
+    if (f.truth[i] == 2) id2 = h.labels[i];
+  ASSERT_NE(id2, 0);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(id2), 2), int(0.9 * truth_pixels(f, 2)));
+  EXPECT_EQ(count_pixels(h.labels, f, uint8_t(id2), 1), 0);
+  EXPECT_EQ(labelled_truth(h.labels, f, 0), 0) << "the box behind person 1 is (part of) a user";
+
+  // Without the relaxation person 2 is dropped.
+  SegmenterConfig off = cfg;
+  off.hidden_area_fraction = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 1);
+}
+
+TEST(SegmentationCut, TheTwoSidesOfSomeoneHiddenBehindSomeoneElseAreOneUser) {
+  // Person 2, broad and right behind person 1, shows a strip on either side of them, 0.7 m apart:
+  // farther than fragment_radius_m, within hidden_pair_radius_m.
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 5.0f;
+  s.cylinders.push_back(person_at(0.0f, 2.0f, 1));
+  s.cylinders.push_back({0.0f, 3.4f, 0.37f, 0.0f, 1.75f, 2});
+  const tools::RenderedScene f = tools::render_scene(s);
+  int left = 0, right = 0;
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u)
+      if (f.truth[size_t(v) * f.width + u] == 2) (u < f.width / 2 ? left : right)++;
+  ASSERT_GT(left, 0);
+  ASSERT_GT(right, 0);
+  const SegmenterConfig cfg = default_segmenter_config(false);
+  ASSERT_LT(visible_area(f, 2), 2.0f * cfg.min_person_area_m2);
+
+  SegmenterHarness h(cfg);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 2);
+  int id2 = 0;
+  for (size_t i = 0; i < f.truth.size() && id2 == 0; ++i)
+    if (f.truth[i] == 2) id2 = h.labels[i];
+  ASSERT_NE(id2, 0);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(id2), 2), int(0.9 * truth_pixels(f, 2)));
+
+  // Joined only by fragment_radius_m, the two strips are two users.
+  SegmenterConfig near = cfg;
+  near.hidden_pair_radius_m = 0.0f;
+  SegmenterHarness n(near);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 3);
+}

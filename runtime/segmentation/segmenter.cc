@@ -183,7 +183,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
          c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
@@ -575,6 +575,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
     c.x_min = c.y_min = c.z_min = 1e30f;
     c.x_max = c.y_max = c.z_max = c.top = -1e30f;
     c.bottom = 1e30f;
+    c.hidden_edge = 0;
     c.u_min = c.v_min = 32767;
     c.u_max = c.v_max = -1;
     c.user = 0;
@@ -591,6 +592,8 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
     if (len > 1e-3f) { hx /= len; hy /= len; hz /= len; } else { hx = 1.0f; hy = hz = 0.0f; }
   }
   const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
+  const bool count_hidden = cfg.hidden_area_fraction > 0.0f;
+  const int32_t gap = int32_t(cfg.hidden_gap_mm);
   for (int32_t v = 0; v < h; ++v) {
     const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     for (int32_t u = 0; u < w; ++u) {
@@ -601,6 +604,25 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
       const int32_t k = aux_[root];
       if (k < 0) continue;
       Candidate& c = candidates_[k];
+      if (count_hidden) {
+        // Per direction (left, right, up, down) the first reading within kHiddenReach pixels
+        // (an occluding edge casts a shadow without readings): nearer by more than the gap?
+        constexpr int32_t kHiddenReach = 4;
+        const int32_t zi = int32_t(row[u]) - gap;
+        const int32_t du[4] = {-1, 1, 0, 0}, dv[4] = {0, 0, -1, 1};
+        for (int32_t dir = 0; dir < 4; ++dir) {
+          int32_t uu = u, vv = v;
+          for (int32_t step = 0; step < kHiddenReach; ++step) {
+            uu += du[dir];
+            vv += dv[dir];
+            if (uu < 0 || uu >= w || vv < 0 || vv >= h) break;
+            const uint16_t zn = f.depth_mm[size_t(vv) * f.stride_px + uu];
+            if (zn == 0) continue;
+            c.hidden_edge += int32_t(zn) < zi;
+            break;
+          }
+        }
+      }
       const float z = float(row[u]) * 0.001f;
       const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
       const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
@@ -727,6 +749,11 @@ bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool
   if (cut && cfg.cut_bottom_area_fraction > 0.0f && c.v_max == f.height - 1 && floor_->valid != 0 &&
       c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.cut_bottom_area_fraction * need)
     return true;
+  // Mostly hidden behind something nearer: the height shows, the area does not (header,
+  // hidden_area_fraction).
+  if (cut && cfg.hidden_area_fraction > 0.0f && c.hidden_edge >= cfg.hidden_min_edge &&
+      c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.hidden_area_fraction * need)
+    return true;
   if (float(c.pixels) < need) return false;
   if (c.top >= cfg.min_person_height_m) return true;
   // Cut by the top border: the height is out of view (header, cut_max_fill).
@@ -793,6 +820,7 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     c.top = use_floor ? (x.top > c.top ? x.top : c.top) : c.y_max - c.y_min;
     if (x.bottom < c.bottom) c.bottom = x.bottom;
     c.occluded += x.occluded;  // each counted in its own box: a lower bound for the union's
+    c.hidden_edge += x.hidden_edge;
     c.hull += x.hull;          // each piece's own hull: the union's hull is at least as large,
     c.hull_filled += x.hull_filled;  // so its solidity comes out higher (more box-like), not lower
     if (x.u_min < c.u_min) c.u_min = x.u_min;
@@ -804,11 +832,14 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
   // A fragment joins the nearest touching (or, within fragment_pair_radius_m, not touching)
   // candidate with which it forms a person: a body cut in two by a depth jump or by someone in
   // front (both pieces may pass on their own), or a piece of a body that passes.
+  const bool hidden_on = cfg.hidden_area_fraction > 0.0f;
+  const float radius = cfg.fragment_radius_m > cfg.hidden_pair_radius_m || !hidden_on ? cfg.fragment_radius_m
+                                                                                    : cfg.hidden_pair_radius_m;
   for (int32_t k = 0; k < n; ++k) {
     if (candidates_[k].pixels == 0) continue;
     Candidate& frag = candidates_[k];
     int32_t best = -1;
-    float best_d2 = cfg.fragment_radius_m * cfg.fragment_radius_m;
+    float best_d2 = radius * radius;
     for (int32_t m = 0; m < n; ++m) {
       // touches[k] holds k itself once something merged into k.
       if (m == k || candidates_[m].pixels == 0) continue;
@@ -823,7 +854,13 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
         d[1] = 0.0f;
       }
       const float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-      const bool close = d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m;
+      // Pieces of someone hidden behind a nearer body lie on either side of it: two pieces that
+      // each pass only as hidden join within hidden_pair_radius_m.
+      const bool both_hidden = hidden_on && full[k] && full[m] && !person[k] && !person[m] &&
+                               frag.hidden_edge >= cfg.hidden_min_edge && body.hidden_edge >= cfg.hidden_min_edge;
+      const bool close = d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m ||
+                         (both_hidden && d2 <= cfg.hidden_pair_radius_m * cfg.hidden_pair_radius_m);
+      if (d2 > cfg.fragment_radius_m * cfg.fragment_radius_m && !both_hidden) continue;
       // Pieces that do not touch (a person cut in two by someone standing in front) join only
       // when closer along the floor than two people can stand.
       if (!touching && !close) continue;

@@ -124,6 +124,20 @@ struct SegmenterConfig {
   // person area. 0 turns this off.
   float cut_bottom_area_fraction = 0.3f;  // 0..1
 
+  // People mostly hidden behind someone (or something) nearer show pieces: a head, a shoulder, an
+  // arm. A component with at least hidden_min_edge pixel edges to readings nearer by more than
+  // hidden_gap_mm (per pixel and direction the first reading within 4 pixels: occluding edges
+  // cast shadows without readings), and its top at least min_person_height_m above the floor, needs only
+  // hidden_area_fraction of the person area (furniture is lower than that; 0 turns this off).
+  // Such pieces count as fragments while merging (they join their body, or each other).
+  float hidden_area_fraction = 0.5f;      // 0..1
+  float hidden_gap_mm = 300.0f;           // > 0
+  int32_t hidden_min_edge = 8;            // ≥ 1
+  // Two pieces that each pass only this way (on either side of the person in front: a head, a
+  // leg) join within this distance of each other along the floor, instead of
+  // fragment_pair_radius_m / fragment_radius_m.
+  float hidden_pair_radius_m = 0.8f;      // ≥ 0
+
   // Users.
   int32_t max_users = 8;                  // 1..kMaxUsers
   // A user keeps its id when a component's centroid is within association_distance_m (plus
@@ -228,6 +242,7 @@ class Segmenter {
     float x_min, x_max, y_min, y_max, z_min, z_max, top;
     float bottom;          // lowest point above the floor (with a floor)
     int32_t occluded;      // box pixels hidden by something in front (top-border components)
+    int32_t hidden_edge;   // pixel edges where the neighbour is nearer by more than hidden_gap_mm
     int32_t hull;          // pixels of the row-wise convex hull (top-border components, else 0)
     int32_t hull_filled;   // of those: the component's own plus the ones hidden by something in front
     int16_t u_min, v_min, u_max, v_max;
