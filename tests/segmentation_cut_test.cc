@@ -377,3 +377,41 @@ TEST(SegmentationCut, TheTwoSidesOfSomeoneHiddenBehindSomeoneElseAreOneUser) {
   ASSERT_EQ(n.run(f), Status::kOk);
   EXPECT_EQ(n.result.user_count, 3);
 }
+
+TEST(SegmentationCut, ALegOfSomeoneHiddenBehindSomeoneElseJoinsThem) {
+  // Person 2 behind person 1 shows a strip on one side (as high as a person, less than the person
+  // area: passes only as hidden) and a leg on the other (as low as furniture: does not pass), the
+  // two 0.6–0.8 m apart along the floor. The leg is smaller than the strip and hidden as well: it
+  // joins the strip, within hidden_pair_radius_m.
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 5.0f;
+  s.cylinders.push_back(person_at(0.0f, 2.0f, 1));
+  s.cylinders.push_back(person_at(0.17f, 3.4f, 2, 1.75f));
+  s.cylinders.push_back({-0.36f, 3.4f, 0.04f, 0.0f, 0.6f, 2});
+  const tools::RenderedScene f = tools::render_scene(s);
+  int strip = 0, leg = 0;
+  double strip_area = 0.0;
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u) {
+      const size_t i = size_t(v) * f.width + u;
+      if (f.truth[i] != 2) continue;
+      (u < f.width / 2 ? leg : strip)++;
+      const double z = f.depth_mm[i] * 0.001;
+      if (u >= f.width / 2) strip_area += z * z / (double(f.intrinsics.fx) * f.intrinsics.fy);
+    }
+  ASSERT_GT(leg, 24) << "the leg should show";
+  ASSERT_LT(leg, strip);
+  const SegmenterConfig cfg = default_segmenter_config(false);
+  ASSERT_LT(strip_area, cfg.min_person_area_m2) << "the strip should pass only as hidden";
+
+  SegmenterHarness h(cfg);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 2);
+  int id2 = 0;
+  for (size_t i = 0; i < f.truth.size() && id2 == 0; ++i)
+    if (f.truth[i] == 2) id2 = h.labels[i];
+  ASSERT_NE(id2, 0);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(id2), 2), int(0.9 * truth_pixels(f, 2)))
+      << "strip " << strip << " leg " << leg;
+}

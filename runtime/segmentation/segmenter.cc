@@ -806,6 +806,10 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     person[k] = passes_person_test(f, candidates_[k], false);
     full[k] = person[k] || passes_person_test(f, candidates_[k], true);
   }
+  // Passes only as someone mostly hidden (header, hidden_area_fraction).
+  bool hidden_only[kMaxCandidates];
+  for (int32_t k = 0; k < n; ++k)
+    hidden_only[k] = full[k] && !person[k] && candidates_[k].hidden_edge >= cfg.hidden_min_edge;
   const bool use_floor = floor_->valid != 0;
   auto united = [&](const Candidate& x, const Candidate& y) {
     Candidate c = y;
@@ -856,8 +860,13 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
       const float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
       // Pieces of someone hidden behind a nearer body lie on either side of it: two pieces that
       // each pass only as hidden join within hidden_pair_radius_m.
-      const bool both_hidden = hidden_on && full[k] && full[m] && !person[k] && !person[m] &&
-                               frag.hidden_edge >= cfg.hidden_min_edge && body.hidden_edge >= cfg.hidden_min_edge;
+      // A piece that passes only as hidden takes another one, or a smaller hidden piece that
+      // does not pass at all (a leg below a head).
+      const bool both_hidden = hidden_on && frag.hidden_edge >= cfg.hidden_min_edge &&
+                               body.hidden_edge >= cfg.hidden_min_edge &&
+                               ((hidden_only[k] && hidden_only[m]) ||
+                                (hidden_only[m] && !full[k] && frag.pixels <= body.pixels) ||
+                                (hidden_only[k] && !full[m] && body.pixels <= frag.pixels));
       const bool close = d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m ||
                          (both_hidden && d2 <= cfg.hidden_pair_radius_m * cfg.hidden_pair_radius_m);
       if (d2 > cfg.fragment_radius_m * cfg.fragment_radius_m && !both_hidden) continue;
@@ -889,6 +898,7 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     }
     if (best < 0) continue;
     candidates_[best] = united(frag, candidates_[best]);
+    hidden_only[best] = candidates_[best].hidden_edge >= cfg.hidden_min_edge && !passes_person_test(f, candidates_[best], false);
     person[best] = full[best] = true;
     touches[best] |= touches[k];
     frag.owner = best;
