@@ -256,3 +256,162 @@ TEST(SegmentationCut, AHandReachingOverABoxDoesNotMakeItAPerson) {
   ASSERT_EQ(a.run(f), Status::kOk);
   EXPECT_EQ(a.result.user_count, 1) << "the scene should offer the box and the forearm as one person";
 }
+
+TEST(SegmentationCut, LegsApartCutByTheTopBorderAreAUserByTheirHull) {
+  // Legs in an A-stance (slanted, built of 5 cm slices) with thick thighs fill more than
+  // cut_max_fill of their image box, like a box; the gap between them still leaves their row-wise
+  // convex hull unfilled (below cut_max_solidity), where a box cut by the same border fills its
+  // hull.
+  tools::Scene s = low_camera();
+  const float x = -0.35f, z = 1.4f;
+  for (int k = 0; k < 14; ++k) {
+    const float y0 = 0.05f * float(k), spread = 0.26f - 0.2f * float(k) / 13.0f, half = 0.075f + 0.03f * float(k) / 13.0f;
+    for (float side : {-1.0f, 1.0f})
+      s.boxes.push_back({x + side * spread - half, x + side * spread + half, y0, y0 + 0.05f, z - 0.07f, z + 0.07f, 1});
+  }
+  s.boxes.push_back({x - 0.17f, x + 0.17f, 0.62f, 1.0f, z - 0.1f, z + 0.12f, 1});
+  s.boxes.push_back({0.25f, 0.85f, 0.0f, 0.78f, 1.3f, 1.7f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool legs_top = false;
+  float legs_fill = 0.0f;
+  truth_box(f, 1, &legs_top, &legs_fill);
+  ASSERT_TRUE(legs_top) << "the scene should cut the legs at the top border";
+  ASSERT_GT(legs_fill, 0.6f) << "the legs should fill their box like furniture";
+
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_LT(h.result.users[0].top_height_m, 0.85f) << "the height test alone would refuse them";
+  EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.9 * truth_pixels(f, 1)));
+  EXPECT_EQ(count_pixels(h.labels, f, 1, 0), 0) << "the box is (part of) the user";
+
+  // Without the hull test they are dropped like the box.
+  SegmenterConfig off = default_segmenter_config(false);
+  off.cut_max_solidity = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 0);
+}
+
+namespace {
+// Body surface in view of `truth` (m²): Σ z²/(fx·fy) over its pixels.
+float visible_area(const tools::RenderedScene& f, uint8_t truth) {
+  double a = 0.0;
+  for (size_t i = 0; i < f.truth.size(); ++i)
+    if (f.truth[i] == truth && f.depth_mm[i] != 0) {
+      const double z = f.depth_mm[i] * 0.001;
+      a += z * z / (double(f.intrinsics.fx) * f.intrinsics.fy);
+    }
+  return float(a);
+}
+}  // namespace
+
+TEST(SegmentationCut, SomeoneMostlyHiddenBehindSomeoneElseIsAUser) {
+  // Person 2 stands behind person 1 and shows a strip beside them: less than the person area, but
+  // next to something much nearer and as high as a person. A box behind person 1 shows the same
+  // way but is as low as furniture, and stays out.
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 5.0f;
+  s.cylinders.push_back(person_at(0.0f, 2.0f, 1));
+  s.cylinders.push_back(person_at(0.17f, 3.4f, 2, 1.75f));
+  s.boxes.push_back({-0.9f, -0.2f, 0.0f, 0.7f, 3.2f, 3.7f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  const float area2 = visible_area(f, 2);
+  const SegmenterConfig cfg = default_segmenter_config(false);
+  ASSERT_LT(area2, cfg.min_person_area_m2) << "person 2 should show less than the person area";
+  ASSERT_GT(area2, cfg.hidden_area_fraction * cfg.min_person_area_m2);
+
+  SegmenterHarness h(cfg);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 2);
+  int id2 = 0;
+  for (size_t i = 0; i < f.truth.size() && id2 == 0; ++i)
+    if (f.truth[i] == 2) id2 = h.labels[i];
+  ASSERT_NE(id2, 0);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(id2), 2), int(0.9 * truth_pixels(f, 2)));
+  EXPECT_EQ(count_pixels(h.labels, f, uint8_t(id2), 1), 0);
+  EXPECT_EQ(labelled_truth(h.labels, f, 0), 0) << "the box behind person 1 is (part of) a user";
+
+  // Without the relaxation person 2 is dropped.
+  SegmenterConfig off = cfg;
+  off.hidden_area_fraction = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 1);
+}
+
+TEST(SegmentationCut, TheTwoSidesOfSomeoneHiddenBehindSomeoneElseAreOneUser) {
+  // Person 2, broad and right behind person 1, shows a strip on either side of them, 0.7 m apart:
+  // farther than fragment_radius_m, within hidden_pair_radius_m.
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 5.0f;
+  s.cylinders.push_back(person_at(0.0f, 2.0f, 1));
+  s.cylinders.push_back({0.0f, 3.4f, 0.37f, 0.0f, 1.75f, 2});
+  const tools::RenderedScene f = tools::render_scene(s);
+  int left = 0, right = 0;
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u)
+      if (f.truth[size_t(v) * f.width + u] == 2) (u < f.width / 2 ? left : right)++;
+  ASSERT_GT(left, 0);
+  ASSERT_GT(right, 0);
+  const SegmenterConfig cfg = default_segmenter_config(false);
+  ASSERT_LT(visible_area(f, 2), 2.0f * cfg.min_person_area_m2);
+
+  SegmenterHarness h(cfg);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 2);
+  int id2 = 0;
+  for (size_t i = 0; i < f.truth.size() && id2 == 0; ++i)
+    if (f.truth[i] == 2) id2 = h.labels[i];
+  ASSERT_NE(id2, 0);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(id2), 2), int(0.9 * truth_pixels(f, 2)));
+
+  // Joined only by fragment_radius_m, the two strips are two users.
+  SegmenterConfig near = cfg;
+  near.hidden_pair_radius_m = 0.0f;
+  SegmenterHarness n(near);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 3);
+}
+
+TEST(SegmentationCut, ALegOfSomeoneHiddenBehindSomeoneElseJoinsThem) {
+  // Person 2 behind person 1 shows a strip on one side (as high as a person, less than the person
+  // area: passes only as hidden) and a leg on the other (as low as furniture: does not pass), the
+  // two 0.6–0.8 m apart along the floor. The leg is smaller than the strip and hidden as well: it
+  // joins the strip, within hidden_pair_radius_m.
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 5.0f;
+  s.cylinders.push_back(person_at(0.0f, 2.0f, 1));
+  s.cylinders.push_back(person_at(0.17f, 3.4f, 2, 1.75f));
+  s.cylinders.push_back({-0.36f, 3.4f, 0.04f, 0.0f, 0.6f, 2});
+  const tools::RenderedScene f = tools::render_scene(s);
+  int strip = 0, leg = 0;
+  double strip_area = 0.0;
+  for (int v = 0; v < f.height; ++v)
+    for (int u = 0; u < f.width; ++u) {
+      const size_t i = size_t(v) * f.width + u;
+      if (f.truth[i] != 2) continue;
+      (u < f.width / 2 ? leg : strip)++;
+      const double z = f.depth_mm[i] * 0.001;
+      if (u >= f.width / 2) strip_area += z * z / (double(f.intrinsics.fx) * f.intrinsics.fy);
+    }
+  ASSERT_GT(leg, 24) << "the leg should show";
+  ASSERT_LT(leg, strip);
+  const SegmenterConfig cfg = default_segmenter_config(false);
+  ASSERT_LT(strip_area, cfg.min_person_area_m2) << "the strip should pass only as hidden";
+
+  SegmenterHarness h(cfg);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 2);
+  int id2 = 0;
+  for (size_t i = 0; i < f.truth.size() && id2 == 0; ++i)
+    if (f.truth[i] == 2) id2 = h.labels[i];
+  ASSERT_NE(id2, 0);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(id2), 2), int(0.9 * truth_pixels(f, 2)))
+      << "strip " << strip << " leg " << leg;
+}

@@ -183,7 +183,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
          c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
@@ -200,6 +200,7 @@ bool Segmenter::carve(ArenaCarver& c, int32_t w, int32_t h, Segmenter* into) {
   float* samples = c.head<float>(size_t(kMaxFloorSamples) * 3);
   uint8_t* inlier = c.head<uint8_t>(kMaxFloorSamples);
   Candidate* candidates = c.head<Candidate>(kMaxCandidates);
+  int16_t* hull_rows = c.head<int16_t>(size_t(h) * 4);
   if (!c.ok()) return false;
   if (into) {
     into->config_ = config;
@@ -212,6 +213,7 @@ bool Segmenter::carve(ArenaCarver& c, int32_t w, int32_t h, Segmenter* into) {
     into->samples_ = samples;
     into->inlier_ = inlier;
     into->candidates_ = candidates;
+    into->hull_rows_ = hull_rows;
   }
   return true;
 }
@@ -573,6 +575,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
     c.x_min = c.y_min = c.z_min = 1e30f;
     c.x_max = c.y_max = c.z_max = c.top = -1e30f;
     c.bottom = 1e30f;
+    c.hidden_edge = 0;
     c.u_min = c.v_min = 32767;
     c.u_max = c.v_max = -1;
     c.user = 0;
@@ -589,6 +592,8 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
     if (len > 1e-3f) { hx /= len; hy /= len; hz /= len; } else { hx = 1.0f; hy = hz = 0.0f; }
   }
   const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
+  const bool count_hidden = cfg.hidden_area_fraction > 0.0f;
+  const int32_t gap = int32_t(cfg.hidden_gap_mm);
   for (int32_t v = 0; v < h; ++v) {
     const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     for (int32_t u = 0; u < w; ++u) {
@@ -599,6 +604,25 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
       const int32_t k = aux_[root];
       if (k < 0) continue;
       Candidate& c = candidates_[k];
+      if (count_hidden) {
+        // Per direction (left, right, up, down) the first reading within kHiddenReach pixels
+        // (an occluding edge casts a shadow without readings): nearer by more than the gap?
+        constexpr int32_t kHiddenReach = 4;
+        const int32_t zi = int32_t(row[u]) - gap;
+        const int32_t du[4] = {-1, 1, 0, 0}, dv[4] = {0, 0, -1, 1};
+        for (int32_t dir = 0; dir < 4; ++dir) {
+          int32_t uu = u, vv = v;
+          for (int32_t step = 0; step < kHiddenReach; ++step) {
+            uu += du[dir];
+            vv += dv[dir];
+            if (uu < 0 || uu >= w || vv < 0 || vv >= h) break;
+            const uint16_t zn = f.depth_mm[size_t(vv) * f.stride_px + uu];
+            if (zn == 0) continue;
+            c.hidden_edge += int32_t(zn) < zi;
+            break;
+          }
+        }
+      }
       const float z = float(row[u]) * 0.001f;
       const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
       const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
@@ -629,7 +653,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
   // them is unknown. At most kMaxCandidates boxes, each within the frame.
   for (int32_t k = 0; k < kept; ++k) {
     Candidate& c = candidates_[k];
-    c.occluded = 0;
+    c.occluded = c.hull = c.hull_filled = 0;
     if (!use_floor || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || c.pixels == 0) continue;
     const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(cfg.join_mm);
     for (int32_t v = c.v_min; v <= c.v_max; ++v) {
@@ -637,8 +661,82 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
       for (int32_t u = c.u_min; u <= c.u_max; ++u)
         c.occluded += row[u] != 0 && int32_t(row[u]) < front;
     }
+    measure_hull(f, &c);
   }
   return kept;
+}
+
+// The component's row-wise convex hull: per image row, the span between the convex chain of its
+// leftmost pixels and the concave chain of its rightmost ones (Andrew's monotone chain with the
+// row as abscissa). hull = pixels in those spans; hull_filled = the component's own pixels plus
+// the readings in the spans nearer than its nearest point less join_mm (hidden by something in
+// front: unknown, counted as filled). A solid box or cylinder fills its hull whatever the camera's
+// roll; two legs leave the gap between them. Work: 3 passes over the candidate's image box.
+void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand) {
+  Candidate& c = *cand;
+  const int32_t w = f.width;
+  const int32_t rows = c.v_max - c.v_min + 1;
+  int16_t* left = hull_rows_;             // leftmost u per row (−1: none)
+  int16_t* right = hull_rows_ + rows;     // rightmost u per row
+  int16_t* lchain = hull_rows_ + 2 * rows;// row offsets of the left chain's vertices
+  int16_t* rchain = hull_rows_ + 3 * rows;
+  for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+    const int32_t* parent = parent_ + size_t(v) * w;
+    int16_t lo = -1, hi = -1;
+    for (int32_t u = c.u_min; u <= c.u_max; ++u) {
+      const int32_t p = parent[u];
+      if (p < 0 || aux_[p] < 0 || &candidates_[aux_[p]] != cand) continue;
+      if (lo < 0) lo = int16_t(u);
+      hi = int16_t(u);
+    }
+    left[v - c.v_min] = lo;
+    right[v - c.v_min] = hi;
+  }
+    // Chains: left = lower convex hull of (row, left), right = upper hull of (row, right).
+  int32_t nl = 0, nr = 0;
+  for (int32_t r = 0; r < rows; ++r) {
+    if (left[r] < 0) continue;
+    while (nl >= 2) {
+      const int32_t a = lchain[nl - 2], b = lchain[nl - 1];
+      // cross((b − a), (r − a)) in (row, u): pop b when it is not strictly left of a→r's chain.
+      const int32_t cross = (b - a) * (left[r] - left[a]) - (left[b] - left[a]) * (r - a);
+      if (cross <= 0) --nl; else break;
+    }
+    lchain[nl++] = int16_t(r);
+    while (nr >= 2) {
+      const int32_t a = rchain[nr - 2], b = rchain[nr - 1];
+      const int32_t cross = (b - a) * (right[r] - right[a]) - (right[b] - right[a]) * (r - a);
+      if (cross >= 0) --nr; else break;
+    }
+    rchain[nr++] = int16_t(r);
+  }
+  c.hull = c.hull_filled = 0;
+  if (nl == 0) return;
+  const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(config_->join_mm);
+  int32_t li = 0, ri = 0;
+  for (int32_t r = lchain[0]; r <= lchain[nl - 1]; ++r) {
+    while (li + 1 < nl && lchain[li + 1] < r) ++li;
+    while (ri + 1 < nr && rchain[ri + 1] < r) ++ri;
+    float lu = left[lchain[li]], ru = right[rchain[ri]];
+    if (li + 1 < nl && lchain[li + 1] > lchain[li]) {
+      const float t = float(r - lchain[li]) / float(lchain[li + 1] - lchain[li]);
+      lu = float(left[lchain[li]]) + t * float(left[lchain[li + 1]] - left[lchain[li]]);
+    }
+    if (ri + 1 < nr && rchain[ri + 1] > rchain[ri]) {
+      const float t = float(r - rchain[ri]) / float(rchain[ri + 1] - rchain[ri]);
+      ru = float(right[rchain[ri]]) + t * float(right[rchain[ri + 1]] - right[rchain[ri]]);
+    }
+    const int32_t u0 = int32_t(ceilf(lu - 1e-3f)), u1 = int32_t(floorf(ru + 1e-3f));
+    const int32_t v = c.v_min + r;
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    const int32_t* parent = parent_ + size_t(v) * w;
+    for (int32_t u = u0; u <= u1; ++u) {
+      ++c.hull;
+      const int32_t p = parent[u];
+      const bool own = p >= 0 && aux_[p] >= 0 && &candidates_[aux_[p]] == cand;
+      c.hull_filled += own || (row[u] != 0 && int32_t(row[u]) < front);
+    }
+  }
 }
 
 bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool cut) const {
@@ -651,12 +749,21 @@ bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool
   if (cut && cfg.cut_bottom_area_fraction > 0.0f && c.v_max == f.height - 1 && floor_->valid != 0 &&
       c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.cut_bottom_area_fraction * need)
     return true;
+  // Mostly hidden behind something nearer: the height shows, the area does not (header,
+  // hidden_area_fraction).
+  if (cut && cfg.hidden_area_fraction > 0.0f && c.hidden_edge >= cfg.hidden_min_edge &&
+      c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.hidden_area_fraction * need)
+    return true;
   if (float(c.pixels) < need) return false;
   if (c.top >= cfg.min_person_height_m) return true;
   // Cut by the top border: the height is out of view (header, cut_max_fill).
   if (!cut || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0 || c.bottom > cfg.cut_floor_contact_m) return false;
   const float box = float(c.u_max - c.u_min + 1) * float(c.v_max - c.v_min + 1);
-  return float(c.pixels + c.occluded) <= cfg.cut_max_fill * box;
+  if (float(c.pixels + c.occluded) <= cfg.cut_max_fill * box) return true;
+  // The hull only where nothing in front cuts the silhouette: an object seen partly behind legs
+  // takes their outline (header, cut_solidity_max_hidden).
+  return c.hull > 0 && float(c.hull_filled) <= cfg.cut_max_solidity * float(c.hull) &&
+         float(c.occluded) <= cfg.cut_solidity_max_hidden * float(c.pixels);
 }
 
 void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
@@ -699,6 +806,10 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     person[k] = passes_person_test(f, candidates_[k], false);
     full[k] = person[k] || passes_person_test(f, candidates_[k], true);
   }
+  // Passes only as someone mostly hidden (header, hidden_area_fraction).
+  bool hidden_only[kMaxCandidates];
+  for (int32_t k = 0; k < n; ++k)
+    hidden_only[k] = full[k] && !person[k] && candidates_[k].hidden_edge >= cfg.hidden_min_edge;
   const bool use_floor = floor_->valid != 0;
   auto united = [&](const Candidate& x, const Candidate& y) {
     Candidate c = y;
@@ -713,6 +824,9 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     c.top = use_floor ? (x.top > c.top ? x.top : c.top) : c.y_max - c.y_min;
     if (x.bottom < c.bottom) c.bottom = x.bottom;
     c.occluded += x.occluded;  // each counted in its own box: a lower bound for the union's
+    c.hidden_edge += x.hidden_edge;
+    c.hull += x.hull;          // each piece's own hull: the union's hull is at least as large,
+    c.hull_filled += x.hull_filled;  // so its solidity comes out higher (more box-like), not lower
     if (x.u_min < c.u_min) c.u_min = x.u_min;
     if (x.u_max > c.u_max) c.u_max = x.u_max;
     if (x.v_min < c.v_min) c.v_min = x.v_min;
@@ -722,11 +836,14 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
   // A fragment joins the nearest touching (or, within fragment_pair_radius_m, not touching)
   // candidate with which it forms a person: a body cut in two by a depth jump or by someone in
   // front (both pieces may pass on their own), or a piece of a body that passes.
+  const bool hidden_on = cfg.hidden_area_fraction > 0.0f;
+  const float radius = cfg.fragment_radius_m > cfg.hidden_pair_radius_m || !hidden_on ? cfg.fragment_radius_m
+                                                                                    : cfg.hidden_pair_radius_m;
   for (int32_t k = 0; k < n; ++k) {
     if (candidates_[k].pixels == 0) continue;
     Candidate& frag = candidates_[k];
     int32_t best = -1;
-    float best_d2 = cfg.fragment_radius_m * cfg.fragment_radius_m;
+    float best_d2 = radius * radius;
     for (int32_t m = 0; m < n; ++m) {
       // touches[k] holds k itself once something merged into k.
       if (m == k || candidates_[m].pixels == 0) continue;
@@ -741,7 +858,18 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
         d[1] = 0.0f;
       }
       const float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-      const bool close = d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m;
+      // Pieces of someone hidden behind a nearer body lie on either side of it: two pieces that
+      // each pass only as hidden join within hidden_pair_radius_m.
+      // A piece that passes only as hidden takes another one, or a smaller hidden piece that
+      // does not pass at all (a leg below a head).
+      const bool both_hidden = hidden_on && frag.hidden_edge >= cfg.hidden_min_edge &&
+                               body.hidden_edge >= cfg.hidden_min_edge &&
+                               ((hidden_only[k] && hidden_only[m]) ||
+                                (hidden_only[m] && !full[k] && frag.pixels <= body.pixels) ||
+                                (hidden_only[k] && !full[m] && body.pixels <= frag.pixels));
+      const bool close = d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m ||
+                         (both_hidden && d2 <= cfg.hidden_pair_radius_m * cfg.hidden_pair_radius_m);
+      if (d2 > cfg.fragment_radius_m * cfg.fragment_radius_m && !both_hidden) continue;
       // Pieces that do not touch (a person cut in two by someone standing in front) join only
       // when closer along the floor than two people can stand.
       if (!touching && !close) continue;
@@ -770,6 +898,7 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     }
     if (best < 0) continue;
     candidates_[best] = united(frag, candidates_[best]);
+    hidden_only[best] = candidates_[best].hidden_edge >= cfg.hidden_min_edge && !passes_person_test(f, candidates_[best], false);
     person[best] = full[best] = true;
     touches[best] |= touches[k];
     frag.owner = best;

@@ -110,12 +110,33 @@ struct SegmenterConfig {
   // component's nearest point) count as filled: an occluded box shows gaps that are not its own.
   // Needs a floor. cut_max_fill = 0 turns this off.
   float cut_max_fill = 0.6f;              // 0..1
+  // The same components also pass when they fill at most cut_max_solidity of their row-wise convex
+  // hull (hidden pixels and pixels without a reading counted as filled): the gap between two legs
+  // stays open whatever the camera's roll, where a box or cylinder fills its hull. 0 = off.
+  float cut_max_solidity = 0.8f;          // 0..1
+  // ... but only when at most this share (of its own pixel count) of its image box is hidden by
+  // something nearer: a box seen partly behind someone's legs takes on their outline.
+  float cut_solidity_max_hidden = 0.05f;  // ≥ 0
   float cut_floor_contact_m = 0.3f;       // ≥ 0
   // People cut by the bottom border (the head and shoulders of someone close to a high camera)
   // keep their height above the floor but lose area: a component touching the bottom border with
   // a floor known and its top at least min_person_height_m high needs only this fraction of the
   // person area. 0 turns this off.
   float cut_bottom_area_fraction = 0.3f;  // 0..1
+
+  // People mostly hidden behind someone (or something) nearer show pieces: a head, a shoulder, an
+  // arm. A component with at least hidden_min_edge pixel edges to readings nearer by more than
+  // hidden_gap_mm (per pixel and direction the first reading within 4 pixels: occluding edges
+  // cast shadows without readings), and its top at least min_person_height_m above the floor, needs only
+  // hidden_area_fraction of the person area (furniture is lower than that; 0 turns this off).
+  // Such pieces count as fragments while merging (they join their body, or each other).
+  float hidden_area_fraction = 0.5f;      // 0..1
+  float hidden_gap_mm = 300.0f;           // > 0
+  int32_t hidden_min_edge = 8;            // ≥ 1
+  // Two pieces that each pass only this way (on either side of the person in front: a head, a
+  // leg) join within this distance of each other along the floor, instead of
+  // fragment_pair_radius_m / fragment_radius_m.
+  float hidden_pair_radius_m = 0.8f;      // ≥ 0
 
   // Users.
   int32_t max_users = 8;                  // 1..kMaxUsers
@@ -221,6 +242,9 @@ class Segmenter {
     float x_min, x_max, y_min, y_max, z_min, z_max, top;
     float bottom;          // lowest point above the floor (with a floor)
     int32_t occluded;      // box pixels hidden by something in front (top-border components)
+    int32_t hidden_edge;   // pixel edges where the neighbour is nearer by more than hidden_gap_mm
+    int32_t hull;          // pixels of the row-wise convex hull (top-border components, else 0)
+    int32_t hull_filled;   // of those: the component's own plus the ones hidden by something in front
     int16_t u_min, v_min, u_max, v_max;
     int32_t user;          // id or 0
     int32_t owner;         // candidate this one was merged into (itself when not merged)
@@ -250,8 +274,10 @@ class Segmenter {
   int32_t* aux_ = nullptr;           // root: component size, then candidate index or −1
   float* samples_ = nullptr;         // [kMaxFloorSamples][3]
   uint8_t* inlier_ = nullptr;        // [kMaxFloorSamples]
+  int16_t* hull_rows_ = nullptr;     // [4 · max_height]: row extents and hull chains of one component
   Candidate* candidates_ = nullptr;  // [kMaxCandidates]
 
+  void measure_hull(const DepthFrame& frame, Candidate* candidate);
   void fit_floor(const DepthFrame& frame, SegmentationResult* result);
   int32_t classify_pixels(const DepthFrame& frame);
   int32_t label_components(const DepthFrame& frame, SegmentationResult* result);

@@ -45,7 +45,8 @@ static const char* const kUsage =
     "                         users (pixels, body pixels, top, matched person), missed and extra pixels by height\n"
     "  --set K=V,...          override SegmenterConfig numbers: min_person_height_m, min_person_area_m2,\n"
     "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
-    "                         fragment_radius_m, fragment_pair_radius_m, cut_max_fill, cut_floor_contact_m,\n"
+    "                         fragment_radius_m, fragment_pair_radius_m, cut_max_fill, cut_max_solidity, cut_solidity_max_hidden,\n"
+    "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, cut_floor_contact_m,\n"
     "                         cut_bottom_area_fraction, fragment_min_share,\n"
     "                         floor_margin_per_m2_mm, floor_min_inlier_fraction, floor_min_extent_m, floor_samples,\n"
     "                         floor_iterations";
@@ -128,6 +129,13 @@ int run_segeval(int argc, char** argv) {
       else if (k == "fragment_radius_m") cfg.fragment_radius_m = float(v);
       else if (k == "fragment_pair_radius_m") cfg.fragment_pair_radius_m = float(v);
       else if (k == "cut_max_fill") cfg.cut_max_fill = float(v);
+      else if (k == "cut_max_solidity") cfg.cut_max_solidity = float(v);
+      else if (k == "hidden_area_fraction") cfg.hidden_area_fraction = float(v);
+      else if (k == "hidden_gap_mm") cfg.hidden_gap_mm = float(v);
+      else if (k == "hidden_min_edge") cfg.hidden_min_edge = int32_t(v);
+      else if (k == "hidden_pair_radius_m") cfg.hidden_pair_radius_m = float(v);
+      else if (k == "cut_solidity_max_hidden") cfg.cut_solidity_max_hidden = float(v);
+      else if (k == "tracked_area_fraction") cfg.tracked_area_fraction = float(v);
       else if (k == "fragment_min_share") cfg.fragment_min_share = float(v);
       else if (k == "cut_bottom_area_fraction") cfg.cut_bottom_area_fraction = float(v);
       else if (k == "cut_floor_contact_m") cfg.cut_floor_contact_m = float(v);
