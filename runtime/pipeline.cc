@@ -9,15 +9,10 @@
 #include "runtime/fast_math.h"
 #include "runtime/fixed_point.h"
 #include "runtime/kernels/forest_kernel.h"
+#include "runtime/kernels/mean_shift_kernel.h"
+#include "runtime/kernels/vote_kernel.h"
 
 namespace dp {
-
-struct Vote {
-  float x, y, z;   // metres
-  float weight;    // p·z² (BPC) or w·z² (OJR)
-  uint32_t order;  // casting order (canonical order for aggregation)
-  uint32_t start;  // 1 when this vote may seed mean shift (BPC: p > λc)
-};
 
 // Equal weights are common (uniform leaves, flat regions); breaking ties by casting order would keep
 // only the first pixels in raster order and bias the subsample towards the top of the image, so ties
@@ -57,6 +52,11 @@ namespace {
 // Vote storage per joint: the reference keeps a top-N heap of at most Nsub ≤ kMaxVotesCap votes; the
 // fast casters append up to 2·Nsub and select the top Nsub when full (amortized O(1) per vote).
 constexpr int32_t kVoteSlots = 2 * blob::kMaxVotesCap;
+// Mean-shift structure-of-arrays row: Nsub votes padded to a multiple of kMeanShiftLanes.
+constexpr int32_t kSoaRow = blob::kMaxVotesCap + kernels::kMeanShiftLanes;
+// Floor guess of the fast BPC caster: about kFloorSamples sampled pixels, at most twice that.
+constexpr int32_t kFloorSamples = 256;
+constexpr int32_t kMaxFloorSamples = 2 * kFloorSamples;
 
 // Everything init carves, in one place so required_arena_bytes and init agree.
 struct Layout {
@@ -67,7 +67,9 @@ struct Layout {
   int32_t* vote_counts;
   Vote* starts;
   float* modes;
-  float* soa;                         // mean shift: x, y, z, weight rows of kMaxVotesCap floats
+  float* soa;                         // mean shift: x, y, z, weight rows of kSoaRow floats
+  uint64_t* select_keys;              // vote cut: kVoteSlots (weight, tie key) keys of one joint
+  float* samples;                     // floor guess: [kMaxJoints][kMaxFloorSamples] sampled weights
   blob::RuntimeConfig* config;
   kernels::PackedNode* packed_nodes;  // nullptr when the forest's offsets do not fit the packing
   uint16_t* joint_mass;               // BPC: per leaf record, Σ of its Q15 probabilities over each
@@ -100,7 +102,9 @@ bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int3
   l->vote_counts = c.head<int32_t>(blob::kMaxJoints);
   l->starts = c.head<Vote>(blob::kMaxStartsCap);
   l->modes = c.head<float>(size_t(blob::kMaxStartsCap) * 4);
-  l->soa = c.head<float>(size_t(blob::kMaxVotesCap + 4) * 4);
+  l->soa = c.head<float>(size_t(kSoaRow) * 4);
+  l->select_keys = c.head<uint64_t>(size_t(kVoteSlots));
+  l->samples = c.head<float>(size_t(blob::kMaxJoints) * kMaxFloorSamples);
   return c.ok();
 }
 
@@ -191,6 +195,8 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
   packed_nodes_ = l.packed_nodes;
   joint_mass_ = l.joint_mass;
   soa_ = l.soa;
+  select_keys_ = l.select_keys;
+  samples_ = l.samples;
   rebuild_joint_mass();
   if (packed_nodes_) {
     const size_t count = size_t(blob.tree_count()) * blob::nodes_per_tree(blob.depth());
@@ -582,22 +588,46 @@ void Pipeline::cast_votes(const DepthFrame& f, FrameResult* r) {
 }
 
 // The fast casters below keep exactly the votes of the reference casters above. Why that holds:
-// a candidate's weight is computed by the same float operations in the same order (SSE lanes are
-// IEEE single like the scalar code, and the baseline ISA has no FMA to contract them); the kept set
-// is the top Nsub under the same total order (weight, then tie_key(order)), which is unique, so it
-// does not matter that the reference finds it with a heap and these with buffered selection; the
-// SIMD test against a floor only pre-filters strictly lighter votes, and the floor is never above
-// the final set's lightest weight; aggregate() sorts the kept votes by order before using them.
-// Speed: the joint-mass rows / OJR leaves of pixels a few ahead are prefetched (random reads in
-// tables beyond L1), a group of four lanes is tested at once instead of one unpredictable branch
-// per candidate, and a surviving vote costs an append instead of a heap sift.
-constexpr int32_t kVotePrefetchAhead = 16;  // pixels
+// a candidate's weight is computed by the same float operations in the same order (SIMD lanes are
+// IEEE single like the scalar code, and no multiply-add is fused); the kept set is the top Nsub
+// under the same total order (weight, then tie_key(order)), which is unique, so it does not matter
+// that the reference finds it with a heap and these with buffered selection; a floor only pre-filters
+// votes lighter than it, and the kept set is proven to lie at or above every floor used (the BPC
+// guess is verified after the scan). The buffers stay in casting order (every cut compacts stably),
+// so aggregate() needs no sort after them.
+// Speed (docs/runtime_speed.md): the BPC caster guesses each joint's final floor from a sample of
+// the pixels first, so most candidates are rejected by one SIMD compare per pixel instead of being
+// appended and cut; the joint-mass rows / OJR leaves of pixels a few ahead are prefetched (random
+// reads in tables beyond L1).
+constexpr int32_t kVotePrefetchAhead = kernels::kVotePrefetchAhead;  // pixels
 
 namespace {
-struct Heavier {  // a function object, so nth_element inlines the comparison
-  bool operator()(const Vote& a, const Vote& b) const { return lighter(b, a); }
-};
+// Non-negative floats order like their bit patterns; the tie key breaks equal weights. The order
+// is unique per vote and tie_key is a bijection, so keys are distinct: the top-N set is unique.
+inline uint64_t vote_key(const Vote& v) {
+  uint32_t bits;
+  memcpy(&bits, &v.weight, sizeof bits);
+  return (uint64_t(bits) << 32) | tie_key(v.order);
+}
 }  // namespace
+
+// Cuts joint j's buffer to its cap heaviest votes (the reference heap's set), keeping their
+// casting order, and returns the lightest kept weight (the joint's floor from now on).
+float Pipeline::cut_votes(int j, int32_t cap) {
+  Vote* buf = votes_ + size_t(j) * kVoteSlots;
+  const int32_t n = vote_counts_[j];
+  for (int32_t i = 0; i < n; ++i) select_keys_[i] = vote_key(buf[i]);
+  std::nth_element(select_keys_, select_keys_ + (n - cap), select_keys_ + n);
+  const uint64_t lightest_kept = select_keys_[n - cap];  // exactly cap keys are ≥ it
+  int32_t out = 0;
+  for (int32_t i = 0; i < n; ++i)
+    if (vote_key(buf[i]) >= lightest_kept) buf[out++] = buf[i];
+  vote_counts_[j] = out;
+  const uint32_t bits = uint32_t(lightest_kept >> 32);
+  float floor;
+  memcpy(&floor, &bits, sizeof floor);
+  return floor;
+}
 
 // Appends v to joint j's buffer; when 2·cap votes are held, keeps the cap heaviest and raises
 // *floor_weight to the lightest of them. Returns true when votes were dropped.
@@ -606,24 +636,51 @@ bool Pipeline::append_vote(int j, int32_t cap, const Vote& v, float* floor_weigh
   int32_t& n = vote_counts_[j];
   buf[n++] = v;
   if (n < 2 * cap) return false;
-  std::nth_element(buf, buf + (cap - 1), buf + n, Heavier());
-  n = cap;
-  *floor_weight = buf[cap - 1].weight;  // nth_element: every vote before it is at least as heavy
+  *floor_weight = cut_votes(j, cap);
   return true;
 }
 
-// Cuts every joint's buffer to its cap heaviest votes (the reference heap's set: the order is
-// total, so the set is unique). Returns true when votes were dropped.
+// Cuts every joint's buffer to its cap heaviest votes. Returns true when votes were dropped.
 bool Pipeline::finish_votes(int32_t cap) {
   bool dropped = false;
   for (int j = 0; j < blob::kMaxJoints; ++j) {
     if (vote_counts_[j] <= cap) continue;
-    Vote* buf = votes_ + size_t(j) * kVoteSlots;
-    std::nth_element(buf, buf + (cap - 1), buf + vote_counts_[j], Heavier());
-    vote_counts_[j] = cap;
+    cut_votes(j, cap);
     dropped = true;
   }
   return dropped;
+}
+
+// A guess of each joint's final floor: the weight that about 2·cap candidates reach, estimated on
+// every k-th pixel (k ≈ pixels / kFloorSamples). A guess may be wrong either way; too low costs
+// appends, too high is caught by cast_bpc_votes_fast's check and rescanned. −1 = no guess.
+void Pipeline::guess_bpc_floors(const DepthFrame& f, int32_t cap, float* floor) {
+  for (int j = 0; j < blob::kMaxJoints; ++j) floor[j] = -1.0f;
+  const int trees = blob_.tree_count();
+  const int32_t step = evaluated_count_ / kFloorSamples > 1 ? evaluated_count_ / kFloorSamples : 1;
+  const int32_t rank = (2 * cap + step - 1) / step;  // sampled pixels at or above the guess
+  if (rank >= evaluated_count_ / step / 2) return;   // nearly everything is kept: no guess
+  const float inv_total = 1.0f / (32768.0f * float(trees));
+  int32_t taken = 0;
+  for (int32_t i = 0; i < evaluated_count_ && taken < kMaxFloorSamples; i += step) {
+    const EvaluatedPixel px = pixels_[i];
+    if (skipped_by_user_filter(px)) continue;
+    uint32_t mass[blob::kMaxJoints] = {};
+    for (int t = 0; t < trees; ++t) {
+      const uint16_t* m = joint_mass_ + size_t(leaf_of(i, t)) * blob::kMaxJoints;
+      for (int j = 0; j < blob::kMaxJoints; ++j) mass[j] += m[j];
+    }
+    const float z = float(px.z_mm) * 0.001f;
+    for (int j = 0; j < blob::kMaxJoints; ++j) samples_[j * kMaxFloorSamples + taken] = float(mass[j]) * inv_total * z * z;
+    ++taken;
+  }
+  (void)f;
+  if (rank >= taken) return;
+  for (int j = 0; j < blob_.meta->joint_count; ++j) {
+    float* s = samples_ + j * kMaxFloorSamples;
+    std::nth_element(s, s + (rank - 1), s + taken, [](float a, float b) { return a > b; });
+    floor[j] = s[rank - 1];
+  }
 }
 
 void Pipeline::cast_bpc_votes_fast(const DepthFrame& f, FrameResult* r) {
@@ -634,64 +691,47 @@ void Pipeline::cast_bpc_votes_fast(const DepthFrame& f, FrameResult* r) {
   const blob::RuntimeConfig& cfg = *config_;
   const int joints = blob_.meta->joint_count;
   const int trees = blob_.tree_count();
-  const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
-  const float inv_total = 1.0f / (32768.0f * float(trees));
   const int32_t cap = r->votes_per_joint_used;
-  alignas(16) float floor_weight[blob::kMaxJoints];
-  for (int j = 0; j < blob::kMaxJoints; ++j) floor_weight[j] = -1.0f;
-  const int groups = (joints + 3) / 4;
-  const __m128 inv_total4 = _mm_set1_ps(inv_total);
-  const __m128i zero = _mm_setzero_si128();
-  for (int32_t i = 0; i < evaluated_count_; ++i) {
-    const EvaluatedPixel px = pixels_[i];
-    if (skipped_by_user_filter(px)) continue;
-    if (i + kVotePrefetchAhead < evaluated_count_)  // the rows are random reads in a table beyond L1
-      for (int t = 0; t < trees; ++t)
-        _mm_prefetch(reinterpret_cast<const char*>(joint_mass_ + size_t(leaf_of(i + kVotePrefetchAhead, t)) *
-                                                                     blob::kMaxJoints), _MM_HINT_T0);
-    __m128i acc[4] = {zero, zero, zero, zero};  // Σ over trees of each joint's Q15 mass, uint32 lanes
-    for (int t = 0; t < trees; ++t) {
-      const uint16_t* m = joint_mass_ + size_t(leaf_of(i, t)) * blob::kMaxJoints;
-      const __m128i lo = _mm_loadu_si128(reinterpret_cast<const __m128i*>(m));
-      const __m128i hi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(m + 8));
-      acc[0] = _mm_add_epi32(acc[0], _mm_cvtepu16_epi32(lo));
-      acc[1] = _mm_add_epi32(acc[1], _mm_cvtepu16_epi32(_mm_srli_si128(lo, 8)));
-      acc[2] = _mm_add_epi32(acc[2], _mm_cvtepu16_epi32(hi));
-      acc[3] = _mm_add_epi32(acc[3], _mm_cvtepu16_epi32(_mm_srli_si128(hi, 8)));
-    }
-    const float z = float(px.z_mm) * 0.001f;
-    const __m128 z4 = _mm_set1_ps(z);
-    bool have_xy = false;
-    float x = 0.0f, y = 0.0f;
-    for (int g = 0; g < groups; ++g) {
-      const __m128 p = _mm_mul_ps(_mm_cvtepi32_ps(acc[g]), inv_total4);  // mass < 2^24: exact
-      const __m128 w = _mm_mul_ps(_mm_mul_ps(p, z4), z4);                 // (p·z)·z as the reference
-      const __m128 live = _mm_castsi128_ps(_mm_xor_si128(_mm_cmpeq_epi32(acc[g], zero), _mm_set1_epi32(-1)));
-      const __m128 below = _mm_cmplt_ps(w, _mm_load_ps(floor_weight + 4 * g));
-      const int lanes = joints - 4 * g < 4 ? (1 << (joints - 4 * g)) - 1 : 15;
-      if (_mm_movemask_ps(_mm_and_ps(live, below)) & lanes) r->flags |= kFlagVotesTruncated;
-      int keep = _mm_movemask_ps(_mm_andnot_ps(below, live)) & lanes;
-      if (!keep) continue;
-      if (!have_xy) {
-        x = (float(px.u) - f.intrinsics.cx) * z * inv_fx;
-        y = -(float(px.v) - f.intrinsics.cy) * z * inv_fy;
-        have_xy = true;
-      }
-      alignas(16) float wl[4];
-      alignas(16) uint32_t ml[4];
-      _mm_store_ps(wl, w);
-      _mm_store_si128(reinterpret_cast<__m128i*>(ml), acc[g]);
-      for (; keep; keep &= keep - 1) {
-        const int lane = __builtin_ctz(unsigned(keep));
-        const int j = 4 * g + lane;
-        const blob::JointConfig& jc = cfg.joints[j];
-        Vote v{x, y, z + float(jc.push_back_mm) * 0.001f, wl[lane], uint32_t(i),
-               uint32_t(uint64_t(ml[lane]) > uint64_t(jc.prob_threshold_q15) * uint64_t(trees) ? 1 : 0)};
-        if (append_vote(j, cap, v, &floor_weight[j])) r->flags |= kFlagVotesTruncated;
-      }
-    }
+  cast_cap_ = cap;
+  alignas(64) float floor[blob::kMaxJoints];
+  alignas(64) float push_back_m[blob::kMaxJoints] = {};
+  alignas(64) uint32_t start_threshold[blob::kMaxJoints] = {};
+  uint32_t candidates[blob::kMaxJoints] = {}, ignored[blob::kMaxJoints] = {};
+  for (int j = 0; j < joints; ++j) {
+    push_back_m[j] = float(cfg.joints[j].push_back_mm) * 0.001f;
+    start_threshold[j] = uint32_t(cfg.joints[j].prob_threshold_q15) * uint32_t(trees);
   }
-  if (finish_votes(cap)) r->flags |= kFlagVotesTruncated;
+  guess_bpc_floors(f, cap, floor);
+  kernels::BpcScanArgs a{pixels_, evaluated_count_, leaves_, max_pixels_, trees, joint_mass_,
+                         1.0f / (32768.0f * float(trees)), f.intrinsics.cx, f.intrinsics.cy,
+                         1.0f / f.intrinsics.fx, 1.0f / f.intrinsics.fy, push_back_m, start_threshold, floor,
+                         user_filter_, user_filter_stride_, user_filter_id_, votes_, kVoteSlots, vote_counts_,
+                         candidates, &Pipeline::on_buffer_full, this};
+  const kernels::BpcScanFn scan = kernels::bpc_scan_kernel(kernel_);
+  scan(a);
+  // The guess was too high for a joint when fewer than min(cap, candidates) votes reached it: the
+  // reference keeps some lighter vote. Such joints are scanned again without a floor (the others
+  // with an unreachable one), which is always exact.
+  bool again = false;
+  for (int j = 0; j < joints; ++j) {
+    const bool short_of_votes = uint32_t(vote_counts_[j]) < candidates[j] && vote_counts_[j] < cap;
+    floor[j] = short_of_votes ? -1.0f : __builtin_inff();
+    if (short_of_votes) vote_counts_[j] = 0;
+    again = again || short_of_votes;
+  }
+  if (again) {
+    a.candidates = ignored;
+    scan(a);
+  }
+  bool dropped = false;
+  for (int j = 0; j < joints; ++j) dropped = dropped || candidates[j] > uint32_t(cap);
+  finish_votes(cap);
+  if (dropped) r->flags |= kFlagVotesTruncated;
+}
+
+float Pipeline::on_buffer_full(void* ctx, int joint) {
+  Pipeline* p = static_cast<Pipeline*>(ctx);
+  return p->cut_votes(joint, p->cast_cap_);
 }
 
 void Pipeline::cast_ojr_votes_fast(const DepthFrame& f, FrameResult* r) {
@@ -792,43 +832,23 @@ void Pipeline::cast_ojr_votes_fast(const DepthFrame& f, FrameResult* r) {
   if (finish_votes(cap)) r->flags |= kFlagVotesTruncated;
 }
 
-namespace {
-
-// e^(−t) for four t ≥ 0 (the polynomial of fast_math.h's exp_neg, branch-free); 0 for t ≥ 80.
-inline __m128 exp_neg4(__m128 t) {
-  const __m128 live = _mm_cmplt_ps(t, _mm_set1_ps(80.0f));
-  t = _mm_min_ps(t, _mm_set1_ps(80.0f));
-  const __m128 y = _mm_mul_ps(t, _mm_set1_ps(-1.44269504f));
-  const __m128 fi = _mm_floor_ps(y);
-  const __m128 f = _mm_sub_ps(y, fi);
-  __m128 p = _mm_add_ps(_mm_set1_ps(0.05550411f), _mm_mul_ps(f, _mm_set1_ps(0.00961813f)));
-  p = _mm_add_ps(_mm_set1_ps(0.24022650f), _mm_mul_ps(f, p));
-  p = _mm_add_ps(_mm_set1_ps(0.69314718f), _mm_mul_ps(f, p));
-  p = _mm_add_ps(_mm_set1_ps(1.0f), _mm_mul_ps(f, p));
-  const __m128i e = _mm_slli_epi32(_mm_add_epi32(_mm_cvttps_epi32(fi), _mm_set1_epi32(127)), 23);
-  return _mm_and_ps(live, _mm_mul_ps(p, _mm_castsi128_ps(e)));
-}
-
-inline float horizontal_sum(__m128 v) {  // fixed order: (v0 + v2) + (v1 + v3)
-  const __m128 h = _mm_add_ps(v, _mm_movehl_ps(v, v));
-  return _mm_cvtss_f32(_mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
-}
-
-}  // namespace
-
 void Pipeline::aggregate(FrameResult* r) {
   const blob::RuntimeConfig& cfg = *config_;
   const int joints = blob_.meta->joint_count;
   float* const sx_row = soa_;
-  float* const sy_row = soa_ + (blob::kMaxVotesCap + 4);
-  float* const sz_row = soa_ + 2 * (blob::kMaxVotesCap + 4);
-  float* const sw_row = soa_ + 3 * (blob::kMaxVotesCap + 4);
+  float* const sy_row = soa_ + kSoaRow;
+  float* const sz_row = soa_ + 2 * kSoaRow;
+  float* const sw_row = soa_ + 3 * kSoaRow;
+  // The sums' definition (lanes, reduction order) is the same for every ISA: mean_shift_kernel.h.
+  const kernels::MeanShiftSumsFn sums = kernels::mean_shift_sums_kernel(kernel_);
   for (int j = 0; j < joints; ++j) {
     Vote* votes = votes_ + size_t(j) * kVoteSlots;
     const int32_t nv = vote_counts_[j];
     if (nv == 0) continue;
-    // Canonical order (casting order, unique) so results do not depend on heap internals.
-    std::sort(votes, votes + nv, [](const Vote& a, const Vote& b) { return a.order < b.order; });
+    // Canonical order (casting order, unique) so results do not depend on heap internals. The fast
+    // casters keep their votes in casting order already; the reference's heap does not.
+    auto by_order = [](const Vote& a, const Vote& b) { return a.order < b.order; };
+    if (!std::is_sorted(votes, votes + nv, by_order)) std::sort(votes, votes + nv, by_order);
     // Starting points: eligible votes, evenly strided down to the cap.
     int32_t eligible = 0;
     for (int32_t i = 0; i < nv; ++i) eligible += votes[i].start ? 1 : 0;
@@ -839,8 +859,8 @@ void Pipeline::aggregate(FrameResult* r) {
     int32_t ns = 0, e = 0;
     for (int32_t i = 0; i < nv && ns < cap; ++i)
       if (votes[i].start && (e++ % step) == 0) starts_[ns++] = votes[i];
-    // Votes as structure of arrays, padded to a multiple of 4 with weightless votes.
-    const int32_t padded = (nv + 3) & ~3;
+    // Votes as structure of arrays, padded to a multiple of 16 lanes with weightless votes.
+    const int32_t padded = (nv + kernels::kMeanShiftLanes - 1) & ~(kernels::kMeanShiftLanes - 1);
     for (int32_t i = 0; i < padded; ++i) {
       const bool real = i < nv;
       sx_row[i] = real ? votes[i].x : 0.0f;
@@ -854,26 +874,15 @@ void Pipeline::aggregate(FrameResult* r) {
     const float tol = float(cfg.merge_tolerance_mm) * 0.001f;
     const float tol2 = tol * tol;
     const float stop2 = 1e-6f;  // (1 mm)²
-    const __m128 inv_b2_4 = _mm_set1_ps(inv_b2);
     int32_t nm = 0;             // modes: x, y, z, confidence
     for (int32_t s = 0; s < ns; ++s) {
       float mx = starts_[s].x, my = starts_[s].y, mz = starts_[s].z;
       for (int it = 0; it < r->iterations_used; ++it) {
-        const __m128 mx4 = _mm_set1_ps(mx), my4 = _mm_set1_ps(my), mz4 = _mm_set1_ps(mz);
-        __m128 sw4 = _mm_setzero_ps(), sx4 = _mm_setzero_ps(), sy4 = _mm_setzero_ps(), sz4 = _mm_setzero_ps();
-        for (int32_t i = 0; i < padded; i += 4) {
-          const __m128 x = _mm_load_ps(sx_row + i), y = _mm_load_ps(sy_row + i), z = _mm_load_ps(sz_row + i);
-          const __m128 dx = _mm_sub_ps(x, mx4), dy = _mm_sub_ps(y, my4), dz = _mm_sub_ps(z, mz4);
-          const __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
-          const __m128 k = _mm_mul_ps(_mm_load_ps(sw_row + i), exp_neg4(_mm_mul_ps(d2, inv_b2_4)));
-          sw4 = _mm_add_ps(sw4, k);
-          sx4 = _mm_add_ps(sx4, _mm_mul_ps(k, x));
-          sy4 = _mm_add_ps(sy4, _mm_mul_ps(k, y));
-          sz4 = _mm_add_ps(sz4, _mm_mul_ps(k, z));
-        }
-        const float sw = horizontal_sum(sw4);
+        float sum[4];
+        sums(sx_row, sy_row, sz_row, sw_row, padded, mx, my, mz, inv_b2, sum);
+        const float sw = sum[0];
         if (!(sw > 0.0f)) break;
-        const float nx = horizontal_sum(sx4) / sw, ny = horizontal_sum(sy4) / sw, nz = horizontal_sum(sz4) / sw;
+        const float nx = sum[1] / sw, ny = sum[2] / sw, nz = sum[3] / sw;
         const float d2 = (nx - mx) * (nx - mx) + (ny - my) * (ny - my) + (nz - mz) * (nz - mz);
         mx = nx; my = ny; mz = nz;
         if (d2 < stop2) break;
@@ -897,16 +906,26 @@ void Pipeline::aggregate(FrameResult* r) {
     }
     // Confidence: every vote adds its weight to the nearest mode within 3 bandwidths.
     const float reach2 = 9.0f * b * b;
-    for (int32_t i = 0; i < nv; ++i) {
-      int32_t best = -1;
-      float best_d2 = reach2;
+    // Four votes at a time: each lane keeps the first mode with the smallest (dx·dx + dy·dy) + dz·dz
+    // below reach2 (strict <, modes in order), then the weights are added in vote order.
+    const __m128 reach4 = _mm_set1_ps(reach2);
+    for (int32_t i = 0; i < nv; i += 4) {
+      const __m128 x = _mm_loadu_ps(sx_row + i), y = _mm_loadu_ps(sy_row + i), z = _mm_loadu_ps(sz_row + i);
+      __m128 best_d2 = reach4;
+      __m128i best = _mm_set1_epi32(-1);
       for (int32_t m = 0; m < nm; ++m) {
         const float* q = modes_ + 4 * m;
-        const float dx = sx_row[i] - q[0], dy = sy_row[i] - q[1], dz = sz_row[i] - q[2];
-        const float d2 = dx * dx + dy * dy + dz * dz;
-        if (d2 < best_d2) { best_d2 = d2; best = m; }
+        const __m128 dx = _mm_sub_ps(x, _mm_set1_ps(q[0])), dy = _mm_sub_ps(y, _mm_set1_ps(q[1])),
+                     dz = _mm_sub_ps(z, _mm_set1_ps(q[2]));
+        const __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+        const __m128 closer = _mm_cmplt_ps(d2, best_d2);
+        best_d2 = _mm_blendv_ps(best_d2, d2, closer);
+        best = _mm_castps_si128(_mm_blendv_ps(_mm_castsi128_ps(best), _mm_castsi128_ps(_mm_set1_epi32(m)), closer));
       }
-      if (best >= 0) modes_[4 * best + 3] += sw_row[i];
+      alignas(16) int32_t lane_best[4];
+      _mm_store_si128(reinterpret_cast<__m128i*>(lane_best), best);
+      for (int32_t l = 0; l < 4 && i + l < nv; ++l)
+        if (lane_best[l] >= 0) modes_[4 * lane_best[l] + 3] += sw_row[i + l];
     }
     // Top proposals by confidence (selection: nm ≤ kMaxStartsCap, output ≤ kMaxProposals).
     const int32_t out_cap = cfg.max_proposals_per_joint;

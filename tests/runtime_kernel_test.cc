@@ -3,6 +3,7 @@
 // on the real Skeltrack frames with PCL's trees.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -15,7 +16,10 @@
 #include "forest_blob/blob_writer.h"
 #include "runtime/depthpose.h"
 #include "runtime/fixed_point.h"
+#include "runtime/fast_math.h"
 #include "runtime/kernels/forest_kernel.h"
+#include "runtime/kernels/mean_shift_kernel.h"
+#include "runtime/kernels/vote_kernel.h"
 #include "tools/convert/pcl_import.h"
 #include "tools/demo/fixtures.h"
 
@@ -469,5 +473,187 @@ TEST(VoteCastingExactness, PerUserVotesAgreeAcrossKernels) {
                                sizeof(JointProposal) * size_t(ref[u].proposal_count[j])));
     }
     EXPECT_GT(proposals, 0) << "user " << u + 1 << " got no proposals: the comparison would be vacuous";
+  }
+}
+
+// The mean-shift sums of every ISA equal the header's definition (16 lanes, lane = i mod 16, the
+// fixed reduction tree) computed here in plain scalar code, bit for bit: near and far votes (kernel
+// arguments beyond 80 give 0), zero weights, vote counts that are not multiples of 16.
+TEST(MeanShiftKernel, EveryIsaComputesTheDefinedSums) {
+  std::mt19937_64 rng(91);
+  std::uniform_real_distribution<float> coord(-1.5f, 1.5f), depth(0.5f, 4.5f), weight(0.0f, 3.0f);
+  for (int32_t nv : {1, 3, 16, 17, 200, 333, 1024}) {
+    const int32_t padded = (nv + 15) & ~15;
+    std::vector<float> x(padded, 0.0f), y(padded, 0.0f), z(padded, 0.0f), w(padded, 0.0f);
+    for (int32_t i = 0; i < nv; ++i) {
+      x[i] = coord(rng); y[i] = coord(rng); z[i] = depth(rng);
+      w[i] = (rng() % 7 == 0) ? 0.0f : weight(rng);
+      if (i % 11 == 5) { x[i] = x[i - 1]; y[i] = y[i - 1]; z[i] = z[i - 1]; }  // duplicates
+    }
+    for (int trial = 0; trial < 20; ++trial) {
+      const float mx = coord(rng), my = coord(rng), mz = depth(rng);
+      const float b = 0.02f + 0.2f * float(trial % 5);  // small bandwidths: many arguments ≥ 80
+      const float inv_b2 = 1.0f / (b * b);
+      float lane[4][16] = {};
+      for (int32_t i = 0; i < padded; ++i) {
+        const float dx = x[i] - mx, dy = y[i] - my, dz = z[i] - mz;
+        const float d2 = (dx * dx + dy * dy) + dz * dz;
+        const float k = w[i] * exp_neg(d2 * inv_b2);
+        lane[0][i % 16] += k;
+        lane[1][i % 16] += k * x[i];
+        lane[2][i % 16] += k * y[i];
+        lane[3][i % 16] += k * z[i];
+      }
+      float expect[4];
+      for (int c = 0; c < 4; ++c) {
+        float s[16];
+        for (int l = 0; l < 16; ++l) s[l] = lane[c][l];
+        for (int half = 8; half >= 1; half /= 2)
+          for (int l = 0; l < half; ++l) s[l] = s[l] + s[l + half];
+        expect[c] = s[0];
+      }
+      for (KernelIsa isa : {KernelIsa::kScalar, KernelIsa::kAvx2, KernelIsa::kAvx512}) {
+        const kernels::MeanShiftSumsFn fn = kernels::mean_shift_sums_kernel(isa);
+        if (!fn) continue;
+        float out[4];
+        fn(x.data(), y.data(), z.data(), w.data(), padded, mx, my, mz, inv_b2, out);
+        EXPECT_EQ(0, std::memcmp(out, expect, sizeof out))
+            << kernel_isa_name(isa) << " nv " << nv << " trial " << trial << ": " << out[0] << " vs " << expect[0];
+      }
+    }
+  }
+}
+
+namespace {
+// A deterministic stand-in for the pipeline's cut: keeps every other vote, floor = the largest
+// weight seen (so later scans exercise the floor reload).
+struct ScanSink {
+  std::vector<Vote> votes;
+  std::vector<int32_t> counts;
+  std::vector<float> cuts;
+  int32_t slots;
+  alignas(64) float floor[kMaxJoints];
+};
+float sink_cut(void* ctx, int j) {
+  ScanSink* s = static_cast<ScanSink*>(ctx);
+  Vote* buf = s->votes.data() + size_t(j) * size_t(s->slots);
+  int32_t out = 0;
+  float heaviest = 0.0f;
+  for (int32_t i = 0; i < s->counts[j]; i += 2) {
+    buf[out++] = buf[i];
+    heaviest = std::max(heaviest, buf[i].weight);
+  }
+  s->counts[j] = out;
+  s->cuts.push_back(float(j));
+  return heaviest * 0.5f;
+}
+}  // namespace
+
+// The BPC vote scan of every ISA (ref = SSE4.1, AVX2, AVX-512) appends exactly the votes of
+// vote_kernel.h's contract, computed here in scalar code: random joint masses (zeros, ties, sums at
+// the Q15 limit), floors below, inside and above the weights, a user filter, full buffers.
+TEST(BpcScanKernel, EveryIsaAppendsTheContractsVotes) {
+  std::mt19937_64 rng(17);
+  const int32_t leaves = 300, n = 2000, trees = 3, slots = 64;
+  std::vector<uint16_t> mass(size_t(leaves) * kMaxJoints, 0);
+  for (auto& m : mass) m = uint16_t(rng() % 3 == 0 ? 0 : rng() % 4 == 0 ? 32768 : (rng() % 8) * 4096);
+  std::vector<EvaluatedPixel> px(n);
+  std::vector<uint32_t> leaf(size_t(trees) * n);
+  std::vector<uint8_t> users(64 * 64);
+  for (auto& u : users) u = uint8_t(rng() % 3);
+  for (int32_t i = 0; i < n; ++i) {
+    px[i] = EvaluatedPixel{uint16_t(rng() % 64), uint16_t(rng() % 64), uint16_t(400 + rng() % 5000), 0};
+    for (int t = 0; t < trees; ++t) leaf[size_t(t) * n + i] = uint32_t(rng() % leaves);
+  }
+  float push[kMaxJoints];
+  uint32_t thr[kMaxJoints];
+  for (int j = 0; j < kMaxJoints; ++j) { push[j] = float(rng() % 60) * 0.001f; thr[j] = uint32_t(rng() % 20000) * trees; }
+  const float inv_total = 1.0f / (32768.0f * trees);
+  for (int trial = 0; trial < 6; ++trial) {
+    float floor0[kMaxJoints];
+    for (int j = 0; j < kMaxJoints; ++j)
+      floor0[j] = trial == 0 ? -1.0f : j % 5 == 0 ? __builtin_inff() : float(rng() % 100) * 0.02f;
+    const bool filtered = trial % 2 == 1;
+    auto run_scan = [&](kernels::BpcScanFn fn, ScanSink* sink, uint32_t* cand) {
+      sink->slots = slots;
+      sink->votes.assign(size_t(kMaxJoints) * slots, Vote{});
+      sink->counts.assign(kMaxJoints, 0);
+      std::memcpy(sink->floor, floor0, sizeof floor0);
+      kernels::BpcScanArgs a{px.data(), n, leaf.data(), n, trees, mass.data(), inv_total, 31.5f, 30.0f,
+                             1.0f / 285.0f, 1.0f / 286.0f, push, thr, sink->floor, filtered ? users.data() : nullptr,
+                             64, uint8_t(1), sink->votes.data(), slots, sink->counts.data(), cand, &sink_cut, sink};
+      fn(a);
+    };
+    // The contract in scalar code.
+    ScanSink model;
+    model.slots = slots;
+    model.votes.assign(size_t(kMaxJoints) * slots, Vote{});
+    model.counts.assign(kMaxJoints, 0);
+    std::memcpy(model.floor, floor0, sizeof floor0);
+    uint32_t model_cand[kMaxJoints] = {};
+    for (int32_t i = 0; i < n; ++i) {
+      if (filtered && users[size_t(px[i].v) * 64 + px[i].u] != 1) continue;
+      const float z = float(px[i].z_mm) * 0.001f;
+      const float x = (float(px[i].u) - 31.5f) * z * (1.0f / 285.0f), y = -(float(px[i].v) - 30.0f) * z * (1.0f / 286.0f);
+      for (int j = 0; j < kMaxJoints; ++j) {
+        uint32_t m = 0;
+        for (int t = 0; t < trees; ++t) m += mass[size_t(leaf[size_t(t) * n + i]) * kMaxJoints + j];
+        if (m == 0) continue;
+        ++model_cand[j];
+        const float wt = float(m) * inv_total * z * z;
+        if (wt < model.floor[j]) continue;
+        model.votes[size_t(j) * slots + model.counts[j]++] = Vote{x, y, z + push[j], wt, uint32_t(i), m > thr[j] ? 1u : 0u};
+        if (model.counts[j] == slots) model.floor[j] = sink_cut(&model, j);
+      }
+    }
+    ASSERT_GT(model.cuts.size(), 0u);
+    for (KernelIsa isa : {KernelIsa::kScalar, KernelIsa::kAvx2, KernelIsa::kAvx512}) {
+      const kernels::BpcScanFn fn = kernels::bpc_scan_kernel(isa);
+      if (!fn) continue;
+      ScanSink got;
+      uint32_t cand[kMaxJoints] = {};
+      run_scan(fn, &got, cand);
+      const std::string what = std::string(kernel_isa_name(isa)) + " trial " + std::to_string(trial);
+      EXPECT_EQ(0, std::memcmp(cand, model_cand, sizeof cand)) << what;
+      EXPECT_EQ(got.cuts, model.cuts) << what;
+      ASSERT_EQ(got.counts, model.counts) << what;
+      for (int j = 0; j < kMaxJoints; ++j)
+        EXPECT_EQ(0, std::memcmp(got.votes.data() + size_t(j) * slots, model.votes.data() + size_t(j) * slots,
+                                 sizeof(Vote) * size_t(model.counts[j])))
+            << what << " joint " << j;
+    }
+  }
+}
+
+// The fast BPC caster guesses each joint's floor from every k-th pixel. Here the sampled pixels
+// are far (z² makes them ~60x heavier) and Nsub exceeds their number, so the guess is too high for
+// every joint and must be caught and rescanned: the kernels must still agree with the reference.
+TEST(VoteCastingExactness, BpcFloorGuessTooHighIsRescanned) {
+  Runner r(blob::write_blob(random_bpc_joints(5, 16, 500)), 320, 240);
+  const int32_t n = 4096, trees = r.view.tree_count();
+  std::mt19937_64 rng(3);
+  std::vector<EvaluatedPixel> px(n);
+  std::vector<uint32_t> leaves(size_t(trees) * n);
+  for (int32_t i = 0; i < n; ++i) {
+    px[i] = EvaluatedPixel{uint16_t(rng() % 320), uint16_t(rng() % 240), uint16_t(i % 16 == 0 ? 4000 : 500), 0};
+    for (int t = 0; t < trees; ++t) leaves[size_t(t) * n + i] = uint32_t(rng() % r.view.meta->leaf_count);
+  }
+  const CameraIntrinsics intr = tools::kinect_intrinsics(320, 240);
+  FrameResult ref{}, fast{};
+  ASSERT_EQ(r.pipeline.set_kernel(KernelIsa::kScalar), Status::kOk);
+  ASSERT_EQ(r.pipeline.aggregate_from_leaves(intr, px.data(), leaves.data(), n, &ref), Status::kOk);
+  int proposals = 0;
+  for (int j = 0; j < 16; ++j) proposals += ref.proposal_count[j];
+  EXPECT_GT(proposals, 0);
+  for (KernelIsa isa : kSimdIsas) {
+    if (!kernel_isa_supported(isa)) continue;
+    ASSERT_EQ(r.pipeline.set_kernel(isa), Status::kOk);
+    ASSERT_EQ(r.pipeline.aggregate_from_leaves(intr, px.data(), leaves.data(), n, &fast), Status::kOk);
+    EXPECT_EQ(ref.flags, fast.flags) << kernel_isa_name(isa);
+    for (int j = 0; j < 16; ++j) {
+      ASSERT_EQ(ref.proposal_count[j], fast.proposal_count[j]) << kernel_isa_name(isa) << " joint " << j;
+      EXPECT_EQ(0, std::memcmp(ref.proposals[j], fast.proposals[j], sizeof(JointProposal) * size_t(ref.proposal_count[j])))
+          << kernel_isa_name(isa) << " joint " << j;
+    }
   }
 }

@@ -3,6 +3,8 @@
 #include <atomic>
 
 #include "runtime/kernels/forest_kernel.h"
+#include "runtime/kernels/mean_shift_kernel.h"
+#include "runtime/kernels/vote_kernel.h"
 
 namespace dp {
 
@@ -79,6 +81,14 @@ ForestKernelFn forest_kernel(KernelIsa isa) {
 
 ForestTreesKernelFn forest_trees_kernel(KernelIsa isa) {
   return choose<ForestTreesKernelFn>(isa, &ref::evaluate_trees, &avx2::evaluate_trees, &avx512::evaluate_trees);
+}
+
+BpcScanFn bpc_scan_kernel(KernelIsa isa) {
+  return choose<BpcScanFn>(isa, &ref::bpc_scan, &avx2::bpc_scan, &avx512::bpc_scan);
+}
+
+MeanShiftSumsFn mean_shift_sums_kernel(KernelIsa isa) {
+  return choose<MeanShiftSumsFn>(isa, &ref::mean_shift_sums, &avx2::mean_shift_sums, &avx512::mean_shift_sums);
 }
 }  // namespace kernels
 

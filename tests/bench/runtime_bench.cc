@@ -255,6 +255,8 @@ void print_end_to_end(const char* label, const EndToEnd& scalar, const EndToEnd&
 
 int main(int argc, char** argv) {
   const bool kernels_only = argc > 1 && std::string(argv[1]) == "--kernels-only";
+  // --only=A,B: the end-to-end rows whose label contains A or B, nothing else, no json (quick A/B runs).
+  const std::string only = argc > 1 && std::string(argv[1]).rfind("--only=", 0) == 0 ? std::string(argv[1]).substr(7) : "";
   std::printf("runtime bench: kernels %s/%s/%s available: %d/%d/%d\n", kernel_isa_name(KernelIsa::kScalar),
               kernel_isa_name(KernelIsa::kAvx2), kernel_isa_name(KernelIsa::kAvx512), 1,
               int(kernel_isa_supported(KernelIsa::kAvx2)), int(kernel_isa_supported(KernelIsa::kAvx512)));
@@ -283,6 +285,7 @@ int main(int argc, char** argv) {
                       {"synthetic 640x480", &syn_vga}, {"synthetic 320x240", &syn_qvga}};
   std::vector<double> real_vga_ns;
   for (const Set& s : sets) {
+    if (!only.empty()) break;
     std::vector<KernelInput> inputs;
     for (const Frame& f : *s.frames) inputs.push_back(kernel_input(f, pb.meta->reference_focal_px));
     const std::vector<double> ns = kernel_ns_per_visit(pb, packed, inputs, kernels_only ? 5 : 4);
@@ -296,7 +299,7 @@ int main(int argc, char** argv) {
   }
   if (kernels_only) return 0;
   int best_variant = 1;
-  for (int v = 1; v < kVariantCount; ++v)
+  for (int v = 1; v < kVariantCount && only.empty(); ++v)
     if (real_vga_ns[v] < real_vga_ns[best_variant]) best_variant = v;
 
   // --- end to end -------------------------------------------------------------------------------
@@ -326,6 +329,15 @@ int main(int argc, char** argv) {
                 {"shipped OJR rendered 640x480", &ship_ojr_vga, &people_vga, {}, {}},
                 {"shipped OJR rendered 320x240", &ship_ojr_qvga, &people_qvga, {}, {}}};
   for (E2E& e : runs) {
+    if (!only.empty()) {  // comma-separated substrings
+      bool match = false;
+      for (size_t a = 0; a <= only.size();) {
+        const size_t b = std::min(only.find(',', a), only.size());
+        match = match || std::string(e.label).find(only.substr(a, b - a)) != std::string::npos;
+        a = b + 1;
+      }
+      if (!match) continue;
+    }
     e.scalar = end_to_end(*e.r, KernelIsa::kScalar, *e.frames, 2);
     e.best = end_to_end(*e.r, KernelIsa::kBest, *e.frames, 5);
     print_end_to_end(e.label, e.scalar, e.best);
@@ -333,6 +345,7 @@ int main(int argc, char** argv) {
   std::printf("\narena bytes: BPC 640x480 %zu (%zu used), 320x240 %zu; OJR 640x480 %zu\n", bpc_vga.arena_bytes,
               bpc_vga.pipeline.arena_used_bytes(), bpc_qvga.arena_bytes, ojr_vga.arena_bytes);
 
+  if (!only.empty()) return 0;
   const double simd_ns = real_vga_ns[best_variant], scalar_ns = real_vga_ns[0];
   std::printf("\nheadline: %.3f ns/visit (%s) vs scalar %.3f: x%.2f; BPC 320x240 %.0f fps, 640x480 %.0f fps\n", simd_ns,
               kVariants[best_variant].name, scalar_ns, scalar_ns / simd_ns, runs[1].best.fps, runs[0].best.fps);
