@@ -1,5 +1,9 @@
 // AVX-512 BPC vote scan: the 16 joints of a pixel in one register. Same weights as the reference
 // caster bit for bit (vote_kernel.h: exact integer sums, then the same three float products).
+// GCC 12's _mm512_undefined_*() (a self-initialised variable) trips -W(maybe-)uninitialized when
+// inlined into masked intrinsics; the value is never read.
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <immintrin.h>
 
 #include "runtime/kernels/vote_kernel.h"

@@ -1,5 +1,9 @@
 // AVX-512 mean-shift sums: the 16 lanes of mean_shift_kernel.h in one register.
 // Bit-exact with ref/mean_shift.cc (same operations per lane, same reduction tree, no FMA).
+// GCC 12's _mm512_undefined_*() (a self-initialised variable) trips -W(maybe-)uninitialized when
+// inlined into masked intrinsics; the value is never read.
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <immintrin.h>
 
 #include "runtime/kernels/mean_shift_kernel.h"
