@@ -68,7 +68,7 @@ struct Layout {
   Vote* starts;
   float* modes;
   float* soa;                         // mean shift: x, y, z, weight rows of kSoaRow floats
-  uint64_t* select_keys;              // vote cut: kVoteSlots (weight, tie key) keys of one joint
+  uint64_t* select_keys;              // vote cut: 2·kVoteSlots uint32 (weight bits, boundary tie keys)
   float* samples;                     // floor guess: [kMaxJoints][kMaxFloorSamples] sampled weights
   blob::RuntimeConfig* config;
   kernels::PackedNode* packed_nodes;  // nullptr when the forest's offsets do not fit the packing
@@ -602,30 +602,46 @@ void Pipeline::cast_votes(const DepthFrame& f, FrameResult* r) {
 constexpr int32_t kVotePrefetchAhead = kernels::kVotePrefetchAhead;  // pixels
 
 namespace {
-// Non-negative floats order like their bit patterns; the tie key breaks equal weights. The order
-// is unique per vote and tie_key is a bijection, so keys are distinct: the top-N set is unique.
-inline uint64_t vote_key(const Vote& v) {
+// Weights are ≥ 0, and non-negative floats order like their bit patterns.
+inline uint32_t weight_bits(float w) {
   uint32_t bits;
-  memcpy(&bits, &v.weight, sizeof bits);
-  return (uint64_t(bits) << 32) | tie_key(v.order);
+  memcpy(&bits, &w, sizeof bits);
+  return bits;
 }
 }  // namespace
 
-// Cuts joint j's buffer to its cap heaviest votes (the reference heap's set), keeping their
-// casting order, and returns the lightest kept weight (the joint's floor from now on).
+// Cuts joint j's buffer to its cap heaviest votes under (weight, then tie_key(order)) — the
+// reference heap's set, unique because orders are unique and tie_key is a bijection — keeping
+// their casting order; returns the lightest kept weight (the joint's floor from now on). The
+// selection runs on weight bits alone and hashes orders only for the votes tied at the boundary.
 float Pipeline::cut_votes(int j, int32_t cap) {
   Vote* buf = votes_ + size_t(j) * kVoteSlots;
   const int32_t n = vote_counts_[j];
-  for (int32_t i = 0; i < n; ++i) select_keys_[i] = vote_key(buf[i]);
-  std::nth_element(select_keys_, select_keys_ + (n - cap), select_keys_ + n);
-  const uint64_t lightest_kept = select_keys_[n - cap];  // exactly cap keys are ≥ it
+  uint32_t* const bits = reinterpret_cast<uint32_t*>(select_keys_);  // [kVoteSlots]
+  uint32_t* const ties = bits + kVoteSlots;                          // [kVoteSlots]
+  for (int32_t i = 0; i < n; ++i) bits[i] = weight_bits(buf[i].weight);
+  std::nth_element(bits, bits + (n - cap), bits + n);
+  const uint32_t boundary = bits[n - cap];  // the cap-th heaviest weight
+  int32_t heavier = 0, tied = 0;
+  for (int32_t i = 0; i < n; ++i) {
+    const uint32_t w = weight_bits(buf[i].weight);
+    heavier += w > boundary;
+    if (w == boundary) ties[tied++] = tie_key(buf[i].order);
+  }
+  const int32_t need = cap - heavier;  // 1..tied votes of the boundary weight are kept
+  uint32_t lightest_tie = 0;           // keep boundary votes whose tie key is ≥ this
+  if (need < tied) {
+    std::nth_element(ties, ties + (tied - need), ties + tied);
+    lightest_tie = ties[tied - need];
+  }
   int32_t out = 0;
-  for (int32_t i = 0; i < n; ++i)
-    if (vote_key(buf[i]) >= lightest_kept) buf[out++] = buf[i];
+  for (int32_t i = 0; i < n; ++i) {
+    const uint32_t w = weight_bits(buf[i].weight);
+    if (w > boundary || (w == boundary && tie_key(buf[i].order) >= lightest_tie)) buf[out++] = buf[i];
+  }
   vote_counts_[j] = out;
-  const uint32_t bits = uint32_t(lightest_kept >> 32);
   float floor;
-  memcpy(&floor, &bits, sizeof floor);
+  memcpy(&floor, &boundary, sizeof floor);
   return floor;
 }
 
