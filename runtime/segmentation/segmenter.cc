@@ -174,7 +174,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.floor_iterations <= kMaxFloorIterations && c.floor_retry_iterations >= 0 && c.floor_retry_iterations <= kMaxFloorIterations && c.floor_tracked_iterations >= 0 &&
          c.floor_tracked_iterations <= kMaxFloorIterations && c.floor_fit_mm > 0.0f && c.floor_margin_mm >= 0.0f &&
          c.floor_margin_per_m2_mm >= 0.0f && c.floor_max_tilt_deg > 0.0f && c.floor_max_tilt_deg < 90.0f &&
-         c.floor_min_inlier_fraction > 0.0f && c.floor_min_inlier_fraction <= 1.0f && c.floor_min_extent_m >= 0.0f && c.camera_height_min_m > 0.0f &&
+         c.floor_min_inlier_fraction > 0.0f && c.floor_min_inlier_fraction <= 1.0f && c.floor_min_extent_m >= 0.0f && c.floor_wide_inlier_fraction > 0.0f && c.floor_wide_inlier_fraction <= c.floor_min_inlier_fraction && c.floor_wide_extent_m >= c.floor_min_extent_m && c.camera_height_min_m > 0.0f &&
          c.camera_height_max_m > c.camera_height_min_m && c.floor_keep_frames >= 0 &&
          c.background_learn_frames >= 1 && c.background_learn_frames <= 65535 && c.background_tolerance_mm > 0.0f &&
          c.background_tolerance_per_m2_mm >= 0.0f && c.background_update_shift >= 0 &&
@@ -367,8 +367,15 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
   // front), 512 draws hold only a few all-floor triples and a frame can miss it by chance; then
   // (and only then) floor_retry_iterations more, continuing from the best so far.
   if (!tracking && (best_count < needed || best_score <= 0)) search(cfg.floor_retry_iterations);
+  // A floor seen beyond furniture close to the camera (or past the people in front) holds only a
+  // small share of the sample; it is taken with floor_wide_inlier_fraction when its inliers span
+  // floor_wide_extent_m, more than any piece of furniture's top (a box or table top is a plane with
+  // the floor under it too, and wins when the floor is that small a share).
+  int32_t wide_needed = int32_t(ceilf(cfg.floor_wide_inlier_fraction * float(n)));
+  if (wide_needed < 3) wide_needed = 3;
+  if (wide_needed > needed) wide_needed = needed;
   bool fitted = false;
-  if (best_count >= needed && best_score > 0) {
+  if (best_count >= wide_needed && best_score > 0) {
     // Least-squares refinement on the inliers with a shrinking band: objects standing on the floor
     // put points just above it inside the RANSAC band and would tilt the plane; a symmetric band
     // around the refined plane keeps the fit unbiased under noise.
@@ -401,7 +408,8 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
     }
     float diag2 = 0.0f;
     for (int k = 0; k < 3; ++k) diag2 += hi[k] > lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0.0f;
-    fitted = !refused && diag2 >= cfg.floor_min_extent_m * cfg.floor_min_extent_m;
+    const float extent = best_count < needed ? cfg.floor_wide_extent_m : cfg.floor_min_extent_m;
+    fitted = !refused && best_count >= wide_needed && diag2 >= extent * extent;
   }
   if (fitted) {
     *floor_ = FloorPlane{best.nx, best.ny, best.nz, best.d, 1, best_count, n, 0};

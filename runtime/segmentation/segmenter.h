@@ -63,6 +63,10 @@ struct SegmenterConfig {
   float floor_min_inlier_fraction = 0.15f;  // of the sample, (0, 1]
   float floor_min_extent_m = 1.0f;      // the inliers' bounding box diagonal at least this, ≥ 0
                                         // (a torso seen from above is no floor)
+  // A plane with fewer inliers, down to floor_wide_inlier_fraction of the sample, is the floor when
+  // its inliers span at least floor_wide_extent_m (furniture tops are smaller). (0, min_inlier_fraction]
+  float floor_wide_inlier_fraction = 0.05f;
+  float floor_wide_extent_m = 3.0f;     // ≥ floor_min_extent_m
   float camera_height_min_m = 0.15f;    // camera above the floor, 0 < min < max
   float camera_height_max_m = 5.0f;
   int32_t floor_keep_frames = 15;       // a plane not found again is kept this many frames, ≥ 0
