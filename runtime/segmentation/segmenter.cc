@@ -169,12 +169,12 @@ SegmenterConfig default_segmenter_config(bool live_source) {
 }
 
 static bool config_valid(const SegmenterConfig& c) {
-  return c.near_mm >= 1 && c.far_mm > c.near_mm && c.floor_sample_fraction > 0.0f && c.floor_sample_fraction <= 1.0f &&
+  return c.near_mm >= 1 && c.far_mm > c.near_mm && c.floor_sample_fraction > 0.0f && c.floor_sample_fraction <= 1.0f && c.floor_far_mm >= c.near_mm &&
          c.floor_samples >= 16 && c.floor_samples <= kMaxFloorSamples && c.floor_iterations >= 1 &&
-         c.floor_iterations <= kMaxFloorIterations && c.floor_tracked_iterations >= 0 &&
+         c.floor_iterations <= kMaxFloorIterations && c.floor_retry_iterations >= 0 && c.floor_retry_iterations <= kMaxFloorIterations && c.floor_tracked_iterations >= 0 &&
          c.floor_tracked_iterations <= kMaxFloorIterations && c.floor_fit_mm > 0.0f && c.floor_margin_mm >= 0.0f &&
          c.floor_margin_per_m2_mm >= 0.0f && c.floor_max_tilt_deg > 0.0f && c.floor_max_tilt_deg < 90.0f &&
-         c.floor_min_inlier_fraction > 0.0f && c.floor_min_inlier_fraction <= 1.0f && c.floor_min_extent_m >= 0.0f && c.camera_height_min_m > 0.0f &&
+         c.floor_min_inlier_fraction > 0.0f && c.floor_min_inlier_fraction <= 1.0f && c.floor_min_extent_m >= 0.0f && c.floor_wide_inlier_fraction > 0.0f && c.floor_wide_inlier_fraction <= c.floor_min_inlier_fraction && c.floor_wide_extent_m >= c.floor_min_extent_m && c.camera_height_min_m > 0.0f &&
          c.camera_height_max_m > c.camera_height_min_m && c.floor_keep_frames >= 0 &&
          c.background_learn_frames >= 1 && c.background_learn_frames <= 65535 && c.background_tolerance_mm > 0.0f &&
          c.background_tolerance_per_m2_mm >= 0.0f && c.background_update_shift >= 0 &&
@@ -319,7 +319,7 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
     const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     for (int32_t u = step / 2; u < w && n < cfg.floor_samples; u += step) {
       const uint16_t z = row[u];
-      if (z < cfg.near_mm || z > cfg.far_mm) continue;
+      if (z < cfg.near_mm || z > cfg.floor_far_mm) continue;
       const float zm = float(z) * 0.001f;
       float* p = samples_ + 3 * n++;
       p[0] = (float(u) - f.intrinsics.cx) * zm * inv_fx;
@@ -343,25 +343,39 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
   const int32_t iterations = tracking ? cfg.floor_tracked_iterations : cfg.floor_iterations;
   uint32_t rng = 0x9E3779B9u ^ (uint32_t(state_->frames) * 0x85EBCA77u);
   if (rng == 0) rng = 1;
-  for (int32_t it = 0; it < iterations && n >= 3; ++it) {
-    const int32_t a = int32_t(xorshift32(&rng) % uint32_t(n));
-    const int32_t b = int32_t(xorshift32(&rng) % uint32_t(n));
-    const int32_t c = int32_t(xorshift32(&rng) % uint32_t(n));
-    if (a == b || b == c || a == c) continue;
-    Plane p;
-    if (!plane_from_points(samples_ + 3 * a, samples_ + 3 * b, samples_ + 3 * c, &p)) continue;
-    if (!orient_and_check(&p, min_up, cfg.camera_height_min_m, cfg.camera_height_max_m)) continue;
-    int32_t count = 0, score = 0;
-    if (score_beats(p, samples_, n, tol, best_score, &count, &score)) {
-      best = p;
-      best_count = count;
-      best_score = score;
+  auto search = [&](int32_t hypotheses) {
+    for (int32_t it = 0; it < hypotheses && n >= 3; ++it) {
+      const int32_t a = int32_t(xorshift32(&rng) % uint32_t(n));
+      const int32_t b = int32_t(xorshift32(&rng) % uint32_t(n));
+      const int32_t c = int32_t(xorshift32(&rng) % uint32_t(n));
+      if (a == b || b == c || a == c) continue;
+      Plane p;
+      if (!plane_from_points(samples_ + 3 * a, samples_ + 3 * b, samples_ + 3 * c, &p)) continue;
+      if (!orient_and_check(&p, min_up, cfg.camera_height_min_m, cfg.camera_height_max_m)) continue;
+      int32_t count = 0, score = 0;
+      if (score_beats(p, samples_, n, tol, best_score, &count, &score)) {
+        best = p;
+        best_count = count;
+        best_score = score;
+      }
     }
-  }
+  };
+  search(iterations);
   int32_t needed = int32_t(ceilf(cfg.floor_min_inlier_fraction * float(n)));
   if (needed < 3) needed = 3;
+  // Where the floor is a small share of the sample (a far strip, mostly hidden by what stands in
+  // front), 512 draws hold only a few all-floor triples and a frame can miss it by chance; then
+  // (and only then) floor_retry_iterations more, continuing from the best so far.
+  if (!tracking && (best_count < needed || best_score <= 0)) search(cfg.floor_retry_iterations);
+  // A floor seen beyond furniture close to the camera (or past the people in front) holds only a
+  // small share of the sample; it is taken with floor_wide_inlier_fraction when its inliers span
+  // floor_wide_extent_m, more than any piece of furniture's top (a box or table top is a plane with
+  // the floor under it too, and wins when the floor is that small a share).
+  int32_t wide_needed = int32_t(ceilf(cfg.floor_wide_inlier_fraction * float(n)));
+  if (wide_needed < 3) wide_needed = 3;
+  if (wide_needed > needed) wide_needed = needed;
   bool fitted = false;
-  if (best_count >= needed && best_score > 0) {
+  if (best_count >= wide_needed && best_score > 0) {
     // Least-squares refinement on the inliers with a shrinking band: objects standing on the floor
     // put points just above it inside the RANSAC band and would tilt the plane; a symmetric band
     // around the refined plane keeps the fit unbiased under noise.
@@ -394,7 +408,8 @@ void Segmenter::fit_floor(const DepthFrame& f, SegmentationResult* r) {
     }
     float diag2 = 0.0f;
     for (int k = 0; k < 3; ++k) diag2 += hi[k] > lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0.0f;
-    fitted = !refused && diag2 >= cfg.floor_min_extent_m * cfg.floor_min_extent_m;
+    const float extent = best_count < needed ? cfg.floor_wide_extent_m : cfg.floor_min_extent_m;
+    fitted = !refused && best_count >= wide_needed && diag2 >= extent * extent;
   }
   if (fitted) {
     *floor_ = FloorPlane{best.nx, best.ny, best.nz, best.d, 1, best_count, n, 0};

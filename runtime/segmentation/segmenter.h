@@ -46,8 +46,14 @@ struct SegmenterConfig {
   // Floor. floor_enabled = false skips the fit; no pixel is then removed as floor.
   bool floor_enabled = true;
   float floor_sample_fraction = 0.5f;   // sample rows v ≥ (1 − fraction)·height, (0, 1]
+  // Floor samples are taken from near_mm up to floor_far_mm, which may lie beyond far_mm: a camera
+  // looking level from 1.2–1.9 m sees the floor only from 3–5 m on, and from there to far_mm it is
+  // a strip of a few rows, mostly hidden by the people and furniture in front of it. Readings
+  // beyond far_mm are never a user; they only help find the floor. ≥ near_mm.
+  uint16_t floor_far_mm = 8000;
   int32_t floor_samples = 800;          // grid sample size, 16..kMaxFloorSamples
   int32_t floor_iterations = 512;       // hypotheses without a tracked plane, 1..kMaxFloorIterations
+  int32_t floor_retry_iterations = 512; // more hypotheses when the first ones found no floor, 0..max
   int32_t floor_tracked_iterations = 32;// hypotheses when last frame's plane still has ≥ half its
                                         // inliers (it is scored first), 0..max
   float floor_fit_mm = 30.0f;           // inlier distance for fitting, > 0
@@ -57,6 +63,10 @@ struct SegmenterConfig {
   float floor_min_inlier_fraction = 0.15f;  // of the sample, (0, 1]
   float floor_min_extent_m = 1.0f;      // the inliers' bounding box diagonal at least this, ≥ 0
                                         // (a torso seen from above is no floor)
+  // A plane with fewer inliers, down to floor_wide_inlier_fraction of the sample, is the floor when
+  // its inliers span at least floor_wide_extent_m (furniture tops are smaller). (0, min_inlier_fraction]
+  float floor_wide_inlier_fraction = 0.05f;
+  float floor_wide_extent_m = 3.0f;     // ≥ floor_min_extent_m
   float camera_height_min_m = 0.15f;    // camera above the floor, 0 < min < max
   float camera_height_max_m = 5.0f;
   int32_t floor_keep_frames = 15;       // a plane not found again is kept this many frames, ≥ 0

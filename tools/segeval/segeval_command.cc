@@ -143,6 +143,11 @@ int run_segeval(int argc, char** argv) {
       else if (k == "floor_min_inlier_fraction") cfg.floor_min_inlier_fraction = float(v);
       else if (k == "floor_min_extent_m") cfg.floor_min_extent_m = float(v);
       else if (k == "floor_samples") cfg.floor_samples = int32_t(v);
+      else if (k == "camera_height_min_m") cfg.camera_height_min_m = float(v);
+      else if (k == "floor_retry_iterations") cfg.floor_retry_iterations = int32_t(v);
+      else if (k == "floor_wide_inlier_fraction") cfg.floor_wide_inlier_fraction = float(v);
+      else if (k == "floor_wide_extent_m") cfg.floor_wide_extent_m = float(v);
+      else if (k == "floor_far_mm") cfg.floor_far_mm = uint16_t(v);
       else if (k == "floor_iterations") cfg.floor_iterations = int32_t(v);
       else fail("--set: unknown key '" + k + "'");
     }
