@@ -281,21 +281,47 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   const int32_t w = f.width, h = f.height;
   const int32_t probe_stride = w + 2;
   kernels::fill_probe_border(probe_image_, w, h);
-  int32_t fg = 0;
+  // One pass writes the probe image, counts the foreground and lists it in raster order (what an
+  // unstrided frame evaluates); a frame over its pixel budget is listed again with a stride below.
+  // Eight pixels at a time: unsigned 16-bit range tests as min/max equalities (SSE4.1).
+  const int32_t pixel_cap = int32_t(cfg.max_evaluated_pixels) < max_pixels_ ? int32_t(cfg.max_evaluated_pixels) : max_pixels_;
+  int32_t fg = 0, listed = 0;
+  const __m128i zero = _mm_setzero_si128(), bg = _mm_set1_epi16(int16_t(kBackgroundDepthMm));
+  const __m128i below_bg = _mm_set1_epi16(int16_t(kBackgroundDepthMm - 1));
+  const __m128i near = _mm_set1_epi16(int16_t(cfg.near_mm)), far = _mm_set1_epi16(int16_t(cfg.far_mm));
   for (int32_t v = 0; v < h; ++v) {
     const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     const uint8_t* mrow = f.foreground_mask ? f.foreground_mask + size_t(v) * f.stride_px : nullptr;
     uint16_t* out = probe_image_ + size_t(v + 1) * probe_stride + 1;
-    for (int32_t u = 0; u < w; ++u) {
+    int32_t u = 0;
+    for (; u + 8 <= w; u += 8) {
+      const __m128i z = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + u));
+      __m128i in = _mm_andnot_si128(_mm_cmpeq_epi16(z, zero), _mm_cmpeq_epi16(_mm_min_epu16(z, below_bg), z));
+      if (mrow) {
+        const __m128i m = _mm_cvtepu8_epi16(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(mrow + u)));
+        in = _mm_andnot_si128(_mm_cmpeq_epi16(m, zero), in);
+      } else {
+        in = _mm_and_si128(in, _mm_and_si128(_mm_cmpeq_epi16(_mm_max_epu16(z, near), z),
+                                             _mm_cmpeq_epi16(_mm_min_epu16(z, far), z)));
+      }
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(out + u), _mm_blendv_epi8(bg, z, in));
+      uint32_t bits = uint32_t(_mm_movemask_epi8(_mm_packs_epi16(in, zero)));
+      fg += __builtin_popcount(bits);
+      for (; bits && listed < pixel_cap; bits &= bits - 1) {
+        const int32_t x = u + __builtin_ctz(bits);
+        pixels_[listed++] = EvaluatedPixel{uint16_t(x), uint16_t(v), row[x], 0};
+      }
+    }
+    for (; u < w; ++u) {
       const uint16_t z = row[u];
       const bool is_fg = z != 0 && z < kBackgroundDepthMm &&
                          (mrow ? mrow[u] != 0 : (z >= cfg.near_mm && z <= cfg.far_mm));
       out[u] = is_fg ? z : kBackgroundDepthMm;
       fg += is_fg;
+      if (is_fg && listed < pixel_cap) pixels_[listed++] = EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0};
     }
   }
   r->foreground_pixels = fg;
-  const int32_t pixel_cap = int32_t(cfg.max_evaluated_pixels) < max_pixels_ ? int32_t(cfg.max_evaluated_pixels) : max_pixels_;
   int32_t budget = pixel_cap;
   plan_budget(w * h, fg, pixel_cap, &budget, r);
   int32_t stride = 1;
@@ -304,14 +330,18 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
     r->flags |= kFlagPixelsStrided;
   }
   r->pixel_stride = stride;
-  int32_t n = 0, seen = 0;
-  for (int32_t v = 0; v < h && n < budget; ++v) {
-    const uint16_t* row = probe_image_ + size_t(v + 1) * probe_stride + 1;
-    for (int32_t u = 0; u < w; ++u) {
-      if (row[u] == kBackgroundDepthMm) continue;
-      if (seen++ % stride != 0) continue;
-      if (n >= budget) break;
-      pixels_[n++] = EvaluatedPixel{uint16_t(u), uint16_t(v), row[u], 0};
+  int32_t n = fg;
+  if (fg > budget) {
+    n = 0;
+    int32_t seen = 0;
+    for (int32_t v = 0; v < h && n < budget; ++v) {
+      const uint16_t* row = probe_image_ + size_t(v + 1) * probe_stride + 1;
+      for (int32_t u = 0; u < w; ++u) {
+        if (row[u] == kBackgroundDepthMm) continue;
+        if (seen++ % stride != 0) continue;
+        if (n >= budget) break;
+        pixels_[n++] = EvaluatedPixel{uint16_t(u), uint16_t(v), row[u], 0};
+      }
     }
   }
   evaluated_count_ = n;
