@@ -144,10 +144,11 @@ class Pipeline {
   // kBadArgument for a null result, a null mask or user_id 0; kNotInitialized before init.
   Status process_user(const DepthFrame& frame, uint8_t user_id, FrameResult* result);
 
-  // Chooses the forest kernel (tests and benchmarks compare them). kKernelUnavailable if the CPU
-  // lacks it. kBest picks the widest available. kScalar selects the whole scalar reference (forest
-  // kernel and vote casting, the specification); every other choice also uses the SSE4.1 vote
-  // casting, which keeps exactly the same votes (tests/runtime_kernel_test.cc proves it).
+  // Chooses the kernels (tests and benchmarks compare them). kKernelUnavailable if the CPU lacks
+  // it. kBest picks the widest available. kScalar selects the scalar reference forest kernel and
+  // vote casters (the specification) and the SSE4.1 mean-shift sums; every other choice uses that
+  // ISA's forest kernel, BPC vote scan and mean-shift sums (runtime/kernels/) and the SSE4.1 OJR
+  // caster, which give exactly the same votes and proposals (tests/runtime_kernel_test.cc proves it).
   Status set_kernel(KernelIsa isa);
   KernelIsa kernel() const { return kernel_; }
 
