@@ -144,10 +144,11 @@ class Pipeline {
   // kBadArgument for a null result, a null mask or user_id 0; kNotInitialized before init.
   Status process_user(const DepthFrame& frame, uint8_t user_id, FrameResult* result);
 
-  // Chooses the forest kernel (tests and benchmarks compare them). kKernelUnavailable if the CPU
-  // lacks it. kBest picks the widest available. kScalar selects the whole scalar reference (forest
-  // kernel and vote casting, the specification); every other choice also uses the SSE4.1 vote
-  // casting, which keeps exactly the same votes (tests/runtime_kernel_test.cc proves it).
+  // Chooses the kernels (tests and benchmarks compare them). kKernelUnavailable if the CPU lacks
+  // it. kBest picks the widest available. kScalar selects the scalar reference forest kernel and
+  // vote casters (the specification) and the SSE4.1 mean-shift sums; every other choice uses that
+  // ISA's forest kernel, BPC vote scan and mean-shift sums (runtime/kernels/) and the SSE4.1 OJR
+  // caster, which give exactly the same votes and proposals (tests/runtime_kernel_test.cc proves it).
   Status set_kernel(KernelIsa isa);
   KernelIsa kernel() const { return kernel_; }
 
@@ -197,7 +198,7 @@ class Pipeline {
   uint16_t* joint_mass_ = nullptr;               // persistent: per leaf record × joint mass (BPC)
   float* soa_ = nullptr;                         // scratch: mean-shift votes as structure of arrays
   uint64_t* select_keys_ = nullptr;              // scratch: one joint's vote keys while cutting it
-  float* samples_ = nullptr;                     // scratch: sampled weights for the BPC floor guess
+  uint16_t* guess_hist_ = nullptr;               // scratch: sampled weight histogram for the BPC floor guess
   int32_t cast_cap_ = 0;                         // Nsub of the casting in progress
   void rebuild_joint_mass();
   int32_t evaluated_count_ = 0;
@@ -219,7 +220,7 @@ class Pipeline {
   bool finish_votes(int32_t cap);
   float cut_votes(int joint, int32_t cap);
   static float on_buffer_full(void* ctx, int joint);  // the BPC scan's callback: cut_votes(joint, cast_cap_)
-  void guess_bpc_floors(const DepthFrame& frame, int32_t cap, float* floor);
+  void guess_bpc_floors(int32_t cap, float* floor);
   void aggregate(FrameResult* result);
   void plan_budget(int32_t frame_pixels, int32_t foreground, int32_t pixel_cap, int32_t* pixels, FrameResult* result) const;
 };

@@ -54,9 +54,15 @@ namespace {
 constexpr int32_t kVoteSlots = 2 * blob::kMaxVotesCap;
 // Mean-shift structure-of-arrays row: Nsub votes padded to a multiple of kMeanShiftLanes.
 constexpr int32_t kSoaRow = blob::kMaxVotesCap + kernels::kMeanShiftLanes;
-// Floor guess of the fast BPC caster: about kFloorSamples sampled pixels, at most twice that.
-constexpr int32_t kFloorSamples = 256;
+// Floor guess of the fast BPC caster: about kFloorSamples sampled pixels (at most twice that), their
+// weights counted per joint in kGuessBuckets buckets of 1/8 octave (float bits >> 20) from
+// 2^kGuessLowestExponent up; lighter weights (and 0) share bucket 0. Weights are ≤ 4096 (p ≤ 1,
+// z ≤ 65.535 m), so the top bucket is never exceeded.
+constexpr int32_t kFloorSamples = 512;
 constexpr int32_t kMaxFloorSamples = 2 * kFloorSamples;
+constexpr int32_t kGuessBuckets = 512;
+constexpr int32_t kGuessPrefetchAhead = 8;  // samples
+constexpr int32_t kGuessLowestKey = (127 + 13) * 8 - kGuessBuckets;  // (exponent + 127)·8 + top 3 mantissa bits
 
 // Everything init carves, in one place so required_arena_bytes and init agree.
 struct Layout {
@@ -69,7 +75,7 @@ struct Layout {
   float* modes;
   float* soa;                         // mean shift: x, y, z, weight rows of kSoaRow floats
   uint64_t* select_keys;              // vote cut: 2·kVoteSlots uint32 (weight bits, boundary tie keys)
-  float* samples;                     // floor guess: [kMaxJoints][kMaxFloorSamples] sampled weights
+  uint16_t* guess_hist;               // floor guess: [kMaxJoints][kGuessBuckets] sample counts
   blob::RuntimeConfig* config;
   kernels::PackedNode* packed_nodes;  // nullptr when the forest's offsets do not fit the packing
   uint16_t* joint_mass;               // BPC: per leaf record, Σ of its Q15 probabilities over each
@@ -104,7 +110,7 @@ bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int3
   l->modes = c.head<float>(size_t(blob::kMaxStartsCap) * 4);
   l->soa = c.head<float>(size_t(kSoaRow) * 4);
   l->select_keys = c.head<uint64_t>(size_t(kVoteSlots));
-  l->samples = c.head<float>(size_t(blob::kMaxJoints) * kMaxFloorSamples);
+  l->guess_hist = c.head<uint16_t>(size_t(blob::kMaxJoints) * kGuessBuckets);
   return c.ok();
 }
 
@@ -196,7 +202,7 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
   joint_mass_ = l.joint_mass;
   soa_ = l.soa;
   select_keys_ = l.select_keys;
-  samples_ = l.samples;
+  guess_hist_ = l.guess_hist;
   rebuild_joint_mass();
   if (packed_nodes_) {
     const size_t count = size_t(blob.tree_count()) * blob::nodes_per_tree(blob.depth());
@@ -275,21 +281,47 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   const int32_t w = f.width, h = f.height;
   const int32_t probe_stride = w + 2;
   kernels::fill_probe_border(probe_image_, w, h);
-  int32_t fg = 0;
+  // One pass writes the probe image, counts the foreground and lists it in raster order (what an
+  // unstrided frame evaluates); a frame over its pixel budget is listed again with a stride below.
+  // Eight pixels at a time: unsigned 16-bit range tests as min/max equalities (SSE4.1).
+  const int32_t pixel_cap = int32_t(cfg.max_evaluated_pixels) < max_pixels_ ? int32_t(cfg.max_evaluated_pixels) : max_pixels_;
+  int32_t fg = 0, listed = 0;
+  const __m128i zero = _mm_setzero_si128(), bg = _mm_set1_epi16(int16_t(kBackgroundDepthMm));
+  const __m128i below_bg = _mm_set1_epi16(int16_t(kBackgroundDepthMm - 1));
+  const __m128i near = _mm_set1_epi16(int16_t(cfg.near_mm)), far = _mm_set1_epi16(int16_t(cfg.far_mm));
   for (int32_t v = 0; v < h; ++v) {
     const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     const uint8_t* mrow = f.foreground_mask ? f.foreground_mask + size_t(v) * f.stride_px : nullptr;
     uint16_t* out = probe_image_ + size_t(v + 1) * probe_stride + 1;
-    for (int32_t u = 0; u < w; ++u) {
+    int32_t u = 0;
+    for (; u + 8 <= w; u += 8) {
+      const __m128i z = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + u));
+      __m128i in = _mm_andnot_si128(_mm_cmpeq_epi16(z, zero), _mm_cmpeq_epi16(_mm_min_epu16(z, below_bg), z));
+      if (mrow) {
+        const __m128i m = _mm_cvtepu8_epi16(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(mrow + u)));
+        in = _mm_andnot_si128(_mm_cmpeq_epi16(m, zero), in);
+      } else {
+        in = _mm_and_si128(in, _mm_and_si128(_mm_cmpeq_epi16(_mm_max_epu16(z, near), z),
+                                             _mm_cmpeq_epi16(_mm_min_epu16(z, far), z)));
+      }
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(out + u), _mm_blendv_epi8(bg, z, in));
+      uint32_t bits = uint32_t(_mm_movemask_epi8(_mm_packs_epi16(in, zero)));
+      fg += __builtin_popcount(bits);
+      for (; bits && listed < pixel_cap; bits &= bits - 1) {
+        const int32_t x = u + __builtin_ctz(bits);
+        pixels_[listed++] = EvaluatedPixel{uint16_t(x), uint16_t(v), row[x], 0};
+      }
+    }
+    for (; u < w; ++u) {
       const uint16_t z = row[u];
       const bool is_fg = z != 0 && z < kBackgroundDepthMm &&
                          (mrow ? mrow[u] != 0 : (z >= cfg.near_mm && z <= cfg.far_mm));
       out[u] = is_fg ? z : kBackgroundDepthMm;
       fg += is_fg;
+      if (is_fg && listed < pixel_cap) pixels_[listed++] = EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0};
     }
   }
   r->foreground_pixels = fg;
-  const int32_t pixel_cap = int32_t(cfg.max_evaluated_pixels) < max_pixels_ ? int32_t(cfg.max_evaluated_pixels) : max_pixels_;
   int32_t budget = pixel_cap;
   plan_budget(w * h, fg, pixel_cap, &budget, r);
   int32_t stride = 1;
@@ -298,14 +330,18 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
     r->flags |= kFlagPixelsStrided;
   }
   r->pixel_stride = stride;
-  int32_t n = 0, seen = 0;
-  for (int32_t v = 0; v < h && n < budget; ++v) {
-    const uint16_t* row = probe_image_ + size_t(v + 1) * probe_stride + 1;
-    for (int32_t u = 0; u < w; ++u) {
-      if (row[u] == kBackgroundDepthMm) continue;
-      if (seen++ % stride != 0) continue;
-      if (n >= budget) break;
-      pixels_[n++] = EvaluatedPixel{uint16_t(u), uint16_t(v), row[u], 0};
+  int32_t n = fg;
+  if (fg > budget) {
+    n = 0;
+    int32_t seen = 0;
+    for (int32_t v = 0; v < h && n < budget; ++v) {
+      const uint16_t* row = probe_image_ + size_t(v + 1) * probe_stride + 1;
+      for (int32_t u = 0; u < w; ++u) {
+        if (row[u] == kBackgroundDepthMm) continue;
+        if (seen++ % stride != 0) continue;
+        if (n >= budget) break;
+        pixels_[n++] = EvaluatedPixel{uint16_t(u), uint16_t(v), row[u], 0};
+      }
     }
   }
   evaluated_count_ = n;
@@ -667,35 +703,57 @@ bool Pipeline::finish_votes(int32_t cap) {
   return dropped;
 }
 
-// A guess of each joint's final floor: the weight that about 2·cap candidates reach, estimated on
-// every k-th pixel (k ≈ pixels / kFloorSamples). A guess may be wrong either way; too low costs
-// appends, too high is caught by cast_bpc_votes_fast's check and rescanned. −1 = no guess.
-void Pipeline::guess_bpc_floors(const DepthFrame& f, int32_t cap, float* floor) {
+// A guess of each joint's final floor: about the weight that 2·cap candidates reach, estimated on
+// every k-th pixel (k ≈ pixels / kFloorSamples) and rounded down to its 1/8-octave bucket. A guess
+// may be wrong either way; too low costs appends, too high is caught by cast_bpc_votes_fast's check
+// and rescanned. −1 = no guess.
+void Pipeline::guess_bpc_floors(int32_t cap, float* floor) {
   for (int j = 0; j < blob::kMaxJoints; ++j) floor[j] = -1.0f;
   const int trees = blob_.tree_count();
+  const int joints = blob_.meta->joint_count;
   const int32_t step = evaluated_count_ / kFloorSamples > 1 ? evaluated_count_ / kFloorSamples : 1;
   const int32_t rank = (2 * cap + step - 1) / step;  // sampled pixels at or above the guess
   if (rank >= evaluated_count_ / step / 2) return;   // nearly everything is kept: no guess
-  const float inv_total = 1.0f / (32768.0f * float(trees));
+  memset(guess_hist_, 0, sizeof(uint16_t) * blob::kMaxJoints * kGuessBuckets);
+  const __m128 inv_total = _mm_set1_ps(1.0f / (32768.0f * float(trees)));
+  const __m128i lowest = _mm_set1_epi32(kGuessLowestKey), highest = _mm_set1_epi32(kGuessLowestKey + kGuessBuckets - 1);
   int32_t taken = 0;
   for (int32_t i = 0; i < evaluated_count_ && taken < kMaxFloorSamples; i += step) {
     const EvaluatedPixel px = pixels_[i];
     if (skipped_by_user_filter(px)) continue;
-    uint32_t mass[blob::kMaxJoints] = {};
+    const int32_t ahead = i + kGuessPrefetchAhead * step;  // the rows are random reads beyond L1/L2
+    if (ahead < evaluated_count_)
+      for (int t = 0; t < trees; ++t)
+        _mm_prefetch(reinterpret_cast<const char*>(joint_mass_ + size_t(leaf_of(ahead, t)) * blob::kMaxJoints), _MM_HINT_T0);
+    __m128i acc[4] = {};
     for (int t = 0; t < trees; ++t) {
       const uint16_t* m = joint_mass_ + size_t(leaf_of(i, t)) * blob::kMaxJoints;
-      for (int j = 0; j < blob::kMaxJoints; ++j) mass[j] += m[j];
+      const __m128i lo = _mm_loadu_si128(reinterpret_cast<const __m128i*>(m));
+      const __m128i hi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(m + 8));
+      acc[0] = _mm_add_epi32(acc[0], _mm_cvtepu16_epi32(lo));
+      acc[1] = _mm_add_epi32(acc[1], _mm_cvtepu16_epi32(_mm_srli_si128(lo, 8)));
+      acc[2] = _mm_add_epi32(acc[2], _mm_cvtepu16_epi32(hi));
+      acc[3] = _mm_add_epi32(acc[3], _mm_cvtepu16_epi32(_mm_srli_si128(hi, 8)));
     }
-    const float z = float(px.z_mm) * 0.001f;
-    for (int j = 0; j < blob::kMaxJoints; ++j) samples_[j * kMaxFloorSamples + taken] = float(mass[j]) * inv_total * z * z;
+    const __m128 z = _mm_set1_ps(float(px.z_mm) * 0.001f);
+    alignas(16) int32_t key[blob::kMaxJoints];
+    for (int g = 0; g < 4; ++g) {
+      const __m128 w = _mm_mul_ps(_mm_mul_ps(_mm_mul_ps(_mm_cvtepi32_ps(acc[g]), inv_total), z), z);
+      const __m128i k = _mm_min_epi32(_mm_max_epi32(_mm_srli_epi32(_mm_castps_si128(w), 20), lowest), highest);
+      _mm_store_si128(reinterpret_cast<__m128i*>(key + 4 * g), _mm_sub_epi32(k, lowest));
+    }
+    for (int j = 0; j < joints; ++j) ++guess_hist_[j * kGuessBuckets + key[j]];
     ++taken;
   }
-  (void)f;
   if (rank >= taken) return;
-  for (int j = 0; j < blob_.meta->joint_count; ++j) {
-    float* s = samples_ + j * kMaxFloorSamples;
-    std::nth_element(s, s + (rank - 1), s + taken, [](float a, float b) { return a > b; });
-    floor[j] = s[rank - 1];
+  for (int j = 0; j < joints; ++j) {
+    const uint16_t* h = guess_hist_ + j * kGuessBuckets;
+    int32_t above = 0, b = kGuessBuckets - 1;
+    for (; b > 0; --b)
+      if ((above += h[b]) >= rank) break;
+    if (b == 0) continue;  // the rank falls among the lightest weights: no guess
+    const uint32_t bits = uint32_t(b + kGuessLowestKey) << 20;  // the bucket's lower edge
+    memcpy(&floor[j], &bits, sizeof bits);
   }
 }
 
@@ -717,7 +775,7 @@ void Pipeline::cast_bpc_votes_fast(const DepthFrame& f, FrameResult* r) {
     push_back_m[j] = float(cfg.joints[j].push_back_mm) * 0.001f;
     start_threshold[j] = uint32_t(cfg.joints[j].prob_threshold_q15) * uint32_t(trees);
   }
-  guess_bpc_floors(f, cap, floor);
+  guess_bpc_floors(cap, floor);
   kernels::BpcScanArgs a{pixels_, evaluated_count_, leaves_, max_pixels_, trees, joint_mass_,
                          1.0f / (32768.0f * float(trees)), f.intrinsics.cx, f.intrinsics.cy,
                          1.0f / f.intrinsics.fx, 1.0f / f.intrinsics.fy, push_back_m, start_threshold, floor,

@@ -657,3 +657,45 @@ TEST(VoteCastingExactness, BpcFloorGuessTooHighIsRescanned) {
     }
   }
 }
+
+// Stage 1 (foreground, eight pixels at a time) lists exactly the pixels of its definition: depth
+// nonzero, below kBackgroundDepthMm, and in [near, far] or nonzero in the mask; raster order;
+// every stride-th one when over budget. Odd widths (scalar tail), depths at and above the background
+// value, and a strided frame.
+TEST(ForegroundStage, ListsTheDefinedPixels) {
+  std::mt19937_64 rng(8);
+  for (int trial = 0; trial < 6; ++trial) {
+    const int w = trial % 2 ? 317 : 320, h = 237;
+    blob::BlobContents c = random_bpc_joints(9, 4, 64);
+    c.config.near_mm = uint16_t(500 + trial * 100);
+    c.config.far_mm = uint16_t(3000 + trial * 300);
+    const int32_t budget = trial == 5 ? 5000 : 320 * 240;  // trial 5 is strided
+    c.config.max_evaluated_pixels = uint32_t(budget);
+    Runner r(blob::write_blob(c), 320, 240);
+    std::vector<uint16_t> depth(size_t(w + 3) * h);
+    std::vector<uint8_t> mask(depth.size());
+    const uint16_t special[] = {0, 1, kBackgroundDepthMm - 1, kBackgroundDepthMm, kBackgroundDepthMm + 1, 65535,
+                                c.config.near_mm, uint16_t(c.config.near_mm - 1), c.config.far_mm, uint16_t(c.config.far_mm + 1)};
+    for (auto& d : depth) d = rng() % 4 == 0 ? special[rng() % 10] : uint16_t(rng() % 6000);
+    for (auto& m : mask) m = uint8_t(rng() % 3 == 0 ? 0 : rng() % 5);
+    const bool use_mask = trial >= 3;
+    DepthFrame f{depth.data(), w, h, w + 3, tools::kinect_intrinsics(w, h), use_mask ? mask.data() : nullptr};
+    std::vector<EvaluatedPixel> expect;
+    for (int v = 0; v < h; ++v)
+      for (int u = 0; u < w; ++u) {
+        const uint16_t z = depth[size_t(v) * (w + 3) + u];
+        const bool in = z != 0 && z < kBackgroundDepthMm &&
+                        (use_mask ? mask[size_t(v) * (w + 3) + u] != 0 : z >= c.config.near_mm && z <= c.config.far_mm);
+        if (in) expect.push_back(EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0});
+      }
+    FrameResult res{};
+    ASSERT_EQ(r.pipeline.process(f, &res), Status::kOk);
+    EXPECT_EQ(res.foreground_pixels, int32_t(expect.size())) << trial;
+    const int32_t stride = res.pixel_stride;
+    EXPECT_EQ(stride > 1, trial == 5) << trial;
+    std::vector<EvaluatedPixel> strided;
+    for (size_t i = 0; i < expect.size() && int32_t(strided.size()) < budget; i += size_t(stride)) strided.push_back(expect[i]);
+    ASSERT_EQ(r.pipeline.evaluated_pixel_count(), int32_t(strided.size())) << trial;
+    EXPECT_EQ(0, std::memcmp(r.pipeline.evaluated_pixels(), strided.data(), strided.size() * sizeof(EvaluatedPixel))) << trial;
+  }
+}

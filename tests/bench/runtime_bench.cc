@@ -257,6 +257,8 @@ int main(int argc, char** argv) {
   const bool kernels_only = argc > 1 && std::string(argv[1]) == "--kernels-only";
   // --only=A,B: the end-to-end rows whose label contains A or B, nothing else, no json (quick A/B runs).
   const std::string only = argc > 1 && std::string(argv[1]).rfind("--only=", 0) == 0 ? std::string(argv[1]).substr(7) : "";
+  // --rounds=N after --only=: N timed rounds of the SIMD path (default 5), e.g. to profile it.
+  const int simd_rounds = argc > 2 && std::string(argv[2]).rfind("--rounds=", 0) == 0 ? std::atoi(argv[2] + 9) : 5;
   std::printf("runtime bench: kernels %s/%s/%s available: %d/%d/%d\n", kernel_isa_name(KernelIsa::kScalar),
               kernel_isa_name(KernelIsa::kAvx2), kernel_isa_name(KernelIsa::kAvx512), 1,
               int(kernel_isa_supported(KernelIsa::kAvx2)), int(kernel_isa_supported(KernelIsa::kAvx512)));
@@ -339,7 +341,7 @@ int main(int argc, char** argv) {
       if (!match) continue;
     }
     e.scalar = end_to_end(*e.r, KernelIsa::kScalar, *e.frames, 2);
-    e.best = end_to_end(*e.r, KernelIsa::kBest, *e.frames, 5);
+    e.best = end_to_end(*e.r, KernelIsa::kBest, *e.frames, simd_rounds);
     print_end_to_end(e.label, e.scalar, e.best);
   }
   std::printf("\narena bytes: BPC 640x480 %zu (%zu used), 320x240 %zu; OJR 640x480 %zu\n", bpc_vga.arena_bytes,
