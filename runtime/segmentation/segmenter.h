@@ -294,6 +294,8 @@ class Segmenter {
   // cut: also the relaxed tests for components cut by the image border.
   bool passes_person_test(const DepthFrame& frame, const Candidate& candidate, bool cut = true) const;
   void merge_fragments(const DepthFrame& frame, int32_t candidate_count);
+  bool in_front_of_a_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* mean_z,
+                          const bool* passes) const;
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
   void update_background(const DepthFrame& frame, const uint8_t* labels, const SegmentationResult* result);
 };
