@@ -415,3 +415,22 @@ TEST(SegmentationCut, ALegOfSomeoneHiddenBehindSomeoneElseJoinsThem) {
   EXPECT_GE(count_pixels(h.labels, f, uint8_t(id2), 2), int(0.9 * truth_pixels(f, 2)))
       << "strip " << strip << " leg " << leg;
 }
+
+// An arm held out towards the camera, cut off from the body by the depth jump and crossed by a bar
+// nearer still (which gives it hidden edges): a piece smaller than the person area, high enough,
+// overlapping its body in the image and nearer than it. It passes only as someone mostly hidden,
+// but someone hidden behind the body would be farther than the body: no second user.
+TEST(SegmentationCut, AnArmInFrontOfItsBodyIsNoHiddenPerson) {
+  tools::Scene s;
+  s.camera.height_m = 1.3f;
+  s.camera.pitch_deg = 10.0f;
+  s.cylinders.push_back(person_at(0.0f, 3.0f, 1));
+  s.boxes.push_back({0.12f, 0.42f, 1.12f, 1.3f, 2.3f, 2.45f, 1});  // the forearm and hand
+  s.boxes.push_back({0.22f, 2.6f, 1.15f, 1.19f, 1.5f, 1.55f, 0});  // a bar, wider than a person
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  EXPECT_EQ(h.result.user_count, 1) << "the arm is a user of its own";
+  EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.8 * truth_pixels(f, 1)));
+}

@@ -925,6 +925,31 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
       candidates_[k].owner = candidates_[candidates_[k].owner].owner;
 }
 
+// A component that passes only as someone mostly hidden (too small otherwise, hidden edges, high
+// enough) while its image box overlaps a user's (or a component's about to be one) and it is nearer
+// than that user: it is not hidden by
+// that user but in front of them, and what is in front of a body and overlapping it in the image is
+// mostly that body's own arm or hand cut off by a depth jump (on seeds 15-18: 4 false users). Someone
+// hidden behind a user is farther than the user.
+bool Segmenter::in_front_of_a_user(const DepthFrame& f, int32_t n, int32_t k, const float* cz, const bool* strict) const {
+  const SegmenterConfig& cfg = *config_;
+  const Candidate& c = candidates_[k];
+  if (cfg.hidden_area_fraction <= 0.0f || c.hidden_edge < cfg.hidden_min_edge) return false;
+  const float need = cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (cz[k] * cz[k]);
+  if (float(c.pixels) >= need || passes_person_test(f, c, false)) return false;
+  // Passing as cut by the bottom border (head and shoulders of someone close) is another matter.
+  if (cfg.cut_bottom_area_fraction > 0.0f && c.v_max == f.height - 1 && floor_->valid != 0 &&
+      c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.cut_bottom_area_fraction * need)
+    return false;
+  for (int32_t m = 0; m < n; ++m) {
+    const Candidate& u = candidates_[m];
+    if (m == k || (u.user == 0 && !strict[m]) || u.pixels == 0 || cz[m] <= cz[k]) continue;
+    if (u.u_max < c.u_min || c.u_max < u.u_min || u.v_max < c.v_min || c.v_max < u.v_min) continue;
+    return true;
+  }
+  return false;
+}
+
 void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult* r) {
   const SegmenterConfig& cfg = *config_;
   merge_fragments(f, n);
@@ -977,6 +1002,10 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
       if (strict[k] && !candidates_[k].user && (best_k < 0 || candidates_[k].pixels > candidates_[best_k].pixels))
         best_k = k;
     if (best_k < 0) break;
+    if (in_front_of_a_user(f, n, best_k, cz, strict)) {  // a limb reaching out, not someone hidden
+      strict[best_k] = false;
+      continue;
+    }
     int32_t slot = -1;
     for (int32_t t = 0; t < cfg.max_users && slot < 0; ++t)
       if (!tracks_[t].active) slot = t;

@@ -67,7 +67,11 @@ struct SegmenterConfig {
   // its inliers span at least floor_wide_extent_m (furniture tops are smaller). (0, min_inlier_fraction]
   float floor_wide_inlier_fraction = 0.05f;
   float floor_wide_extent_m = 3.0f;     // ≥ floor_min_extent_m
-  float camera_height_min_m = 0.15f;    // camera above the floor, 0 < min < max
+  // Camera above the floor, 0 < min < max. A Kinect stands 0.6–1.8 m high for skeleton tracking;
+  // planes 0.15–0.4 m below the camera were mostly not the floor but slants across box faces and
+  // the floor (on seeds 12, 16 and 18 they lost people and made false users), hence 0.4 (it was
+  // 0.15): a camera lower than that finds no floor.
+  float camera_height_min_m = 0.4f;
   float camera_height_max_m = 5.0f;
   int32_t floor_keep_frames = 15;       // a plane not found again is kept this many frames, ≥ 0
 
@@ -294,6 +298,8 @@ class Segmenter {
   // cut: also the relaxed tests for components cut by the image border.
   bool passes_person_test(const DepthFrame& frame, const Candidate& candidate, bool cut = true) const;
   void merge_fragments(const DepthFrame& frame, int32_t candidate_count);
+  bool in_front_of_a_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* mean_z,
+                          const bool* passes) const;
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
   void update_background(const DepthFrame& frame, const uint8_t* labels, const SegmentationResult* result);
 };
