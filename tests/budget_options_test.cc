@@ -127,6 +127,8 @@ TEST(BudgetOptions, RunAppliesTheOverridePerFrame) {
     EXPECT_NE(std::find(flags.begin(), flags.end(), "pixels_strided"), flags.end()) << flags.dump();
   }
   EXPECT_EQ(cut.summary.degraded, 3);
+  // Reaching the top-N caps (Nsub, starts, proposals) is normal operation, not a degradation.
+  EXPECT_EQ(full.summary.degraded, 0);
 
   // The cycle budget's flags are named in the JSON (they printed "unknown_flag" before).
   o.budget = BudgetOverrides{};
@@ -138,6 +140,7 @@ TEST(BudgetOptions, RunAppliesTheOverridePerFrame) {
     EXPECT_NE(std::find(flags.begin(), flags.end(), name), flags.end()) << name << " in " << flags.dump();
   EXPECT_EQ(std::find(flags.begin(), flags.end(), "unknown_flag"), flags.end()) << flags.dump();
   EXPECT_EQ(tight.summary.overruns, 3);
+  EXPECT_EQ(tight.summary.degraded, 3);  // the cycle budget cut votes, starts and iterations
 }
 
 TEST(BudgetOptions, EveryFrameFlagHasItsOwnName) {

@@ -462,8 +462,10 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
     }
     times.add(ms);
     if (result->flags & kFlagOverCycleBudget) ++summary.overruns;
-    if (result->flags & (kFlagPixelsStrided | kFlagVotesTruncated | kFlagStartsTruncated | kFlagProposalsTruncated))
+    if (result->flags & (kFlagPixelsStrided | kFlagBudgetPixels | kFlagBudgetVotes | kFlagBudgetStarts |
+                         kFlagBudgetIterations | kFlagBudgetInfeasible))
       ++summary.degraded;
+    if (result->flags & (kFlagVotesTruncated | kFlagStartsTruncated | kFlagProposalsTruncated)) ++summary.capped;
     if (segment) {
       summary.user_frames += seg_result->user_count;
       summary.max_users_in_frame = std::max(summary.max_users_in_frame, int(seg_result->user_count));
@@ -511,11 +513,11 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   summary.reconnects = st.reconnects;
   std::fprintf(log,
                "summary: %lld frames processed (%lld read, %lld skipped by --every) in %.2f s = %.1f frames/s; "
-               "frame time p50 %.3f ms p99 %.3f ms max %.3f ms; budget overruns %lld, degraded %lld; "
+               "frame time p50 %.3f ms p99 %.3f ms max %.3f ms; budget overruns %lld, degraded %lld, top-N capped %lld; "
                "dropped %lld, corrupt %lld; device lost %lld, reconnects %lld\n",
                (long long)summary.frames_processed, (long long)summary.frames_read, (long long)summary.skipped_by_every,
                summary.seconds, summary.fps, summary.p50_ms, summary.p99_ms, summary.max_ms, (long long)summary.overruns,
-               (long long)summary.degraded, (long long)summary.dropped, (long long)summary.corrupt,
+               (long long)summary.degraded, (long long)summary.capped, (long long)summary.dropped, (long long)summary.corrupt,
                (long long)summary.device_lost, (long long)summary.reconnects);
   if (segment)
     std::fprintf(log, "segmentation: %.2f users per frame on average, at most %d in a frame, %d distinct ids\n",

@@ -75,7 +75,10 @@ struct RunSummary {
   int64_t dropped = 0;            // --realtime drops + frames the live device produced unread
   int64_t corrupt = 0;            // skipped by the source
   int64_t overruns = 0;           // frames flagged kFlagOverCycleBudget
-  int64_t degraded = 0;           // frames with any other budget flag (strided, truncated)
+  int64_t degraded = 0;           // frames that did less work than the config asks: pixels strided
+                                  // (pixel budget) or any kFlagBudget* flag (cycle budget)
+  int64_t capped = 0;             // frames where a top-N cap applied (votes above Nsub, starts,
+                                  // proposals): the method's normal operation, not a degradation
   int64_t device_lost = 0, reconnects = 0;
   double seconds = 0, fps = 0;    // wall time of the loop; processed frames per second
   double p50_ms = 0, p99_ms = 0, max_ms = 0;  // process() time per frame
