@@ -14,6 +14,7 @@
 // trees ≤ kMaxTrees (validated at blob load). No allocation.
 #pragma once
 #include <stdint.h>
+#include <xmmintrin.h>
 
 #include "runtime/depthpose.h"
 
@@ -74,6 +75,18 @@ inline void append_bpc_survivors(const BpcScanArgs& a, int32_t i, const Evaluate
         Vote{x, y, z + a.push_back_m[j], w[j], uint32_t(i), mass[j] > a.start_threshold[j] ? 1u : 0u};
     if (n == a.slots) a.floor[j] = a.on_full(a.ctx, j);
   }
+}
+
+// Pixel i's joint-mass row in tree t (kMaxJoints Q15 masses).
+inline const uint16_t* mass_row(const BpcScanArgs& a, int t, int32_t i) {
+  return a.joint_mass + size_t(a.leaves[size_t(t) * a.leaf_stride + i]) * kMaxJoints;
+}
+
+// The rows are random reads beyond L1: fetch those of the pixel kVotePrefetchAhead on.
+inline void prefetch_mass_rows_ahead(const BpcScanArgs& a, int32_t i) {
+  if (i + kVotePrefetchAhead < a.count)
+    for (int t = 0; t < a.trees; ++t)
+      _mm_prefetch(reinterpret_cast<const char*>(mass_row(a, t, i + kVotePrefetchAhead)), _MM_HINT_T0);
 }
 
 inline bool skipped(const BpcScanArgs& a, const EvaluatedPixel& px) {

@@ -15,13 +15,10 @@ void bpc_scan(const BpcScanArgs& a) {
   for (int32_t i = 0; i < a.count; ++i) {
     const EvaluatedPixel px = a.pixels[i];
     if (skipped(a, px)) continue;
-    if (i + kVotePrefetchAhead < a.count)
-      for (int t = 0; t < a.trees; ++t)
-        _mm_prefetch(reinterpret_cast<const char*>(a.joint_mass + size_t(a.leaves[size_t(t) * a.leaf_stride + i + kVotePrefetchAhead]) *
-                                                                       kMaxJoints), _MM_HINT_T0);
+    prefetch_mass_rows_ahead(a, i);
     __m256i acc[2] = {zero, zero};
     for (int t = 0; t < a.trees; ++t) {
-      const uint16_t* m = a.joint_mass + size_t(a.leaves[size_t(t) * a.leaf_stride + i]) * kMaxJoints;
+      const uint16_t* m = mass_row(a, t, i);
       acc[0] = _mm256_add_epi32(acc[0], _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(m))));
       acc[1] = _mm256_add_epi32(acc[1], _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(m + 8))));
     }

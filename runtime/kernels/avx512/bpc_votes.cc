@@ -19,13 +19,10 @@ void bpc_scan(const BpcScanArgs& a) {
   for (int32_t i = 0; i < a.count; ++i) {
     const EvaluatedPixel px = a.pixels[i];
     if (skipped(a, px)) continue;
-    if (i + kVotePrefetchAhead < a.count)
-      for (int t = 0; t < a.trees; ++t)
-        _mm_prefetch(reinterpret_cast<const char*>(a.joint_mass + size_t(a.leaves[size_t(t) * a.leaf_stride + i + kVotePrefetchAhead]) *
-                                                                       kMaxJoints), _MM_HINT_T0);
+    prefetch_mass_rows_ahead(a, i);
     __m512i acc = _mm512_setzero_si512();
     for (int t = 0; t < a.trees; ++t) {
-      const uint16_t* m = a.joint_mass + size_t(a.leaves[size_t(t) * a.leaf_stride + i]) * kMaxJoints;
+      const uint16_t* m = mass_row(a, t, i);
       acc = _mm512_add_epi32(acc, _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(m))));
     }
     const float z = float(px.z_mm) * 0.001f;
