@@ -193,6 +193,53 @@ TEST(KernelExactness, KernelsAgreeOnBothLayoutsDirectly) {
     }
 }
 
+TEST(KernelExactness, EveryPixelCountAndEveryImageEdge) {
+  // The AVX-512 kernel steps 8 pixels at a time (padding the last step with copies) and clamps
+  // probes as unsigned, sending probes off the left or top edge to the far border: every count
+  // 1..19 and pixels on all four edges and corners, with offsets that leave the image on every side.
+  const blob::BlobContents c = tools::random_bpc_forest(13, 2, 12, 8, 40, 400);  // probes land just off the edges
+  const std::vector<uint8_t> bytes = blob::write_blob(c);
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+  SyntheticFrame f = noisy_frame(21, 64, 48);
+  std::mt19937_64 rng(22);
+  std::uniform_int_distribution<int> depth(400, 4000);
+  for (auto& d : f.depth_mm) d = uint16_t(depth(rng));  // readings up to every edge
+  std::vector<uint16_t> probe;
+  std::vector<EvaluatedPixel> all;
+  kernel_input(f, &probe, &all);
+  std::vector<EvaluatedPixel> edge;
+  for (const EvaluatedPixel& p : all)
+    if (p.u == 0 || p.v == 0 || p.u == f.width - 1 || p.v == f.height - 1) edge.push_back(p);
+  ASSERT_GE(edge.size(), 19u);
+  const size_t per_tree = blob::nodes_per_tree(b.depth());
+  std::vector<kernels::PackedNode> packed;
+  for (size_t i = 0; i < 2 * per_tree; ++i) packed.push_back(kernels::pack_node(b.nodes[i]));
+  for (int32_t n = 1; n <= 19; ++n) {
+    std::vector<EvaluatedPixel> pixels(edge.begin(), edge.begin() + n);
+    pixels[0] = EvaluatedPixel{0, 0, 700, 0};  // a near corner pixel: large probe offsets
+    if (n > 1) pixels[1] = EvaluatedPixel{uint16_t(f.width - 1), uint16_t(f.height - 1), 650, 0};
+    auto run = [&](KernelIsa isa, bool use_packed) {
+      std::vector<std::vector<uint32_t>> out(2, std::vector<uint32_t>(size_t(n), 0xFFFFFFFFu));
+      kernels::ForestKernelArgs a[2];
+      for (int t = 0; t < 2; ++t)
+        a[t] = kernels::ForestKernelArgs{probe.data(), f.width + 2, f.width, f.height, focal_factor_mm(525.0f, 525.0f),
+                                         pixels.data(), n, b.tree_nodes(t),
+                                         use_packed ? packed.data() + t * per_tree : nullptr, b.tree_leaf_index(t),
+                                         b.depth(), out[size_t(t)].data()};
+      kernels::forest_trees_kernel(isa)(a, 2);
+      return out;
+    };
+    const auto ref = run(KernelIsa::kScalar, false);
+    for (KernelIsa isa : kSimdIsas)
+      for (bool use_packed : {false, true}) {
+        if (!kernel_isa_supported(isa)) continue;
+        EXPECT_EQ(run(isa, use_packed), ref) << kernel_isa_name(isa) << (use_packed ? " packed" : " blob nodes")
+                                             << " pixels " << n;
+      }
+  }
+}
+
 TEST(KernelExactness, AllTreesInOneCallEqualOneCallPerTree) {
   // evaluate_trees shares each chunk's setup between trees; every tree's leaves must still equal the
   // reference's, whatever the layout of each tree and across chunk boundaries (> 2048 pixels).

@@ -2,9 +2,11 @@
 // once each, compiled with their ISA flags). Everything here has internal linkage, so the two
 // compilations never mix. Same results as ref/forest_eval.cc bit for bit; the exactness argument:
 //   probe offset  (δ·s + 4096) >> 13  ==  pmulhrsw(4δ, s) = (4δ·s + 2^14) >> 15   (|4δ| ≤ 16384)
-//   off-image     coordinates clamped to [−1, width] × [−1, height] land on the padded border,
-//                 which holds kBackgroundDepthMm — the value the rule gives any off-image probe;
-//                 |u + offset| ≤ 4095 + 4·4096 keeps every coordinate inside int16.
+//   off-image     padded coordinates (u + 1 + offset, v + 1 + offset) are clamped as unsigned int16 to
+//                 [0, width + 1] × [0, height + 1]: a negative coordinate wraps above 32767 and
+//                 clamps to the far border. Every border pixel holds kBackgroundDepthMm — the value
+//                 the rule gives any off-image probe, on whichever side it left the image;
+//                 |u + 1 + offset| ≤ 4096 + 16384 keeps every coordinate inside int16.
 //   address       (v + 1)·stride + (u + 1) by pmaddwd, stride ≤ 4098.
 // Speed (docs/runtime_speed.md): pixels are evaluated breadth-first, one tree level at a time over
 // a chunk of pixels, so the visits of a level are independent and their node fetches overlap;
@@ -26,9 +28,10 @@ constexpr int32_t kPrefetchFromLevel = 6;  // levels above fit in L1/L2: no pref
 
 // Per pixel of a chunk, kept in two arrays so the setups of two neighbouring pixels are one 16-byte
 // load: scale_q13 (s in 4 int16 lanes) and origin (u + 1, v + 1, u + 1, v + 1, padded coordinates).
+// 64-byte aligned: the AVX-512 kernel reads 8 pixels' setups (one cache line) at a time.
 struct ChunkSetup {
-  alignas(16) int16_t scale_q13[kChunkPixels][4];
-  alignas(16) int16_t origin[kChunkPixels][4];
+  alignas(64) int16_t scale_q13[kChunkPixels][4];
+  alignas(64) int16_t origin[kChunkPixels][4];
 };
 
 inline int32_t scale_q13_of(int32_t focal_factor, int32_t z_mm) {  // = dp::scale_q13
@@ -37,7 +40,7 @@ inline int32_t scale_q13_of(int32_t focal_factor, int32_t z_mm) {  // = dp::scal
 }
 
 struct Consts {
-  __m128i low, high, row_madd, lane_mask;
+  __m128i high, row_madd, lane_mask;
 };
 
 template <bool kPacked>
@@ -69,7 +72,7 @@ inline void visit_pair(const ForestKernelArgs& a, uint32_t* node, const ChunkSet
   const __m128i off4 = load_offsets4<kPacked>(a, n0, n1, &t0, &t1, c);
   __m128i xy = _mm_mulhrs_epi16(off4, _mm_load_si128(reinterpret_cast<const __m128i*>(setup.scale_q13[i])));
   xy = _mm_add_epi16(xy, _mm_load_si128(reinterpret_cast<const __m128i*>(setup.origin[i])));
-  xy = _mm_min_epi16(_mm_max_epi16(xy, c.low), c.high);
+  xy = _mm_min_epu16(xy, c.high);  // unsigned: negative coordinates clamp to the far border
   const __m128i addr = _mm_madd_epi16(xy, c.row_madd);
   const uint64_t a0 = uint64_t(_mm_cvtsi128_si64(addr));
   const uint64_t a1 = uint64_t(_mm_extract_epi64(addr, 1));
@@ -109,23 +112,29 @@ void evaluate_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, const Co
   for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - first_leaf];
 }
 
+// A chunk evaluator for packed nodes that an ISA file may supply instead of the pair loop:
+// same contract as evaluate_chunk<true>; `padded` (a multiple of kPixelsPerStep) setups are filled.
+using PackedChunkFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,
+                               int32_t count, int32_t padded);
+
 // Every tree over the same pixels, chunk by chunk: a chunk's per-pixel setup (a division per pixel)
-// is made once for all trees, then each tree runs its levels over it.
-inline void evaluate_trees_simd(const ForestKernelArgs* per_tree, int32_t tree_count) {
+// is made once for all trees, then each tree runs its levels over it. A chunk is padded to a
+// multiple of kPixelsPerStep with copies of its last pixel, whose results are discarded.
+template <int32_t kPixelsPerStep = 2>
+inline void evaluate_trees_simd(const ForestKernelArgs* per_tree, int32_t tree_count, PackedChunkFn packed_chunk = nullptr) {
+  static_assert(kPixelsPerStep % 2 == 0 && kChunkPixels % kPixelsPerStep == 0, "steps tile the chunk");
   if (tree_count <= 0) return;
   const ForestKernelArgs& a = per_tree[0];
   ChunkSetup setup;
   Consts c;
-  c.low = _mm_setzero_si128();
   const int16_t w1 = int16_t(a.width + 1), h1 = int16_t(a.height + 1), st = int16_t(a.probe_stride);
   c.high = _mm_setr_epi16(w1, h1, w1, h1, w1, h1, w1, h1);
   c.row_madd = _mm_setr_epi16(1, st, 1, st, 1, st, 1, st);
   c.lane_mask = _mm_set1_epi16(int16_t(0xFFF0));
-  uint32_t node[kChunkPixels];
+  alignas(64) uint32_t node[kChunkPixels];
   for (int32_t base = 0; base < a.pixel_count; base += kChunkPixels) {
     const int32_t count = a.pixel_count - base < kChunkPixels ? a.pixel_count - base : kChunkPixels;
-    // An odd chunk gets one padding pixel (a copy of the last) whose result is discarded.
-    const int32_t even = (count + 1) & ~1;
+    const int32_t even = (count + kPixelsPerStep - 1) / kPixelsPerStep * kPixelsPerStep;
     for (int32_t i = 0; i < even; ++i) {
       const EvaluatedPixel px = a.pixels[base + (i < count ? i : count - 1)];
       const int16_t s = int16_t(scale_q13_of(a.focal_factor, px.z_mm));
@@ -135,7 +144,9 @@ inline void evaluate_trees_simd(const ForestKernelArgs* per_tree, int32_t tree_c
       setup.origin[i][1] = setup.origin[i][3] = v;
     }
     for (int32_t t = 0; t < tree_count; ++t) {
-      if (per_tree[t].packed_nodes)
+      if (per_tree[t].packed_nodes && packed_chunk)
+        packed_chunk(per_tree[t], setup, node, base, count, even);
+      else if (per_tree[t].packed_nodes)
         evaluate_chunk<true>(per_tree[t], setup, c, node, base, count, even);
       else
         evaluate_chunk<false>(per_tree[t], setup, c, node, base, count, even);
