@@ -117,6 +117,23 @@ void evaluate_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, const Co
 using PackedChunkFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,
                                int32_t count, int32_t padded);
 
+// The levels of one tree over a chunk, for an ISA file's packed-node level pass (one pass over
+// `padded` pixels, prefetching each chosen child when kPrefetchChildren); a PackedChunkFn.
+using LevelFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t padded);
+template <LevelFn kLevel, LevelFn kLevelPrefetchingChildren>
+void evaluate_chunk_by_levels(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,
+                              int32_t count, int32_t padded) {
+  for (int32_t i = 0; i < padded; ++i) node[i] = 0;
+  for (int32_t level = 0; level < a.depth; ++level) {
+    if (level + 1 >= kPrefetchFromLevel && level + 1 < a.depth)
+      kLevelPrefetchingChildren(a, setup, node, padded);
+    else
+      kLevel(a, setup, node, padded);
+  }
+  const uint32_t first_leaf = (1u << a.depth) - 1;
+  for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - first_leaf];
+}
+
 // Every tree over the same pixels, chunk by chunk: a chunk's per-pixel setup (a division per pixel)
 // is made once for all trees, then each tree runs its levels over it. A chunk is padded to a
 // multiple of kPixelsPerStep with copies of its last pixel, whose results are discarded.

@@ -65,23 +65,12 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
 
 #pragma GCC diagnostic pop
 
-void evaluate_packed_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,
-                           int32_t count, int32_t padded) {
-  for (int32_t i = 0; i < padded; ++i) node[i] = 0;
-  for (int32_t level = 0; level < a.depth; ++level) {
-    if (level + 1 >= kPrefetchFromLevel && level + 1 < a.depth)
-      level_of_chunk<true>(a, setup, node, padded);
-    else
-      level_of_chunk<false>(a, setup, node, padded);
-  }
-  const uint32_t first_leaf = (1u << a.depth) - 1;
-  for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - first_leaf];
-}
+constexpr PackedChunkFn kPackedChunk = &evaluate_chunk_by_levels<&level_of_chunk<false>, &level_of_chunk<true>>;
 
 }  // namespace
 
-void evaluate_tree(const ForestKernelArgs& args) { evaluate_trees_simd<8>(&args, 1, &evaluate_packed_chunk); }
+void evaluate_tree(const ForestKernelArgs& args) { evaluate_trees_simd<8>(&args, 1, kPackedChunk); }
 void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count) {
-  evaluate_trees_simd<8>(per_tree, tree_count, &evaluate_packed_chunk);
+  evaluate_trees_simd<8>(per_tree, tree_count, kPackedChunk);
 }
 }  // namespace dp::kernels::avx512
