@@ -89,9 +89,11 @@ bool use_joint_mass(const blob::LoadedBlob& b) {
   return b.method() == blob::Method::kBpc && b.meta->leaf_count <= kMaxJointMassLeaves;
 }
 
-// Measured in docs/runtime_speed.md: the packed 8-byte nodes cost more decode work than they save in
-// cache misses with the current kernels, so the pipeline evaluates the blob's nodes in place.
-constexpr bool kUsePackedNodes = false;
+// The SIMD kernels decode packed 8-byte nodes' thresholds in vector lanes, shared by 4 or 8 pixels,
+// where blob nodes need a scalar threshold load per visit from a 10-byte node: packed is 7-16 %
+// faster (docs/runtime_speed.md), for an arena copy of 8 bytes per node (shipped BPC: 1.6 MB;
+// PCL's depth-20 trees: 25 MB). Forests with offsets beyond the packing run on the blob's nodes.
+constexpr bool kUsePackedNodes = true;
 bool packable(const blob::LoadedBlob& b) {
   return kUsePackedNodes && int32_t(b.meta->max_abs_offset_pxm) <= kernels::kPackedMaxOffset;
 }

@@ -1,18 +1,12 @@
-// AVX2 (+BMI2) forest kernel. Bit-exact with ref/forest_eval.cc: the probe arithmetic is the
-// shared one (forest_eval_simd.h, whose header states why it is exact), done on 4 pixels per
-// 256-bit register for packed nodes; unpacked nodes use the shared pair loop. Gathers stay out:
-// they are slow on Zen 4 (docs/runtime_speed.md).
-//
-// Why 4 pixels per register: the same reasons, and the same shape, as the AVX-512 kernel's 8
-// (avx512/forest_eval.cc): nodes loaded straight into vector lanes, thresholds by one madd shared by
-// the register's pixels, addresses back by lane extracts, fewer ops and loads per visit in the
-// core's window; measured ~10 % faster than the pair loop side by side.
+// AVX2 (+BMI2) forest kernel: 4 pixels per 256-bit register, breadth-first; the AVX-512 kernel's
+// shape (avx512/forest_eval.cc says why) on half the width. Bit-exact with ref/forest_eval.cc by
+// the probe arithmetic stated in forest_eval_simd.h. No gathers: they are slow on Zen 4.
 #include "runtime/kernels/forest_eval_simd.h"
 
 namespace dp::kernels::avx2 {
 namespace {
 
-template <bool kPrefetchChildren>
+template <bool kPrefetchChildren, bool kPacked>
 void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t padded) {
   const __m256i lane_mask = _mm256_set1_epi16(int16_t(0xFFF0));
   const __m256i nibble_mask = _mm256_set1_epi16(0x000F);
@@ -22,43 +16,48 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
   const __m256i low_byte = _mm256_set1_epi64x(0xFF);
   const __m256i low_dwords = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
   const uint16_t* image = a.probe_image;
-  const long long* nodes = reinterpret_cast<const long long*>(a.packed_nodes);
   for (int32_t i = 0; i < padded; i += 4) {
-    const __m256i raw = _mm256_set_epi64x(nodes[node[i + 3]], nodes[node[i + 2]], nodes[node[i + 1]], nodes[node[i]]);
-    // Offsets: as load_offsets4<true>, 4 nodes at once.
-    const __m256i offsets4 = _mm256_srai_epi16(_mm256_and_si256(raw, lane_mask), 2);
+    const __m256i raw = _mm256_set_epi64x(node_bits<kPacked>(a, node[i + 3]), node_bits<kPacked>(a, node[i + 2]),
+                                          node_bits<kPacked>(a, node[i + 1]), node_bits<kPacked>(a, node[i]));
+    // 4·δ per lane: packed lanes hold δ·16 above a threshold nibble; blob lanes hold δ.
+    const __m256i offsets4 =
+        kPacked ? _mm256_srai_epi16(_mm256_and_si256(raw, lane_mask), 2) : _mm256_slli_epi16(raw, 2);
     __m256i xy = _mm256_mulhrs_epi16(offsets4, _mm256_load_si256(reinterpret_cast<const __m256i*>(setup.scale_q13[i])));
     xy = _mm256_add_epi16(xy, _mm256_load_si256(reinterpret_cast<const __m256i*>(setup.origin[i])));
     xy = _mm256_min_epu16(xy, high);
     const __m256i addresses = _mm256_madd_epi16(xy, row_madd);  // pixel j: dwords 2j (probe 1), 2j + 1 (probe 2)
     const __m128i address_pairs[2] = {_mm256_castsi256_si128(addresses), _mm256_extracti128_si256(addresses, 1)};
-    // Thresholds: the 4 nibbles of each node (pext in the pair loop) → n0 + 16·n1 and n2 + 16·n3 by
-    // one madd, joined into 16 bits, the 4 low dwords gathered into one lane and sign-extended.
-    const __m256i halves = _mm256_madd_epi16(_mm256_and_si256(raw, nibble_mask), nibble_madd);
-    const __m256i joined = _mm256_or_si256(_mm256_and_si256(halves, low_byte), _mm256_srli_epi64(halves, 24));
-    __m128i thresholds = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(joined, low_dwords));
-    thresholds = _mm_srai_epi32(_mm_slli_epi32(thresholds, 16), 16);
     alignas(16) int32_t threshold[4];
-    _mm_store_si128(reinterpret_cast<__m128i*>(threshold), thresholds);
+    if constexpr (kPacked) {
+      // The 4 nibbles of each node → n0 + 16·n1 and n2 + 16·n3 by one madd, joined into 16 bits,
+      // the 4 low dwords brought into one lane and sign-extended (kernels::pack_node's layout).
+      const __m256i halves = _mm256_madd_epi16(_mm256_and_si256(raw, nibble_mask), nibble_madd);
+      const __m256i joined = _mm256_or_si256(_mm256_and_si256(halves, low_byte), _mm256_srli_epi64(halves, 24));
+      __m128i thresholds = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(joined, low_dwords));
+      thresholds = _mm_srai_epi32(_mm_slli_epi32(thresholds, 16), 16);
+      _mm_store_si128(reinterpret_cast<__m128i*>(threshold), thresholds);
+    }
 #pragma GCC unroll 4
     for (int j = 0; j < 4; ++j) {
+      const uint32_t n = node[i + j];
+      const int32_t t = kPacked ? threshold[j] : int32_t(a.nodes[n].threshold_mm);
       const __m128i pair = address_pairs[j >> 1];
       const uint64_t q = (j & 1) ? uint64_t(_mm_extract_epi64(pair, 1)) : uint64_t(_mm_cvtsi128_si64(pair));
-      // f > t  ⇔  (t + p2) − p1 < 0, as in visit_pair.
-      const int32_t d = threshold[j] + int32_t(image[q >> 32]) - int32_t(image[uint32_t(q)]);
-      const uint32_t child = 2 * node[i + j] + 1 + (uint32_t(d) >> 31);
+      const int32_t d = t + int32_t(image[q >> 32]) - int32_t(image[uint32_t(q)]);
+      const uint32_t child = 2 * n + 1 + (uint32_t(d) >> 31);
       node[i + j] = child;
-      if constexpr (kPrefetchChildren) _mm_prefetch(reinterpret_cast<const char*>(nodes + child), _MM_HINT_T0);
+      if constexpr (kPrefetchChildren) prefetch_node<kPacked>(a, child);
     }
   }
 }
 
-constexpr PackedChunkFn kPackedChunk = &evaluate_chunk_by_levels<&level_of_chunk<false>, &level_of_chunk<true>>;
+template <bool kPacked>
+constexpr ChunkFn kChunk = &evaluate_chunk_by_levels<&level_of_chunk<false, kPacked>, &level_of_chunk<true, kPacked>>;
 
 }  // namespace
 
-void evaluate_tree(const ForestKernelArgs& args) { evaluate_trees_simd<4>(&args, 1, kPackedChunk); }
 void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count) {
-  evaluate_trees_simd<4>(per_tree, tree_count, kPackedChunk);
+  evaluate_trees_simd<4, kChunk<true>, kChunk<false>>(per_tree, tree_count);
 }
+void evaluate_tree(const ForestKernelArgs& args) { evaluate_trees(&args, 1); }
 }  // namespace dp::kernels::avx2
