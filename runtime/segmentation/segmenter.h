@@ -115,6 +115,12 @@ struct SegmenterConfig {
   // When neither piece passes on its own, the smaller must hold at least this share of the union's
   // pixels: a hand reaching over a box is not what makes the box a person.
   float fragment_min_share = 0.05f;       // 0..0.5
+  // A component about to become a new user whose image box lies inside a larger user's box (grown
+  // by 2 pixels), which is nearer, and whose centroid is within absorb_radius_m of that user's
+  // along the floor, is that user's own piece (legs seen between the arms of someone bending over,
+  // beyond a depth jump): it joins that user instead. Two people do not stand within about a body's
+  // depth one behind the other with the farther one's outline inside the nearer one's. 0 = off.
+  float absorb_radius_m = 0.6f;           // ≥ 0
   // People cut by the top image border (a low camera looking down at someone close: only the
   // legs are in view) cannot show their height. A component that touches the top border, stands
   // on the floor (lowest point within cut_floor_contact_m of it) and has the area and width of a
@@ -300,6 +306,7 @@ class Segmenter {
   void merge_fragments(const DepthFrame& frame, int32_t candidate_count);
   bool in_front_of_a_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* mean_z,
                           const bool* passes) const;
+  int32_t absorbing_user(int32_t candidate_count, int32_t k, const float* cx, const float* cy, const float* cz) const;
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
   void update_background(const DepthFrame& frame, const uint8_t* labels, const SegmentationResult* result);
 };
