@@ -183,7 +183,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
          c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
@@ -852,8 +852,9 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
   // candidate with which it forms a person: a body cut in two by a depth jump or by someone in
   // front (both pieces may pass on their own), or a piece of a body that passes.
   const bool hidden_on = cfg.hidden_area_fraction > 0.0f;
-  const float radius = cfg.fragment_radius_m > cfg.hidden_pair_radius_m || !hidden_on ? cfg.fragment_radius_m
-                                                                                    : cfg.hidden_pair_radius_m;
+  float radius = cfg.fragment_radius_m > cfg.hidden_pair_radius_m || !hidden_on ? cfg.fragment_radius_m
+                                                                              : cfg.hidden_pair_radius_m;
+  if (cfg.legs_radius_m > radius) radius = cfg.legs_radius_m;
   for (int32_t k = 0; k < n; ++k) {
     if (candidates_[k].pixels == 0) continue;
     Candidate& frag = candidates_[k];
@@ -882,9 +883,18 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
                                ((hidden_only[k] && hidden_only[m]) ||
                                 (hidden_only[m] && !full[k] && frag.pixels <= body.pixels) ||
                                 (hidden_only[k] && !full[m] && body.pixels <= frag.pixels));
+      // Legs below a body that does not reach the floor (header, legs_radius_m): the piece stands
+      // on the floor and does not pass alone, the body passes; the piece is lower in height and
+      // in the image, shares columns with it and has at most twice its pixels.
+      const int32_t cols_shared = (frag.u_max < body.u_max ? frag.u_max : body.u_max) -
+                                  (frag.u_min > body.u_min ? frag.u_min : body.u_min) + 1;
+      const bool legs_below = cfg.legs_radius_m > 0.0f && use_floor && person[m] && !full[k] &&
+                              body.bottom > cfg.cut_floor_contact_m && frag.bottom <= cfg.cut_floor_contact_m &&
+                              frag.top < body.top && frag.v_min > body.v_min && cols_shared > 0 &&
+                              frag.pixels <= 2 * body.pixels && d2 <= cfg.legs_radius_m * cfg.legs_radius_m;
       const bool close = d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m ||
-                         (both_hidden && d2 <= cfg.hidden_pair_radius_m * cfg.hidden_pair_radius_m);
-      if (d2 > cfg.fragment_radius_m * cfg.fragment_radius_m && !both_hidden) continue;
+                         (both_hidden && d2 <= cfg.hidden_pair_radius_m * cfg.hidden_pair_radius_m) || legs_below;
+      if (d2 > cfg.fragment_radius_m * cfg.fragment_radius_m && !both_hidden && !legs_below) continue;
       // Pieces that do not touch (a person cut in two by someone standing in front) join only
       // when closer along the floor than two people can stand.
       if (!touching && !close) continue;

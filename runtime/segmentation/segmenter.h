@@ -121,6 +121,15 @@ struct SegmenterConfig {
   // beyond a depth jump): it joins that user instead. Two people do not stand within about a body's
   // depth one behind the other with the farther one's outline inside the nearer one's. 0 = off.
   float absorb_radius_m = 0.6f;           // ≥ 0
+  // Legs split from their body: a piece standing on the floor (lowest point within
+  // cut_floor_contact_m) that does not pass alone joins a body that passes but does not reach the
+  // floor (its lowest point higher than cut_floor_contact_m) when it is lower than the body (top
+  // height and top image row), shares image columns with it, has at most twice its pixels and its
+  // centroid is within legs_radius_m along the floor, touching or not: the upper body seen above a
+  // box with the legs beside it, or a knee forward. Beyond fragment_pair_radius_m (0.4 m), since
+  // legs stepping forward put the centroids 0.42-0.53 m apart on seeds 12 and 18; at 0.6 m a
+  // person's legs joined another person's upper body on seed 14 (0.59 m). 0 = off.
+  float legs_radius_m = 0.55f;            // ≥ 0
   // People cut by the top image border (a low camera looking down at someone close: only the
   // legs are in view) cannot show their height. A component that touches the top border, stands
   // on the floor (lowest point within cut_floor_contact_m of it) and has the area and width of a
