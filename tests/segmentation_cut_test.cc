@@ -434,3 +434,102 @@ TEST(SegmentationCut, AnArmInFrontOfItsBodyIsNoHiddenPerson) {
   EXPECT_EQ(h.result.user_count, 1) << "the arm is a user of its own";
   EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.8 * truth_pixels(f, 1)));
 }
+
+namespace {
+
+// Someone bending over with the hands on the floor, the camera 1.2 m high looking level: the
+// torso (z 1.3 m) and the arms hanging from it form one component; the legs, 0.55 m farther, show
+// between the arms beyond a depth jump larger than fragment_join_mm, tall and large enough to pass
+// the person test alone. `legs_z` moves the legs (or someone else) farther back.
+tools::Scene bending_over(float legs_z) {
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 0.0f;
+  s.boxes.push_back({-0.35f, 0.35f, 1.1f, 1.6f, 1.3f, 1.45f, 1});    // torso
+  s.boxes.push_back({-0.35f, -0.25f, 0.0f, 1.1f, 1.3f, 1.4f, 1});    // arms to the floor
+  s.boxes.push_back({0.25f, 0.35f, 0.0f, 1.1f, 1.3f, 1.4f, 1});
+  s.boxes.push_back({-0.15f, 0.15f, 0.0f, 1.05f, legs_z, legs_z + 0.12f, 2});  // legs
+  return s;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, LegsSeenBetweenTheArmsOfSomeoneBendingOverJoinThem) {
+  const tools::RenderedScene f = tools::render_scene(bending_over(1.85f));
+  // Without the rule the legs are a user of their own (they pass alone and are neither touching,
+  // nor stacked, nor within fragment_pair_radius_m of the body).
+  SegmenterConfig off = default_segmenter_config(false);
+  off.absorb_radius_m = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  ASSERT_TRUE(n.result.floor.valid);
+  ASSERT_EQ(n.result.user_count, 2) << "the scene should make the legs pass on their own";
+
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  const int id = h.result.users[0].id;
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(id), 1), int(0.95 * truth_pixels(f, 1)));
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(id), 2), int(0.95 * truth_pixels(f, 2)));
+  EXPECT_EQ(h.result.users[0].pixel_count, count_pixels(h.labels, f, uint8_t(id), 1) +
+                                                 count_pixels(h.labels, f, uint8_t(id), 2) +
+                                                 count_pixels(h.labels, f, uint8_t(id), 0));
+}
+
+TEST(SegmentationCut, SomeoneFarBehindSeenBetweenTheArmsStaysAUser) {
+  // The same outline 1.2 m behind the body: farther than absorb_radius_m, someone else.
+  const tools::RenderedScene f = tools::render_scene(bending_over(2.5f));
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 2);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1) +
+                count_pixels(h.labels, f, uint8_t(h.result.users[1].id), 1),
+            int(0.95 * truth_pixels(f, 1)));
+  int own = 0;
+  for (int i = 0; i < h.result.user_count; ++i) own += count_pixels(h.labels, f, uint8_t(h.result.users[i].id), 2) > 0;
+  EXPECT_EQ(own, 1) << "the one behind is one user";
+}
+
+namespace {
+
+// An upper body that does not reach the floor (0.75-1.6 m high, front at z 2.4 m), and a leg
+// stepping forward below it (0-0.6 m high, front at `leg_z`), apart from it in the image and in
+// depth. The camera 1.0 m high looks level.
+tools::Scene knee_forward(float leg_z) {
+  tools::Scene s;
+  s.camera.height_m = 1.0f;
+  s.camera.pitch_deg = 0.0f;
+  s.boxes.push_back({-0.25f, 0.25f, 0.75f, 1.6f, 2.4f, 2.55f, 1});
+  s.boxes.push_back({0.0f, 0.3f, 0.0f, 0.6f, leg_z, leg_z + 0.12f, 1});
+  return s;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, ALegSplitFromABodyAboveTheFloorJoinsIt) {
+  // Centroids 0.52 m apart along the floor: beyond fragment_pair_radius_m, within legs_radius_m.
+  const tools::RenderedScene f = tools::render_scene(knee_forward(1.9f));
+  SegmenterConfig off = default_segmenter_config(false);
+  off.legs_radius_m = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  ASSERT_TRUE(n.result.floor.valid);
+  ASSERT_EQ(n.result.user_count, 1);
+  ASSERT_LT(count_pixels(n.labels, f, uint8_t(n.result.users[0].id), 1), int(0.8 * truth_pixels(f, 1)))
+      << "without the rule the leg should stay apart (the scene tests nothing otherwise)";
+
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.95 * truth_pixels(f, 1)));
+  EXPECT_LT(h.result.users[0].top_height_m, 1.7f);
+}
+
+TEST(SegmentationCut, APieceBelowABodyBeyondTheLegRadiusStaysApart) {
+  // The same piece 0.7 m in front of the body (centroids 0.72 m apart): not its leg.
+  const tools::RenderedScene f = tools::render_scene(knee_forward(1.7f));
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_LT(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.8 * truth_pixels(f, 1)));
+}

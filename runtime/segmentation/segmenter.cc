@@ -183,7 +183,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
          c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
@@ -852,8 +852,9 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
   // candidate with which it forms a person: a body cut in two by a depth jump or by someone in
   // front (both pieces may pass on their own), or a piece of a body that passes.
   const bool hidden_on = cfg.hidden_area_fraction > 0.0f;
-  const float radius = cfg.fragment_radius_m > cfg.hidden_pair_radius_m || !hidden_on ? cfg.fragment_radius_m
-                                                                                    : cfg.hidden_pair_radius_m;
+  float radius = cfg.fragment_radius_m > cfg.hidden_pair_radius_m || !hidden_on ? cfg.fragment_radius_m
+                                                                              : cfg.hidden_pair_radius_m;
+  if (cfg.legs_radius_m > radius) radius = cfg.legs_radius_m;
   for (int32_t k = 0; k < n; ++k) {
     if (candidates_[k].pixels == 0) continue;
     Candidate& frag = candidates_[k];
@@ -882,9 +883,18 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
                                ((hidden_only[k] && hidden_only[m]) ||
                                 (hidden_only[m] && !full[k] && frag.pixels <= body.pixels) ||
                                 (hidden_only[k] && !full[m] && body.pixels <= frag.pixels));
+      // Legs below a body that does not reach the floor (header, legs_radius_m): the piece stands
+      // on the floor and does not pass alone, the body passes; the piece is lower in height and
+      // in the image, shares columns with it and has at most twice its pixels.
+      const int32_t cols_shared = (frag.u_max < body.u_max ? frag.u_max : body.u_max) -
+                                  (frag.u_min > body.u_min ? frag.u_min : body.u_min) + 1;
+      const bool legs_below = cfg.legs_radius_m > 0.0f && use_floor && person[m] && !full[k] &&
+                              body.bottom > cfg.cut_floor_contact_m && frag.bottom <= cfg.cut_floor_contact_m &&
+                              frag.top < body.top && frag.v_min > body.v_min && cols_shared > 0 &&
+                              frag.pixels <= 2 * body.pixels && d2 <= cfg.legs_radius_m * cfg.legs_radius_m;
       const bool close = d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m ||
-                         (both_hidden && d2 <= cfg.hidden_pair_radius_m * cfg.hidden_pair_radius_m);
-      if (d2 > cfg.fragment_radius_m * cfg.fragment_radius_m && !both_hidden) continue;
+                         (both_hidden && d2 <= cfg.hidden_pair_radius_m * cfg.hidden_pair_radius_m) || legs_below;
+      if (d2 > cfg.fragment_radius_m * cfg.fragment_radius_m && !both_hidden && !legs_below) continue;
       // Pieces that do not touch (a person cut in two by someone standing in front) join only
       // when closer along the floor than two people can stand.
       if (!touching && !close) continue;
@@ -950,6 +960,33 @@ bool Segmenter::in_front_of_a_user(const DepthFrame& f, int32_t n, int32_t k, co
   return false;
 }
 
+// The user (candidate index) that a component about to become a new user belongs to, or −1: a
+// larger user, nearer, whose image box (grown by 2 pixels) holds the component's and whose centroid
+// is within absorb_radius_m along the floor (header). Work: one pass over the candidates.
+int32_t Segmenter::absorbing_user(int32_t n, int32_t k, const float* cx, const float* cy, const float* cz) const {
+  const SegmenterConfig& cfg = *config_;
+  if (cfg.absorb_radius_m <= 0.0f) return -1;
+  const Candidate& c = candidates_[k];
+  const bool use_floor = floor_->valid != 0;
+  int32_t best = -1;
+  float best_d2 = cfg.absorb_radius_m * cfg.absorb_radius_m;
+  for (int32_t m = 0; m < n; ++m) {
+    const Candidate& u = candidates_[m];
+    if (m == k || u.user == 0 || u.pixels <= c.pixels || cz[m] >= cz[k]) continue;
+    if (c.u_min < u.u_min - 2 || c.u_max > u.u_max + 2 || c.v_min < u.v_min - 2 || c.v_max > u.v_max + 2) continue;
+    float d[3] = {cx[k] - cx[m], cy[k] - cy[m], cz[k] - cz[m]};
+    if (use_floor) {
+      const float up = d[0] * floor_->nx + d[1] * floor_->ny + d[2] * floor_->nz;
+      d[0] -= up * floor_->nx; d[1] -= up * floor_->ny; d[2] -= up * floor_->nz;
+    } else {
+      d[1] = 0.0f;
+    }
+    const float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    if (d2 <= best_d2) { best_d2 = d2; best = m; }
+  }
+  return best;
+}
+
 void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult* r) {
   const SegmenterConfig& cfg = *config_;
   merge_fragments(f, n);
@@ -1004,6 +1041,33 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
     if (best_k < 0) break;
     if (in_front_of_a_user(f, n, best_k, cz, strict)) {  // a limb reaching out, not someone hidden
       strict[best_k] = false;
+      continue;
+    }
+    const int32_t into = absorbing_user(n, best_k, cx, cy, cz);
+    if (into >= 0) {  // a piece of that user's body behind a depth jump (header, absorb_radius_m)
+      strict[best_k] = false;
+      Candidate& dst = candidates_[into];
+      Candidate& src = candidates_[best_k];
+      dst.pixels += src.pixels;
+      dst.sx += src.sx; dst.sy += src.sy; dst.sz += src.sz;
+      if (src.x_min < dst.x_min) dst.x_min = src.x_min;
+      if (src.x_max > dst.x_max) dst.x_max = src.x_max;
+      if (src.y_min < dst.y_min) dst.y_min = src.y_min;
+      if (src.y_max > dst.y_max) dst.y_max = src.y_max;
+      if (src.z_min < dst.z_min) dst.z_min = src.z_min;
+      if (src.z_max > dst.z_max) dst.z_max = src.z_max;
+      dst.top = floor_->valid != 0 ? (src.top > dst.top ? src.top : dst.top) : dst.y_max - dst.y_min;
+      if (src.bottom < dst.bottom) dst.bottom = src.bottom;
+      if (src.u_min < dst.u_min) dst.u_min = src.u_min;
+      if (src.u_max > dst.u_max) dst.u_max = src.u_max;
+      if (src.v_min < dst.v_min) dst.v_min = src.v_min;
+      if (src.v_max > dst.v_max) dst.v_max = src.v_max;
+      cx[into] = float(dst.sx / dst.pixels);
+      cy[into] = float(dst.sy / dst.pixels);
+      cz[into] = float(dst.sz / dst.pixels);
+      for (int32_t j = 0; j < n; ++j)
+        if (candidates_[j].owner == best_k) candidates_[j].owner = into;  // best_k's own pieces too
+      src.pixels = 0;
       continue;
     }
     int32_t slot = -1;

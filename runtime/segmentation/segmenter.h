@@ -115,6 +115,21 @@ struct SegmenterConfig {
   // When neither piece passes on its own, the smaller must hold at least this share of the union's
   // pixels: a hand reaching over a box is not what makes the box a person.
   float fragment_min_share = 0.05f;       // 0..0.5
+  // A component about to become a new user whose image box lies inside a larger user's box (grown
+  // by 2 pixels), which is nearer, and whose centroid is within absorb_radius_m of that user's
+  // along the floor, is that user's own piece (legs seen between the arms of someone bending over,
+  // beyond a depth jump): it joins that user instead. Two people do not stand within about a body's
+  // depth one behind the other with the farther one's outline inside the nearer one's. 0 = off.
+  float absorb_radius_m = 0.6f;           // ≥ 0
+  // Legs split from their body: a piece standing on the floor (lowest point within
+  // cut_floor_contact_m) that does not pass alone joins a body that passes but does not reach the
+  // floor (its lowest point higher than cut_floor_contact_m) when it is lower than the body (top
+  // height and top image row), shares image columns with it, has at most twice its pixels and its
+  // centroid is within legs_radius_m along the floor, touching or not: the upper body seen above a
+  // box with the legs beside it, or a knee forward. Beyond fragment_pair_radius_m (0.4 m), since
+  // legs stepping forward put the centroids 0.42-0.53 m apart on seeds 12 and 18; at 0.6 m a
+  // person's legs joined another person's upper body on seed 14 (0.59 m). 0 = off.
+  float legs_radius_m = 0.55f;            // ≥ 0
   // People cut by the top image border (a low camera looking down at someone close: only the
   // legs are in view) cannot show their height. A component that touches the top border, stands
   // on the floor (lowest point within cut_floor_contact_m of it) and has the area and width of a
@@ -300,6 +315,7 @@ class Segmenter {
   void merge_fragments(const DepthFrame& frame, int32_t candidate_count);
   bool in_front_of_a_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* mean_z,
                           const bool* passes) const;
+  int32_t absorbing_user(int32_t candidate_count, int32_t k, const float* cx, const float* cy, const float* cz) const;
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
   void update_background(const DepthFrame& frame, const uint8_t* labels, const SegmentationResult* result);
 };

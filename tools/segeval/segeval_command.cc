@@ -47,7 +47,7 @@ static const char* const kUsage =
     "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
     "                         fragment_radius_m, fragment_pair_radius_m, cut_max_fill, cut_max_solidity, cut_solidity_max_hidden,\n"
     "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, cut_floor_contact_m,\n"
-    "                         cut_bottom_area_fraction, fragment_min_share,\n"
+    "                         cut_bottom_area_fraction, fragment_min_share, absorb_radius_m, legs_radius_m,\n"
     "                         floor_margin_per_m2_mm, floor_min_inlier_fraction, floor_min_extent_m, floor_samples,\n"
     "                         floor_iterations";
 
@@ -137,6 +137,8 @@ int run_segeval(int argc, char** argv) {
       else if (k == "cut_solidity_max_hidden") cfg.cut_solidity_max_hidden = float(v);
       else if (k == "tracked_area_fraction") cfg.tracked_area_fraction = float(v);
       else if (k == "fragment_min_share") cfg.fragment_min_share = float(v);
+      else if (k == "absorb_radius_m") cfg.absorb_radius_m = float(v);
+      else if (k == "legs_radius_m") cfg.legs_radius_m = float(v);
       else if (k == "cut_bottom_area_fraction") cfg.cut_bottom_area_fraction = float(v);
       else if (k == "cut_floor_contact_m") cfg.cut_floor_contact_m = float(v);
       else if (k == "floor_margin_per_m2_mm") cfg.floor_margin_per_m2_mm = float(v);
