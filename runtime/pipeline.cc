@@ -295,6 +295,9 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
     const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     const uint8_t* mrow = f.foreground_mask ? f.foreground_mask + size_t(v) * f.stride_px : nullptr;
     uint16_t* out = probe_image_ + size_t(v + 1) * probe_stride + 1;
+    // Foreground lanes are −1: subtracting them counts the row in 8 lanes (≤ 512 each), summed once
+    // per row. (popcount would be a libgcc call at the SSE4.1 baseline, which has no POPCNT.)
+    __m128i row_count = zero;
     int32_t u = 0;
     for (; u + 8 <= w; u += 8) {
       const __m128i z = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + u));
@@ -307,13 +310,16 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
                                              _mm_cmpeq_epi16(_mm_min_epu16(z, far), z)));
       }
       _mm_storeu_si128(reinterpret_cast<__m128i*>(out + u), _mm_blendv_epi8(bg, z, in));
+      row_count = _mm_sub_epi16(row_count, in);
       uint32_t bits = uint32_t(_mm_movemask_epi8(_mm_packs_epi16(in, zero)));
-      fg += __builtin_popcount(bits);
       for (; bits && listed < pixel_cap; bits &= bits - 1) {
         const int32_t x = u + __builtin_ctz(bits);
         pixels_[listed++] = EvaluatedPixel{uint16_t(x), uint16_t(v), row[x], 0};
       }
     }
+    const __m128i pairs = _mm_madd_epi16(row_count, _mm_set1_epi16(1));
+    const __m128i sum2 = _mm_add_epi32(pairs, _mm_shuffle_epi32(pairs, _MM_SHUFFLE(1, 0, 3, 2)));
+    fg += _mm_cvtsi128_si32(_mm_add_epi32(sum2, _mm_shuffle_epi32(sum2, _MM_SHUFFLE(2, 3, 0, 1))));
     for (; u < w; ++u) {
       const uint16_t z = row[u];
       const bool is_fg = z != 0 && z < kBackgroundDepthMm &&
