@@ -32,7 +32,7 @@ const char* status_message(Status s) {
   switch (s) {
     case Status::kOk: return "ok";
     case Status::kBadArgument: return "bad argument (null pointer, size or intrinsics)";
-    case Status::kArenaTooSmall: return "arena smaller than required_arena_bytes()";
+    case Status::kArenaTooSmall: return "arena smaller than minimum_arena_bytes()";
     case Status::kArenaMisaligned: return "arena not 64-byte aligned";
     case Status::kFrameTooLarge: return "frame larger than the maximum the pipeline was initialised for";
     case Status::kNotInitialized: return "pipeline not initialised";
@@ -98,10 +98,11 @@ bool packable(const blob::LoadedBlob& b) {
   return kUsePackedNodes && int32_t(b.meta->max_abs_offset_pxm) <= kernels::kPackedMaxOffset;
 }
 
-bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, Layout* l) {
+bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, bool pack, Layout* l) {
   l->config = c.tail<blob::RuntimeConfig>(1);
-  l->packed_nodes = packable(b) ? c.tail<kernels::PackedNode>(size_t(b.tree_count()) * blob::nodes_per_tree(b.depth()))
-                                : nullptr;
+  l->packed_nodes = pack && packable(b)
+                        ? c.tail<kernels::PackedNode>(size_t(b.tree_count()) * blob::nodes_per_tree(b.depth()))
+                        : nullptr;
   l->joint_mass = use_joint_mass(b) ? c.tail<uint16_t>(size_t(b.meta->leaf_count) * blob::kMaxJoints) : nullptr;
   l->probe_image = c.head<uint16_t>(kernels::padded_probe_elements(w, h));
   l->pixels = c.head<EvaluatedPixel>(size_t(max_pixels));
@@ -162,14 +163,23 @@ inline bool push_top_n(Vote* heap, int32_t* count, int32_t capacity, const Vote&
 
 }  // namespace
 
-size_t required_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height) {
+namespace {
+size_t arena_bytes_for(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height, bool pack) {
   if (!blob.meta || max_width < 1 || max_height < 1 || max_width > blob::kMaxFrameDimension ||
       max_height > blob::kMaxFrameDimension)
     return 0;
   ArenaCarver counter(nullptr, size_t(-1) / 2);
   Layout l;
-  carve(counter, blob, max_width, max_height, max_pixels_for(blob, max_width, max_height), &l);
+  carve(counter, blob, max_width, max_height, max_pixels_for(blob, max_width, max_height), pack, &l);
   return counter.used();
+}
+}  // namespace
+
+size_t required_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height) {
+  return arena_bytes_for(blob, max_width, max_height, true);
+}
+size_t minimum_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height) {
+  return arena_bytes_for(blob, max_width, max_height, false);
 }
 
 Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height, uint8_t* arena,
@@ -179,11 +189,12 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
       max_height > blob::kMaxFrameDimension)
     return Status::kBadArgument;
   if (reinterpret_cast<uintptr_t>(arena) % kArenaAlignment != 0) return Status::kArenaMisaligned;
-  if (arena_bytes < required_arena_bytes(blob, max_width, max_height)) return Status::kArenaTooSmall;
+  if (arena_bytes < minimum_arena_bytes(blob, max_width, max_height)) return Status::kArenaTooSmall;
+  const bool pack = arena_bytes >= required_arena_bytes(blob, max_width, max_height);
   ArenaCarver c(arena, arena_bytes);
   Layout l;
   const int32_t max_pixels = max_pixels_for(blob, max_width, max_height);
-  if (!carve(c, blob, max_width, max_height, max_pixels, &l)) return Status::kArenaTooSmall;
+  if (!carve(c, blob, max_width, max_height, max_pixels, pack, &l)) return Status::kArenaTooSmall;
   blob_ = blob;
   max_width_ = max_width;
   max_height_ = max_height;
