@@ -228,6 +228,7 @@ class Pipeline {
   float cut_votes(int joint, int32_t cap);
   static float on_buffer_full(void* ctx, int joint);  // the BPC scan's callback: cut_votes(joint, cast_cap_)
   void guess_bpc_floors(int32_t cap, float* floor);
+  void guess_ojr_floors(int32_t cap, const uint32_t* lane_len2, float* floor);
   void aggregate(FrameResult* result);
   void plan_budget(int32_t frame_pixels, int32_t foreground, int32_t pixel_cap, int32_t* pixels, FrameResult* result) const;
 };

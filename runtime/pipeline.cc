@@ -63,6 +63,8 @@ constexpr int32_t kMaxFloorSamples = 2 * kFloorSamples;
 constexpr int32_t kGuessBuckets = 512;
 constexpr int32_t kGuessPrefetchAhead = 8;  // samples
 constexpr int32_t kGuessLowestKey = (127 + 13) * 8 - kGuessBuckets;  // (exponent + 127)·8 + top 3 mantissa bits
+// OJR weights are a uint16 vote weight · z² (< 2^29): the same buckets, 16 octaves higher.
+constexpr int32_t kGuessLowestKeyOjr = (127 + 29) * 8 - kGuessBuckets;
 
 // Everything init carves, in one place so required_arena_bytes and init agree.
 struct Layout {
@@ -776,6 +778,60 @@ void Pipeline::guess_bpc_floors(int32_t cap, float* floor) {
   }
 }
 
+// The OJR caster's floor guess: as guess_bpc_floors, over each sampled pixel's live votes (trees ×
+// K per joint); a joint whose sampled votes are fewer than twice the rank gets no guess.
+void Pipeline::guess_ojr_floors(int32_t cap, const uint32_t* lane_len2, float* floor) {
+  for (int j = 0; j < blob::kMaxJoints; ++j) floor[j] = -1.0f;
+  const int trees = blob_.tree_count();
+  const int joints = blob_.meta->joint_count;
+  const int k_votes = blob_.meta->votes_per_joint;
+  const int32_t step = evaluated_count_ / kFloorSamples > 1 ? evaluated_count_ / kFloorSamples : 1;
+  const int32_t rank = (2 * cap + step - 1) / step;  // sampled votes at or above the guess
+  memset(guess_hist_, 0, sizeof(uint16_t) * blob::kMaxJoints * kGuessBuckets);
+  int32_t sampled[blob::kMaxJoints] = {};
+  int32_t taken = 0;
+  for (int32_t i = 0; i < evaluated_count_ && taken < kMaxFloorSamples; i += step) {
+    const EvaluatedPixel px = pixels_[i];
+    if (skipped_by_user_filter(px)) continue;
+    const int32_t ahead = i + kGuessPrefetchAhead * step;  // leaves are random reads beyond L1/L2
+    if (ahead < evaluated_count_)
+      for (int t = 0; t < trees; ++t) {
+        const char* leaf = reinterpret_cast<const char*>(blob_.ojr_leaf(leaf_of(ahead, t)));
+        for (size_t b = 0; b < size_t(joints * k_votes) * sizeof(blob::OjrVote); b += 64) _mm_prefetch(leaf + b, _MM_HINT_T0);
+      }
+    const float z = float(px.z_mm) * 0.001f;
+    const float z2 = z * z;
+    for (int t = 0; t < trees; ++t) {
+      const blob::OjrVote* leaf = blob_.ojr_leaf(leaf_of(i, t));
+      for (int l = 0; l < joints * k_votes; ++l) {
+        const blob::OjrVote& ov = leaf[l];
+        const uint32_t d2 = uint32_t(int32_t(ov.dx_mm) * ov.dx_mm) + uint32_t(int32_t(ov.dy_mm) * ov.dy_mm) +
+                            uint32_t(int32_t(ov.dz_mm) * ov.dz_mm);
+        if (ov.weight == 0 || d2 > lane_len2[l]) continue;
+        const float w = float(ov.weight) * z2;
+        uint32_t bits;
+        memcpy(&bits, &w, sizeof bits);
+        int32_t key = int32_t(bits >> 20) - kGuessLowestKeyOjr;
+        key = key < 0 ? 0 : (key >= kGuessBuckets ? kGuessBuckets - 1 : key);
+        const int j = l / k_votes;
+        ++guess_hist_[j * kGuessBuckets + key];
+        ++sampled[j];
+      }
+    }
+    ++taken;
+  }
+  for (int j = 0; j < joints; ++j) {
+    if (sampled[j] < 2 * rank) continue;  // nearly everything is kept: no guess
+    const uint16_t* h = guess_hist_ + j * kGuessBuckets;
+    int32_t above = 0, b = kGuessBuckets - 1;
+    for (; b > 0; --b)
+      if ((above += h[b]) >= rank) break;
+    if (b == 0) continue;
+    const uint32_t bits = uint32_t(b + kGuessLowestKeyOjr) << 20;  // the bucket's lower edge
+    memcpy(&floor[j], &bits, sizeof bits);
+  }
+}
+
 void Pipeline::cast_bpc_votes_fast(const DepthFrame& f, FrameResult* r) {
   if (!joint_mass_) {  // huge forests keep no joint-mass table: the reference path is the only one
     cast_bpc_votes(f, r);
@@ -838,91 +894,118 @@ void Pipeline::cast_ojr_votes_fast(const DepthFrame& f, FrameResult* r) {
   constexpr int kMaxLanes = blob::kMaxJoints * blob::kMaxVotesPerLeafJoint;
   float floor_weight[blob::kMaxJoints];
   alignas(16) float lane_floor[kMaxLanes];
+  alignas(16) int32_t lane_candidates[kMaxLanes] = {};  // live votes seen per lane (first scan)
+  uint32_t lane_len2[kMaxLanes];
   // Squared vote length per lane as uint32 (|offset|² ≤ 3·2^30 and len² < 2^32 both fit), biased
   // by 2^31 so the signed compare of SSE orders them as unsigned; len 0 = no limit = 2^32 − 1.
   alignas(16) uint32_t lane_len2_biased[kMaxLanes];
   uint8_t lane_joint[kMaxLanes];
-  for (int j = 0; j < blob::kMaxJoints; ++j) floor_weight[j] = -1.0f;
   for (int l = 0; l < lanes; ++l) {
     const int j = l / k_votes;
     const uint32_t len = cfg.joints[j].vote_length_mm;
-    lane_floor[l] = -1.0f;
-    lane_len2_biased[l] = (len == 0 ? 0xFFFFFFFFu : len * len) ^ 0x80000000u;
+    lane_len2[l] = len == 0 ? 0xFFFFFFFFu : len * len;
+    lane_len2_biased[l] = lane_len2[l] ^ 0x80000000u;
     lane_joint[l] = uint8_t(j);
   }
+  // Each joint's floor starts at a guess (guess_ojr_floors); a guess above the reference's top-Nsub
+  // is caught after the scan and that joint is scanned again without one, as in the BPC caster.
+  guess_ojr_floors(cap, lane_len2, floor_weight);
+  for (int l = 0; l < lanes; ++l) lane_floor[l] = floor_weight[lane_joint[l]];
   const int full = lanes & ~3;
   const __m128i xyz_only = _mm_setr_epi16(-1, -1, -1, 0, -1, -1, -1, 0);
   const __m128i bias = _mm_set1_epi32(int32_t(0x80000000u));
   const __m128i zero = _mm_setzero_si128();
+  const __m128i all_ones = _mm_set1_epi32(-1);
 
   auto push = [&](int32_t i, int t, int l, float x, float y, float z, float weight, const blob::OjrVote& ov) {
     const int j = lane_joint[l], k = l - j * k_votes;
     const uint32_t order = (uint32_t(i) * uint32_t(trees) + uint32_t(t)) * uint32_t(k_votes) + uint32_t(k);
     Vote v{x + float(ov.dx_mm) * 0.001f, y + float(ov.dy_mm) * 0.001f, z + float(ov.dz_mm) * 0.001f, weight, order, 1};
     const float before = floor_weight[j];
-    if (append_vote(j, cap, v, &floor_weight[j])) r->flags |= kFlagVotesTruncated;
+    append_vote(j, cap, v, &floor_weight[j]);
     if (floor_weight[j] != before)
       for (int q = j * k_votes; q < (j + 1) * k_votes; ++q) lane_floor[q] = floor_weight[j];
   };
 
-  for (int32_t i = 0; i < evaluated_count_; ++i) {
-    const EvaluatedPixel px = pixels_[i];
-    if (skipped_by_user_filter(px)) continue;
-    const float z = float(px.z_mm) * 0.001f;
-    const float z2 = z * z;
-    const float x = (float(px.u) - f.intrinsics.cx) * z * inv_fx;
-    const float y = -(float(px.v) - f.intrinsics.cy) * z * inv_fy;
-    const __m128 z2_4 = _mm_set1_ps(z2);
-    if (i + kVotePrefetchAhead < evaluated_count_)
+  auto scan = [&](bool count_candidates) {
+    for (int32_t i = 0; i < evaluated_count_; ++i) {
+      const EvaluatedPixel px = pixels_[i];
+      if (skipped_by_user_filter(px)) continue;
+      const float z = float(px.z_mm) * 0.001f;
+      const float z2 = z * z;
+      const float x = (float(px.u) - f.intrinsics.cx) * z * inv_fx;
+      const float y = -(float(px.v) - f.intrinsics.cy) * z * inv_fy;
+      const __m128 z2_4 = _mm_set1_ps(z2);
+      if (i + kVotePrefetchAhead < evaluated_count_)
+        for (int t = 0; t < trees; ++t) {
+          const char* ahead = reinterpret_cast<const char*>(blob_.ojr_leaf(leaf_of(i + kVotePrefetchAhead, t)));
+          for (size_t b = 0; b < size_t(lanes) * sizeof(blob::OjrVote); b += 64) _mm_prefetch(ahead + b, _MM_HINT_T0);
+        }
       for (int t = 0; t < trees; ++t) {
-        const char* ahead = reinterpret_cast<const char*>(blob_.ojr_leaf(leaf_of(i + kVotePrefetchAhead, t)));
-        for (size_t b = 0; b < size_t(lanes) * sizeof(blob::OjrVote); b += 64) _mm_prefetch(ahead + b, _MM_HINT_T0);
-      }
-    for (int t = 0; t < trees; ++t) {
-      const blob::OjrVote* leaf = blob_.ojr_leaf(leaf_of(i, t));
-      int l = 0;
-      for (; l < full; l += 4) {
-        const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(leaf + l));
-        const __m128i b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(leaf + l + 2));
-        const __m128i xa = _mm_and_si128(a, xyz_only), xb = _mm_and_si128(b, xyz_only);
-        // dx²+dy², dz² per vote (pmaddwd; its only wrap, 2·(−32768)², is 2^31 read as unsigned),
-        // then summed modulo 2^32 — exact, as the true sum is below 2^32.
-        const __m128i d2 = _mm_hadd_epi32(_mm_madd_epi16(xa, xa), _mm_madd_epi16(xb, xb));
-        const __m128i too_long = _mm_cmpgt_epi32(_mm_xor_si128(d2, bias),
-                                                 _mm_load_si128(reinterpret_cast<const __m128i*>(lane_len2_biased + l)));
-        const __m128i wa = _mm_srli_epi64(a, 48), wb = _mm_srli_epi64(b, 48);  // weights in dwords 0, 2
-        const __m128i wq = _mm_castps_si128(
-            _mm_shuffle_ps(_mm_castsi128_ps(wa), _mm_castsi128_ps(wb), _MM_SHUFFLE(2, 0, 2, 0)));
-        const __m128i dead = _mm_or_si128(too_long, _mm_cmpeq_epi32(wq, zero));
-        const __m128 w = _mm_mul_ps(_mm_cvtepi32_ps(wq), z2_4);
-        const __m128 below = _mm_cmplt_ps(w, _mm_load_ps(lane_floor + l));
-        const int dead_bits = _mm_movemask_ps(_mm_castsi128_ps(dead)), below_bits = _mm_movemask_ps(below);
-        if (below_bits & ~dead_bits) r->flags |= kFlagVotesTruncated;
-        int keep = ~(below_bits | dead_bits) & 15;
-        if (!keep) continue;
-        alignas(16) float wl[4];
-        _mm_store_ps(wl, w);
-        for (; keep; keep &= keep - 1) {
-          const int lane = l + __builtin_ctz(unsigned(keep));
-          push(i, t, lane, x, y, z, wl[lane - l], leaf[lane]);
+        const blob::OjrVote* leaf = blob_.ojr_leaf(leaf_of(i, t));
+        int l = 0;
+        for (; l < full; l += 4) {
+          const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(leaf + l));
+          const __m128i b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(leaf + l + 2));
+          const __m128i xa = _mm_and_si128(a, xyz_only), xb = _mm_and_si128(b, xyz_only);
+          // dx²+dy², dz² per vote (pmaddwd; its only wrap, 2·(−32768)², is 2^31 read as unsigned),
+          // then summed modulo 2^32 — exact, as the true sum is below 2^32.
+          const __m128i d2 = _mm_hadd_epi32(_mm_madd_epi16(xa, xa), _mm_madd_epi16(xb, xb));
+          const __m128i too_long = _mm_cmpgt_epi32(_mm_xor_si128(d2, bias),
+                                                   _mm_load_si128(reinterpret_cast<const __m128i*>(lane_len2_biased + l)));
+          const __m128i wa = _mm_srli_epi64(a, 48), wb = _mm_srli_epi64(b, 48);  // weights in dwords 0, 2
+          const __m128i wq = _mm_castps_si128(
+              _mm_shuffle_ps(_mm_castsi128_ps(wa), _mm_castsi128_ps(wb), _MM_SHUFFLE(2, 0, 2, 0)));
+          const __m128i dead = _mm_or_si128(too_long, _mm_cmpeq_epi32(wq, zero));
+          const __m128 w = _mm_mul_ps(_mm_cvtepi32_ps(wq), z2_4);
+          const __m128 below = _mm_cmplt_ps(w, _mm_load_ps(lane_floor + l));
+          const int dead_bits = _mm_movemask_ps(_mm_castsi128_ps(dead)), below_bits = _mm_movemask_ps(below);
+          if (count_candidates) {
+            __m128i* counts = reinterpret_cast<__m128i*>(lane_candidates + l);
+            _mm_store_si128(counts, _mm_sub_epi32(_mm_load_si128(counts), _mm_andnot_si128(dead, all_ones)));
+          }
+          int keep = ~(below_bits | dead_bits) & 15;
+          if (!keep) continue;
+          alignas(16) float wl[4];
+          _mm_store_ps(wl, w);
+          for (; keep; keep &= keep - 1) {
+            const int lane = l + __builtin_ctz(unsigned(keep));
+            push(i, t, lane, x, y, z, wl[lane - l], leaf[lane]);
+          }
         }
-      }
-      for (; l < lanes; ++l) {  // the reference's scalar test for the last lanes
-        const blob::OjrVote& ov = leaf[l];
-        if (ov.weight == 0) continue;
-        const int64_t d2 = int64_t(ov.dx_mm) * ov.dx_mm + int64_t(ov.dy_mm) * ov.dy_mm + int64_t(ov.dz_mm) * ov.dz_mm;
-        const int64_t len = cfg.joints[lane_joint[l]].vote_length_mm;
-        if (len != 0 && d2 > len * len) continue;
-        const float weight = float(ov.weight) * z2;
-        if (weight < lane_floor[l]) {
-          r->flags |= kFlagVotesTruncated;
-          continue;
+        for (; l < lanes; ++l) {  // the reference's scalar test for the last lanes
+          const blob::OjrVote& ov = leaf[l];
+          if (ov.weight == 0) continue;
+          const int64_t d2 = int64_t(ov.dx_mm) * ov.dx_mm + int64_t(ov.dy_mm) * ov.dy_mm + int64_t(ov.dz_mm) * ov.dz_mm;
+          const int64_t len = cfg.joints[lane_joint[l]].vote_length_mm;
+          if (len != 0 && d2 > len * len) continue;
+          if (count_candidates) ++lane_candidates[l];
+          const float weight = float(ov.weight) * z2;
+          if (weight < lane_floor[l]) continue;
+          push(i, t, l, x, y, z, weight, ov);
         }
-        push(i, t, l, x, y, z, weight, ov);
       }
     }
+  };
+  scan(true);
+  int32_t candidates[blob::kMaxJoints] = {};
+  for (int l = 0; l < lanes; ++l) candidates[lane_joint[l]] += lane_candidates[l];
+  bool again = false;
+  for (int j = 0; j < joints; ++j) {
+    // Fewer than min(cap, candidates) kept: the guess was above the reference's top-Nsub.
+    const bool short_of_votes = vote_counts_[j] < candidates[j] && vote_counts_[j] < cap;
+    floor_weight[j] = short_of_votes ? -1.0f : __builtin_inff();
+    if (short_of_votes) vote_counts_[j] = 0;
+    again = again || short_of_votes;
   }
-  if (finish_votes(cap)) r->flags |= kFlagVotesTruncated;
+  if (again) {
+    for (int l = 0; l < lanes; ++l) lane_floor[l] = floor_weight[lane_joint[l]];
+    scan(false);
+  }
+  bool dropped = false;
+  for (int j = 0; j < joints; ++j) dropped = dropped || candidates[j] > cap;
+  finish_votes(cap);
+  if (dropped) r->flags |= kFlagVotesTruncated;
 }
 
 void Pipeline::aggregate(FrameResult* r) {

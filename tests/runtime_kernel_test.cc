@@ -705,6 +705,39 @@ TEST(VoteCastingExactness, BpcFloorGuessTooHighIsRescanned) {
   }
 }
 
+// The OJR caster's floor guess from every k-th pixel: here every 16th pixel is far (weights ×64),
+// so the sampled pixels (every 8th) are half heavy and the guess lands above the reference's
+// top-Nsub; the joints left short must be scanned again for the kept votes to be the same.
+TEST(VoteCastingExactness, OjrFloorGuessTooHighIsRescanned) {
+  Runner r(blob::write_blob(random_ojr_joints(9, 16, 2, 500)), 320, 240);
+  const int32_t n = 4096, trees = r.view.tree_count();
+  std::mt19937_64 rng(4);
+  std::vector<EvaluatedPixel> px(n);
+  std::vector<uint32_t> leaves(size_t(trees) * n);
+  for (int32_t i = 0; i < n; ++i) {
+    px[i] = EvaluatedPixel{uint16_t(rng() % 320), uint16_t(rng() % 240), uint16_t(i % 16 == 0 ? 4000 : 500), 0};
+    for (int t = 0; t < trees; ++t) leaves[size_t(t) * n + i] = uint32_t(rng() % r.view.meta->leaf_count);
+  }
+  const CameraIntrinsics intr = tools::kinect_intrinsics(320, 240);
+  FrameResult ref{}, fast{};
+  ASSERT_EQ(r.pipeline.set_kernel(KernelIsa::kScalar), Status::kOk);
+  ASSERT_EQ(r.pipeline.aggregate_from_leaves(intr, px.data(), leaves.data(), n, &ref), Status::kOk);
+  int proposals = 0;
+  for (int j = 0; j < 16; ++j) proposals += ref.proposal_count[j];
+  EXPECT_GT(proposals, 0);
+  for (KernelIsa isa : kSimdIsas) {
+    if (!kernel_isa_supported(isa)) continue;
+    ASSERT_EQ(r.pipeline.set_kernel(isa), Status::kOk);
+    ASSERT_EQ(r.pipeline.aggregate_from_leaves(intr, px.data(), leaves.data(), n, &fast), Status::kOk);
+    EXPECT_EQ(ref.flags, fast.flags) << kernel_isa_name(isa);
+    for (int j = 0; j < 16; ++j) {
+      ASSERT_EQ(ref.proposal_count[j], fast.proposal_count[j]) << kernel_isa_name(isa) << " joint " << j;
+      EXPECT_EQ(0, std::memcmp(ref.proposals[j], fast.proposals[j], sizeof(JointProposal) * size_t(ref.proposal_count[j])))
+          << kernel_isa_name(isa) << " joint " << j;
+    }
+  }
+}
+
 // Stage 1 (foreground, eight pixels at a time) lists exactly the pixels of its definition: depth
 // nonzero, below kBackgroundDepthMm, and in [near, far] or nonzero in the mask; raster order;
 // every stride-th one when over budget. Odd widths (scalar tail), depths at and above the background
