@@ -183,7 +183,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
          c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
@@ -994,13 +994,13 @@ int32_t Segmenter::absorbing_user(int32_t n, int32_t k, const float* cx, const f
 // box_split_min_share of the component and the rest passes the person test. The candidate's
 // statistics become the rest's (the hidden-edge, occlusion and hull counts are kept). Work: three
 // passes over the candidate's image box and one over the candidates. Returns whether it split.
-bool Segmenter::split_box(const DepthFrame& f, int32_t k) {
+int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
   const SegmenterConfig& cfg = *config_;
-  if (cfg.box_split_height_m <= 0.0f || floor_->valid == 0) return false;
+  if (cfg.box_split_height_m <= 0.0f || floor_->valid == 0) return 0;
   Candidate& c = candidates_[k];
   // Not for components cut by the top border: the legs of someone seen from close show no top
   // and look like a lid in the cells below the border.
-  if (c.pixels == 0 || c.top < cfg.box_split_height_m || c.v_min == 0) return false;
+  if (c.pixels == 0 || c.top < cfg.box_split_height_m || c.v_min == 0) return 0;
   constexpr int32_t kSplitCells = 48;
   float cell_top[kSplitCells * kSplitCells];
   for (int32_t i = 0; i < kSplitCells * kSplitCells; ++i) cell_top[i] = -1e30f;
@@ -1008,7 +1008,7 @@ bool Segmenter::split_box(const DepthFrame& f, int32_t k) {
   const float nx = floor_->nx, ny = floor_->ny, nz = floor_->nz;
   float ax = 1.0f - nx * nx, ay = -nx * ny, az = -nx * nz;
   const float len = sqrtf(ax * ax + ay * ay + az * az);
-  if (len < 1e-3f) return false;
+  if (len < 1e-3f) return 0;
   ax /= len; ay /= len; az /= len;
   const float bx = ny * az - nz * ay, by = nz * ax - nx * az, bz = nx * ay - ny * ax;
   const float mx = float(c.sx / c.pixels), my = float(c.sy / c.pixels), mz = float(c.sz / c.pixels);
@@ -1109,17 +1109,20 @@ bool Segmenter::split_box(const DepthFrame& f, int32_t k) {
       if (v > rest.v_max) rest.v_max = int16_t(v);
     }
   }
-  if (dropped == 0 || rest.pixels == 0 || dropped_bottom > cfg.cut_floor_contact_m) return false;
-  if (float(dropped) < cfg.box_split_min_share * float(c.pixels)) return false;
-  {
-    // Centroid distance along the floor between the dropped part and the rest.
-    const float dx = float((c.sx - rest.sx) / dropped - rest.sx / rest.pixels);
-    const float dy = float((c.sy - rest.sy) / dropped - rest.sy / rest.pixels);
-    const float dz = float((c.sz - rest.sz) / dropped - rest.sz / rest.pixels);
-    const float da = dx * ax + dy * ay + dz * az, db = dx * bx + dy * by + dz * bz;
-    if (da * da + db * db < cfg.box_split_min_dist_m * cfg.box_split_min_dist_m) return false;
+  if (dropped == 0 || rest.pixels == 0 || dropped_bottom > cfg.cut_floor_contact_m) return 0;
+  const bool rest_passes = passes_person_test(f, rest);
+  // Centroid distance along the floor between the dropped part and the rest.
+  const float dx = float((c.sx - rest.sx) / dropped - rest.sx / rest.pixels);
+  const float dy = float((c.sy - rest.sy) / dropped - rest.sy / rest.pixels);
+  const float dz = float((c.sz - rest.sz) / dropped - rest.sz / rest.pixels);
+  const float da = dx * ax + dy * ay + dz * az, db = dx * bx + dy * by + dz * bz;
+  const bool apart = da * da + db * db >= cfg.box_split_min_dist_m * cfg.box_split_min_dist_m;
+  if (!rest_passes || !apart || float(dropped) < cfg.box_split_min_share * float(c.pixels)) {
+    // Not a box beside a person: a lid holding box_reject_min_share of the component is a box with
+    // a hand or arm over it (header).
+    const bool lid = cfg.box_reject_min_share > 0.0f && float(dropped) >= cfg.box_reject_min_share * float(c.pixels);
+    return lid ? 2 : 0;
   }
-  if (!passes_person_test(f, rest)) return false;
   for (int32_t v = c.v_min; v <= c.v_max; ++v) {
     const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     for (int32_t u = c.u_min; u <= c.u_max; ++u) {
@@ -1131,7 +1134,7 @@ bool Segmenter::split_box(const DepthFrame& f, int32_t k) {
     }
   }
   c = rest;
-  return true;
+  return 1;
 }
 
 void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult* r) {
@@ -1190,7 +1193,12 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
       strict[best_k] = false;
       continue;
     }
-    if (split_box(f, best_k)) {  // a box dropped from a person (header, box_split_height_m)
+    const int32_t split = split_box(f, best_k);
+    if (split == 2) {  // a box with a hand or arm over it (header, box_reject_min_share)
+      strict[best_k] = false;
+      continue;
+    }
+    if (split == 1) {  // a box dropped from a person (header, box_split_height_m)
       const Candidate& c = candidates_[best_k];
       cx[best_k] = float(c.sx / c.pixels);
       cy[best_k] = float(c.sy / c.pixels);
