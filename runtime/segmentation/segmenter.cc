@@ -1001,6 +1001,7 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
   // Not for components cut by the top border: the legs of someone seen from close show no top
   // and look like a lid in the cells below the border.
   if (c.pixels == 0 || c.top < cfg.box_split_height_m || c.v_min == 0) return 0;
+  if (c.bottom > cfg.cut_floor_contact_m) return 0;  // nothing of it stands on the floor
   constexpr int32_t kSplitCells = 48;
   float cell_top[kSplitCells * kSplitCells];
   for (int32_t i = 0; i < kSplitCells * kSplitCells; ++i) cell_top[i] = -1e30f;

@@ -138,9 +138,9 @@ struct SegmenterConfig {
   // lid's cells are dropped (background) when they stand on the floor (lowest point within
   // cut_floor_contact_m), make at least box_split_min_share of the component, their centroid lies
   // at least box_split_min_dist_m from the rest's along the floor (a box stands beside or in front
-  // of the person; a crouching body's shins, which also reach one height, lie under it: 0.04-0.53 m
-  // on tuning seeds, the boxes 0.75-1.25 m), and the rest passes the person test on its own.
-  // box_split_height_m = 0 turns this off.
+  // of the person; a crouching body's shins, which also reach one height, lie under it: 0.02-0.53 m
+  // on tuning seeds, the boxes 0.73-1.25 m), and the rest passes the person test on its own.
+  // box_split_height_m = 0 turns this off (and box_reject_min_share with it).
   float box_split_height_m = 0.85f;       // ≥ 0
   float box_split_min_share = 0.4f;       // 0..1
   float box_split_cell_m = 0.1f;          // > 0
