@@ -988,12 +988,16 @@ int32_t Segmenter::absorbing_user(int32_t n, int32_t k, const float* cx, const f
 }
 
 // A person and a box as one component (header, box_split_height_m): the component's pixels binned
-// on the floor in a kSplitCells² grid centred on its centroid (pixels outside the grid stay);
-// pixels in cells whose highest point is lower than box_split_height_m are dropped (marked −1 in
-// parent_, so they are labelled background) when they stand on the floor, make at least
-// box_split_min_share of the component and the rest passes the person test. The candidate's
-// statistics become the rest's (the hidden-edge, occlusion and hull counts are kept). Work: three
-// passes over the candidate's image box and one over the candidates. Returns whether it split.
+// on the floor in a kSplitCells² grid of box_split_cell_m centred on its centroid (pixels outside
+// the grid stay). Cells whose highest point is lower than box_split_height_m are low (cells
+// reaching the top image row never); the lid is the band of two kLidBins bins of cell tops holding
+// the most low-cell pixels. The lid cells' pixels are dropped (marked −1 in parent_, so they are
+// labelled background) when they stand on the floor, make at least box_split_min_share of the
+// component, their centroid lies at least box_split_min_dist_m from the rest's along the floor and
+// the rest passes the person test; the candidate's statistics become the rest's (the hidden-edge,
+// occlusion and hull counts are kept). Returns 1 then; 2 when the lid is not dropped but holds at
+// least box_reject_min_share of the component (no user); else 0. Work: at most four passes over
+// the candidate's image box.
 int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
   const SegmenterConfig& cfg = *config_;
   if (cfg.box_split_height_m <= 0.0f || floor_->valid == 0) return 0;
