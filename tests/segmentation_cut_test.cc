@@ -252,6 +252,7 @@ TEST(SegmentationCut, AHandReachingOverABoxDoesNotMakeItAPerson) {
   EXPECT_EQ(h.result.user_count, 0);
   SegmenterConfig any = default_segmenter_config(false);
   any.fragment_min_share = 0.0f;
+  any.box_reject_min_share = 0.0f;  // the fifth pass's lid test refuses the union too
   SegmenterHarness a(any);
   ASSERT_EQ(a.run(f), Status::kOk);
   EXPECT_EQ(a.result.user_count, 1) << "the scene should offer the box and the forearm as one person";
@@ -532,4 +533,97 @@ TEST(SegmentationCut, APieceBelowABodyBeyondTheLegRadiusStaysApart) {
   ASSERT_EQ(h.run(f), Status::kOk);
   ASSERT_EQ(h.result.user_count, 1);
   EXPECT_LT(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.8 * truth_pixels(f, 1)));
+}
+
+namespace {
+
+// Fifth pass (box_split_height_m). A box 1.0 m wide and 0.7 m tall on the floor (truth 0) with
+// someone standing against its side (truth 1): one component. The camera 1.2 m high looks
+// slightly down.
+tools::Scene person_against_box() {
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 10.0f;
+  s.boxes.push_back({-1.2f, -0.2f, 0.0f, 0.7f, 2.4f, 2.9f, 0});
+  s.cylinders.push_back(person_at(0.0f, 2.65f, 1));
+  return s;
+}
+
+// Someone crouching: the shins in front (0-0.5 m high) and the bent body above and behind them
+// (0.5-1.05 m), in the same columns. The low part also reaches one height, but lies under the body.
+tools::Scene crouching() {
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 10.0f;
+  s.boxes.push_back({-0.25f, 0.25f, 0.0f, 0.5f, 2.3f, 2.5f, 1});
+  s.boxes.push_back({-0.25f, 0.25f, 0.5f, 1.05f, 2.5f, 2.8f, 1});
+  return s;
+}
+
+// A box 0.6 m wide and 0.7 m tall (truth 0) with the arm of someone hidden behind it reaching
+// 0.45 m above its lid (truth 2), touching it: one component higher than min_person_height_m,
+// mostly the box.
+tools::Scene box_with_arm() {
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 10.0f;
+  s.boxes.push_back({-0.5f, 0.1f, 0.0f, 0.7f, 2.5f, 2.9f, 0});
+  s.boxes.push_back({-0.25f, -0.17f, 0.7f, 1.15f, 2.6f, 2.68f, 2});
+  return s;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, ABoxWithAnArmOverItIsNoUser) {
+  const tools::RenderedScene f = tools::render_scene(box_with_arm());
+  ASSERT_GT(truth_pixels(f, 2), 0);
+  SegmenterConfig off = default_segmenter_config(false);
+  off.box_reject_min_share = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  ASSERT_TRUE(n.result.floor.valid);
+  ASSERT_EQ(n.result.user_count, 1) << "without the rule the box and the arm should be a user (the scene tests nothing otherwise)";
+
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_GT(h.segmenter.config().box_reject_min_share, 0.0f);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_EQ(h.result.user_count, 0);
+  EXPECT_EQ(labelled_truth(h.labels, f, 0) + labelled_truth(h.labels, f, 2), 0);
+}
+
+TEST(SegmentationCut, ABoxJoinedToSomeoneStandingAgainstItIsDropped) {
+  const tools::RenderedScene f = tools::render_scene(person_against_box());
+  SegmenterConfig off = default_segmenter_config(false);
+  off.box_split_height_m = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  ASSERT_TRUE(n.result.floor.valid);
+  ASSERT_EQ(n.result.user_count, 1);
+  ASSERT_GT(labelled_truth(n.labels, f, 0), truth_pixels(f, 1))
+      << "without the rule the box should be part of the user (the scene tests nothing otherwise)";
+
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_GT(h.segmenter.config().box_split_height_m, 0.0f);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  const uint8_t id = uint8_t(h.result.users[0].id);
+  EXPECT_GE(count_pixels(h.labels, f, id, 1), int(0.95 * truth_pixels(f, 1)));
+  EXPECT_LT(labelled_truth(h.labels, f, 0), truth_pixels(f, 1) / 10) << "the box is background";
+  EXPECT_EQ(h.result.users[0].pixel_count, count_pixels(h.labels, f, id, 0) + count_pixels(h.labels, f, id, 1));
+}
+
+TEST(SegmentationCut, SomeoneCrouchingKeepsTheirShins) {
+  const tools::RenderedScene f = tools::render_scene(crouching());
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.95 * truth_pixels(f, 1)));
+
+  // Without the distance test the shins would go (the scene tests the distance test).
+  SegmenterConfig near = default_segmenter_config(false);
+  near.box_split_min_dist_m = 0.0f;
+  SegmenterHarness n(near);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  ASSERT_EQ(n.result.user_count, 1);
+  EXPECT_LT(count_pixels(n.labels, f, uint8_t(n.result.users[0].id), 1), int(0.8 * truth_pixels(f, 1)));
 }

@@ -183,7 +183,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
          c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
@@ -987,6 +987,161 @@ int32_t Segmenter::absorbing_user(int32_t n, int32_t k, const float* cx, const f
   return best;
 }
 
+// A person and a box as one component (header, box_split_height_m): the component's pixels binned
+// on the floor in a kSplitCells² grid of box_split_cell_m centred on its centroid (pixels outside
+// the grid stay). Cells whose highest point is lower than box_split_height_m are low (cells
+// reaching the top image row never); the lid is the band of two kLidBins bins of cell tops holding
+// the most low-cell pixels. The lid cells' pixels are dropped (marked −1 in parent_, so they are
+// labelled background) when they stand on the floor, make at least box_split_min_share of the
+// component, their centroid lies at least box_split_min_dist_m from the rest's along the floor and
+// the rest passes the person test; the candidate's statistics become the rest's (the hidden-edge,
+// occlusion and hull counts are kept). Returns 1 then; 2 when the lid is not dropped but holds at
+// least box_reject_min_share of the component (no user); else 0. Work: at most four passes over
+// the candidate's image box.
+int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
+  const SegmenterConfig& cfg = *config_;
+  if (cfg.box_split_height_m <= 0.0f || floor_->valid == 0) return 0;
+  Candidate& c = candidates_[k];
+  // Not for components cut by the top border: the legs of someone seen from close show no top
+  // and look like a lid in the cells below the border.
+  if (c.pixels == 0 || c.top < cfg.box_split_height_m || c.v_min == 0) return 0;
+  if (c.bottom > cfg.cut_floor_contact_m) return 0;  // nothing of it stands on the floor
+  constexpr int32_t kSplitCells = 48;
+  float cell_top[kSplitCells * kSplitCells];
+  for (int32_t i = 0; i < kSplitCells * kSplitCells; ++i) cell_top[i] = -1e30f;
+  // Floor axes: a = camera x without its vertical part, b = n × a.
+  const float nx = floor_->nx, ny = floor_->ny, nz = floor_->nz;
+  float ax = 1.0f - nx * nx, ay = -nx * ny, az = -nx * nz;
+  const float len = sqrtf(ax * ax + ay * ay + az * az);
+  if (len < 1e-3f) return 0;
+  ax /= len; ay /= len; az /= len;
+  const float bx = ny * az - nz * ay, by = nz * ax - nx * az, bz = nx * ay - ny * ax;
+  const float mx = float(c.sx / c.pixels), my = float(c.sy / c.pixels), mz = float(c.sz / c.pixels);
+  const float inv_cell = 1.0f / cfg.box_split_cell_m;
+  const float a0 = mx * ax + my * ay + mz * az, b0 = mx * bx + my * by + mz * bz;
+  const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
+  const int32_t w = f.width;
+  // The cell of pixel (u, v) with depth z, or −1 outside the grid; its height above the floor.
+  auto cell_of = [&](int32_t u, int32_t v, uint16_t depth, float* up) {
+    const float z = float(depth) * 0.001f;
+    const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
+    const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
+    *up = nx * x + ny * y + nz * z + floor_->d;
+    const int32_t ia = int32_t(floorf((x * ax + y * ay + z * az - a0) * inv_cell)) + kSplitCells / 2;
+    const int32_t ib = int32_t(floorf((x * bx + y * by + z * bz - b0) * inv_cell)) + kSplitCells / 2;
+    if (ia < 0 || ia >= kSplitCells || ib < 0 || ib >= kSplitCells) return int32_t(-1);
+    return ia * kSplitCells + ib;
+  };
+  auto own = [&](int32_t i) {
+    const int32_t p = parent_[i];
+    return p >= 0 && aux_[p] >= 0 && candidates_[aux_[p]].owner == k;
+  };
+  for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    for (int32_t u = c.u_min; u <= c.u_max; ++u) {
+      if (!own(v * w + u)) continue;
+      float up;
+      const int32_t cell = cell_of(u, v, row[u], &up);
+      // A cell reaching the top image row has its top out of view (legs cut by the border reach
+      // the same height in every cell, like a lid): never dropped.
+      if (cell >= 0 && (up > cell_top[cell] || v == 0)) cell_top[cell] = v == 0 ? 1e30f : up;
+    }
+  }
+  // The lid: a box's or cylinder's cells all reach the same height (its top face, or the top edge
+  // of its faces), a body's low cells (feet, a leg, a hand) do not. Pixel-weighted histogram of
+  // the low cells' tops in kLidBins bins below box_split_height_m; the lid is the pair of
+  // neighbouring bins with the most pixels, and only cells whose top lies in it are dropped.
+  constexpr int32_t kLidBins = 32;
+  int32_t lid_hist[kLidBins] = {};
+  const float bin_scale = float(kLidBins) / cfg.box_split_height_m;
+  for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    for (int32_t u = c.u_min; u <= c.u_max; ++u) {
+      if (!own(v * w + u)) continue;
+      float up;
+      const int32_t cell = cell_of(u, v, row[u], &up);
+      if (cell < 0 || cell_top[cell] >= cfg.box_split_height_m || cell_top[cell] < 0.0f) continue;
+      const int32_t bin = int32_t(cell_top[cell] * bin_scale);
+      ++lid_hist[bin < kLidBins ? bin : kLidBins - 1];
+    }
+  }
+  int32_t lid_bin = 0;
+  for (int32_t b = 1; b + 1 < kLidBins; ++b)
+    if (lid_hist[b] + lid_hist[b + 1] > lid_hist[lid_bin] + lid_hist[lid_bin + 1]) lid_bin = b;
+  const float lid_lo = float(lid_bin) / bin_scale, lid_hi = float(lid_bin + 2) / bin_scale;
+  auto in_lid = [&](int32_t cell) {
+    return cell >= 0 && cell_top[cell] >= lid_lo && cell_top[cell] < lid_hi && cell_top[cell] < cfg.box_split_height_m;
+  };
+  // The rest's statistics, and the dropped part's count and lowest point.
+  Candidate rest = c;
+  rest.pixels = 0;
+  rest.sx = rest.sy = rest.sz = 0.0;
+  rest.x_min = rest.y_min = rest.z_min = 1e30f;
+  rest.x_max = rest.y_max = rest.z_max = rest.top = -1e30f;
+  rest.bottom = 1e30f;
+  rest.u_min = rest.v_min = 32767;
+  rest.u_max = rest.v_max = -1;
+  int32_t dropped = 0;
+  float dropped_bottom = 1e30f;
+  for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    for (int32_t u = c.u_min; u <= c.u_max; ++u) {
+      if (!own(v * w + u)) continue;
+      float up;
+      const int32_t cell = cell_of(u, v, row[u], &up);
+      if (in_lid(cell)) {
+        ++dropped;
+        if (up < dropped_bottom) dropped_bottom = up;
+        continue;
+      }
+      const float z = float(row[u]) * 0.001f;
+      const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
+      const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
+      ++rest.pixels;
+      rest.sx += x; rest.sy += y; rest.sz += z;
+      const float horizontal = x * ax + y * ay + z * az;
+      if (horizontal < rest.x_min) rest.x_min = horizontal;
+      if (horizontal > rest.x_max) rest.x_max = horizontal;
+      if (y < rest.y_min) rest.y_min = y;
+      if (y > rest.y_max) rest.y_max = y;
+      if (z < rest.z_min) rest.z_min = z;
+      if (z > rest.z_max) rest.z_max = z;
+      if (up > rest.top) rest.top = up;
+      if (up < rest.bottom) rest.bottom = up;
+      if (u < rest.u_min) rest.u_min = int16_t(u);
+      if (u > rest.u_max) rest.u_max = int16_t(u);
+      if (v < rest.v_min) rest.v_min = int16_t(v);
+      if (v > rest.v_max) rest.v_max = int16_t(v);
+    }
+  }
+  if (dropped == 0 || rest.pixels == 0 || dropped_bottom > cfg.cut_floor_contact_m) return 0;
+  const bool rest_passes = passes_person_test(f, rest);
+  // Centroid distance along the floor between the dropped part and the rest.
+  const float dx = float((c.sx - rest.sx) / dropped - rest.sx / rest.pixels);
+  const float dy = float((c.sy - rest.sy) / dropped - rest.sy / rest.pixels);
+  const float dz = float((c.sz - rest.sz) / dropped - rest.sz / rest.pixels);
+  const float da = dx * ax + dy * ay + dz * az, db = dx * bx + dy * by + dz * bz;
+  const bool apart = da * da + db * db >= cfg.box_split_min_dist_m * cfg.box_split_min_dist_m;
+  if (!rest_passes || !apart || float(dropped) < cfg.box_split_min_share * float(c.pixels)) {
+    // Not a box beside a person: a lid holding box_reject_min_share of the component is a box with
+    // a hand or arm over it (header).
+    const bool lid = cfg.box_reject_min_share > 0.0f && float(dropped) >= cfg.box_reject_min_share * float(c.pixels);
+    return lid ? 2 : 0;
+  }
+  for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    for (int32_t u = c.u_min; u <= c.u_max; ++u) {
+      const int32_t i = v * w + u;
+      if (!own(i)) continue;
+      float up;
+      const int32_t cell = cell_of(u, v, row[u], &up);
+      if (in_lid(cell)) parent_[i] = -1;
+    }
+  }
+  c = rest;
+  return 1;
+}
+
 void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult* r) {
   const SegmenterConfig& cfg = *config_;
   merge_fragments(f, n);
@@ -1042,6 +1197,17 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
     if (in_front_of_a_user(f, n, best_k, cz, strict)) {  // a limb reaching out, not someone hidden
       strict[best_k] = false;
       continue;
+    }
+    const int32_t split = split_box(f, best_k);
+    if (split == 2) {  // a box with a hand or arm over it (header, box_reject_min_share)
+      strict[best_k] = false;
+      continue;
+    }
+    if (split == 1) {  // a box dropped from a person (header, box_split_height_m)
+      const Candidate& c = candidates_[best_k];
+      cx[best_k] = float(c.sx / c.pixels);
+      cy[best_k] = float(c.sy / c.pixels);
+      cz[best_k] = float(c.sz / c.pixels);
     }
     const int32_t into = absorbing_user(n, best_k, cx, cy, cz);
     if (into >= 0) {  // a piece of that user's body behind a depth jump (header, absorb_radius_m)

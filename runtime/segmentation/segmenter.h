@@ -130,6 +130,27 @@ struct SegmenterConfig {
   // legs stepping forward put the centroids 0.42-0.53 m apart on seeds 12 and 18; at 0.6 m a
   // person's legs joined another person's upper body on seed 14 (0.59 m). 0 = off.
   float legs_radius_m = 0.55f;            // ≥ 0
+  // A person and a box as one component (a leg against a box, someone beside one): before a
+  // component not cut by the top border becomes a new user, its pixels are binned on the floor in
+  // cells of box_split_cell_m. Cells whose highest point is below box_split_height_m are low (the
+  // synthetic clutter is 0.3-0.8 m tall); the lid is the 2·box_split_height_m/32-high band of
+  // cell tops holding the most low-cell pixels (a box's cells all reach its top). The pixels of the
+  // lid's cells are dropped (background) when they stand on the floor (lowest point within
+  // cut_floor_contact_m), make at least box_split_min_share of the component, their centroid lies
+  // at least box_split_min_dist_m from the rest's along the floor (a box stands beside or in front
+  // of the person; a crouching body's shins, which also reach one height, lie under it: 0.02-0.53 m
+  // on tuning seeds, the boxes 0.73-1.25 m), and the rest passes the person test on its own.
+  // box_split_height_m = 0 turns this off (and box_reject_min_share with it).
+  float box_split_height_m = 0.85f;       // ≥ 0
+  float box_split_min_share = 0.4f;       // 0..1
+  float box_split_cell_m = 0.1f;          // > 0
+  float box_split_min_dist_m = 0.6f;      // ≥ 0
+  // When the lid's cells are not dropped that way (the rest fails alone, or lies within
+  // box_split_min_dist_m, or the lid holds less than box_split_min_share) but hold at least
+  // box_reject_min_share of the component, it is no user: a box with the hand or arm of someone
+  // hidden reaching over it (on seeds 16, 40, 44 and 48 lid shares 0.77-0.86; the people with a
+  // lid share of at least a half 0.52-0.63). 0 = off.
+  float box_reject_min_share = 0.7f;      // 0..1
   // People cut by the top image border (a low camera looking down at someone close: only the
   // legs are in view) cannot show their height. A component that touches the top border, stands
   // on the floor (lowest point within cut_floor_contact_m of it) and has the area and width of a
@@ -316,6 +337,7 @@ class Segmenter {
   bool in_front_of_a_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* mean_z,
                           const bool* passes) const;
   int32_t absorbing_user(int32_t candidate_count, int32_t k, const float* cx, const float* cy, const float* cz) const;
+  int32_t split_box(const DepthFrame& frame, int32_t k);  // 0 = kept, 1 = box dropped, 2 = no user
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
   void update_background(const DepthFrame& frame, const uint8_t* labels, const SegmentationResult* result);
 };

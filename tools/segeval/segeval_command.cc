@@ -47,7 +47,9 @@ static const char* const kUsage =
     "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
     "                         fragment_radius_m, fragment_pair_radius_m, cut_max_fill, cut_max_solidity, cut_solidity_max_hidden,\n"
     "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, cut_floor_contact_m,\n"
-    "                         cut_bottom_area_fraction, fragment_min_share, absorb_radius_m, legs_radius_m,\n"
+    "                         cut_bottom_area_fraction, fragment_min_share, absorb_radius_m, legs_radius_m, box_split_height_m,\n"
+    "                         box_split_min_share, box_split_cell_m, box_split_min_dist_m,\n"
+    "                         box_reject_min_share,\n"
     "                         floor_margin_per_m2_mm, floor_min_inlier_fraction, floor_min_extent_m, floor_samples,\n"
     "                         floor_iterations";
 
@@ -139,6 +141,11 @@ int run_segeval(int argc, char** argv) {
       else if (k == "fragment_min_share") cfg.fragment_min_share = float(v);
       else if (k == "absorb_radius_m") cfg.absorb_radius_m = float(v);
       else if (k == "legs_radius_m") cfg.legs_radius_m = float(v);
+      else if (k == "box_split_height_m") cfg.box_split_height_m = float(v);
+      else if (k == "box_split_min_share") cfg.box_split_min_share = float(v);
+      else if (k == "box_split_cell_m") cfg.box_split_cell_m = float(v);
+      else if (k == "box_split_min_dist_m") cfg.box_split_min_dist_m = float(v);
+      else if (k == "box_reject_min_share") cfg.box_reject_min_share = float(v);
       else if (k == "cut_bottom_area_fraction") cfg.cut_bottom_area_fraction = float(v);
       else if (k == "cut_floor_contact_m") cfg.cut_floor_contact_m = float(v);
       else if (k == "floor_margin_per_m2_mm") cfg.floor_margin_per_m2_mm = float(v);
@@ -346,6 +353,19 @@ int run_segeval(int argc, char** argv) {
                       {"user", mu >= 0 ? r.users[mu].id : 0}, {"best_iou", best_iou}});
       }
       line["people"] = ps;
+      // Per user: pixels at least min_person_height_m above the segmenter's floor (−1 without one).
+      std::vector<long> high(size_t(nu), r.floor.valid ? 0 : -1);
+      if (r.floor.valid)
+        for (int v = 0; v < h; ++v)
+          for (int u = 0; u < w; ++u) {
+            const size_t q = size_t(v) * w + u;
+            if (!labels[q] || !depth.pixels[q]) continue;
+            const float z = depth.pixels[q] * 0.001f;
+            const float x = (u - intr.cx) * z / intr.fx, y = -(v - intr.cy) * z / intr.fy;
+            if (r.floor.nx * x + r.floor.ny * y + r.floor.nz * z + r.floor.d < seg.config().min_person_height_m) continue;
+            for (int k = 0; k < nu; ++k)
+              if (r.users[k].id == labels[q]) ++high[size_t(k)];
+          }
       json us = json::array();
       for (int u = 0; u < nu; ++u) {
         long body = 0;
@@ -353,6 +373,7 @@ int run_segeval(int argc, char** argv) {
         const UserInfo& ui = r.users[u];
         us.push_back({{"id", ui.id}, {"pixels", ui.pixel_count}, {"body_pixels", body}, {"top", ui.top_height_m},
                       {"box", {ui.u_min, ui.v_min, ui.u_max, ui.v_max}}, {"z", ui.centroid_m[2]},
+                      {"high_pixels", high[size_t(u)]},
                       {"person", person_of_user[size_t(u)]},
                       {"person_pixels", person_of_user[size_t(u)] >= 0
                                             ? overlap[size_t(u) * np + size_t(person_of_user[size_t(u)])] : 0}});
