@@ -627,3 +627,50 @@ TEST(SegmentationCut, SomeoneCrouchingKeepsTheirShins) {
   ASSERT_EQ(n.result.user_count, 1);
   EXPECT_LT(count_pixels(n.labels, f, uint8_t(n.result.users[0].id), 1), int(0.8 * truth_pixels(f, 1)));
 }
+
+namespace {
+
+// A body 1.2 m tall (front at z 2.4 m) and, behind it at `head_z`, a narrow piece (0.16 m wide)
+// reaching 0.9 m to `head_top` whose lower part the body hides: only the top shows above the body,
+// less than a person's area, with an occluding edge below it. The camera 1.0 m high looks level.
+tools::Scene head_behind(float head_z, float head_top, uint8_t head_truth) {
+  tools::Scene s;
+  s.camera.height_m = 1.0f;
+  s.camera.pitch_deg = 0.0f;
+  s.boxes.push_back({-0.25f, 0.25f, 0.0f, 1.2f, 2.4f, 2.6f, 1});
+  s.boxes.push_back({-0.08f, 0.08f, 0.9f, head_top, head_z, head_z + 0.15f, head_truth});
+  return s;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, TheTopOfABodyBeyondADepthJumpJoinsIt) {
+  // 0.6 m behind the body's front: within head_radius_m, the same body.
+  const tools::RenderedScene f = tools::render_scene(head_behind(3.0f, 1.55f, 1));
+  SegmenterConfig off = default_segmenter_config(false);
+  off.head_radius_m = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  ASSERT_TRUE(n.result.floor.valid);
+  ASSERT_EQ(n.result.user_count, 2) << "without the rule the piece should be a user of its own";
+
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.95 * truth_pixels(f, 1)));
+  EXPECT_GT(h.result.users[0].top_height_m, 1.4f);
+}
+
+TEST(SegmentationCut, SomeoneFartherBehindShowingTheirHeadStaysAUser) {
+  // 1.2 m behind the body's front: beyond head_radius_m, someone else.
+  const tools::RenderedScene f = tools::render_scene(head_behind(3.6f, 1.6f, 2));
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 2);
+  int own = 0;
+  for (int i = 0; i < h.result.user_count; ++i) own += count_pixels(h.labels, f, uint8_t(h.result.users[i].id), 2) > 0;
+  EXPECT_EQ(own, 1);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 2) +
+                count_pixels(h.labels, f, uint8_t(h.result.users[1].id), 2),
+            int(0.95 * truth_pixels(f, 2)));
+}

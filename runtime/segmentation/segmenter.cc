@@ -183,7 +183,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
          c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
@@ -962,18 +962,29 @@ bool Segmenter::in_front_of_a_user(const DepthFrame& f, int32_t n, int32_t k, co
 
 // The user (candidate index) that a component about to become a new user belongs to, or −1: a
 // larger user, nearer, whose image box (grown by 2 pixels) holds the component's and whose centroid
-// is within absorb_radius_m along the floor (header). Work: one pass over the candidates.
-int32_t Segmenter::absorbing_user(int32_t n, int32_t k, const float* cx, const float* cy, const float* cz) const {
+// is within absorb_radius_m along the floor, or, for a component without a person's area that
+// reaches higher than the user, starts above its top row and shares its columns, within
+// head_radius_m (header). The nearest such user. Work: one pass over the candidates.
+int32_t Segmenter::absorbing_user(const DepthFrame& f, int32_t n, int32_t k, const float* cx, const float* cy,
+                                  const float* cz) const {
   const SegmenterConfig& cfg = *config_;
-  if (cfg.absorb_radius_m <= 0.0f) return -1;
+  if (cfg.absorb_radius_m <= 0.0f && cfg.head_radius_m <= 0.0f) return -1;
   const Candidate& c = candidates_[k];
   const bool use_floor = floor_->valid != 0;
+  // A piece without a person's area (it passes as hidden or cut) may be the top of a user's body
+  // (header, head_radius_m).
+  const bool small = float(c.pixels) < cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (cz[k] * cz[k]);
   int32_t best = -1;
-  float best_d2 = cfg.absorb_radius_m * cfg.absorb_radius_m;
+  const float r = cfg.absorb_radius_m > cfg.head_radius_m ? cfg.absorb_radius_m : cfg.head_radius_m;
+  float best_d2 = r * r;
   for (int32_t m = 0; m < n; ++m) {
     const Candidate& u = candidates_[m];
     if (m == k || u.user == 0 || u.pixels <= c.pixels || cz[m] >= cz[k]) continue;
-    if (c.u_min < u.u_min - 2 || c.u_max > u.u_max + 2 || c.v_min < u.v_min - 2 || c.v_max > u.v_max + 2) continue;
+    const bool inside = cfg.absorb_radius_m > 0.0f && c.u_min >= u.u_min - 2 && c.u_max <= u.u_max + 2 &&
+                        c.v_min >= u.v_min - 2 && c.v_max <= u.v_max + 2;
+    const bool head = cfg.head_radius_m > 0.0f && small && c.top > u.top && c.v_min < u.v_min &&
+                      c.u_min <= u.u_max && u.u_min <= c.u_max;
+    if (!inside && !head) continue;
     float d[3] = {cx[k] - cx[m], cy[k] - cy[m], cz[k] - cz[m]};
     if (use_floor) {
       const float up = d[0] * floor_->nx + d[1] * floor_->ny + d[2] * floor_->nz;
@@ -982,7 +993,9 @@ int32_t Segmenter::absorbing_user(int32_t n, int32_t k, const float* cx, const f
       d[1] = 0.0f;
     }
     const float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-    if (d2 <= best_d2) { best_d2 = d2; best = m; }
+    const float lim = inside && cfg.absorb_radius_m > (head ? cfg.head_radius_m : 0.0f) ? cfg.absorb_radius_m
+                                                                                         : cfg.head_radius_m;
+    if (d2 <= lim * lim && d2 <= best_d2) { best_d2 = d2; best = m; }
   }
   return best;
 }
@@ -1209,8 +1222,8 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
       cy[best_k] = float(c.sy / c.pixels);
       cz[best_k] = float(c.sz / c.pixels);
     }
-    const int32_t into = absorbing_user(n, best_k, cx, cy, cz);
-    if (into >= 0) {  // a piece of that user's body behind a depth jump (header, absorb_radius_m)
+    const int32_t into = absorbing_user(f, n, best_k, cx, cy, cz);
+    if (into >= 0) {  // a piece of that user's body behind a depth jump (header, absorb_radius_m, head_radius_m)
       strict[best_k] = false;
       Candidate& dst = candidates_[into];
       Candidate& src = candidates_[best_k];

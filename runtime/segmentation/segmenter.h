@@ -121,6 +121,15 @@ struct SegmenterConfig {
   // beyond a depth jump): it joins that user instead. Two people do not stand within about a body's
   // depth one behind the other with the farther one's outline inside the nearer one's. 0 = off.
   float absorb_radius_m = 0.6f;           // ≥ 0
+  // The top of a user's body beyond a depth jump: a component about to become a new user that lacks
+  // a person's area (it passes only as hidden or cut), is farther than a larger user, reaches
+  // higher than that user's top, starts above that user's top image row, shares image columns with
+  // it and has its centroid within head_radius_m of that user's along the floor, joins that user.
+  // On two-person tuning seeds 44, 45 and 47 a head or raised arm apart from the rest of its body
+  // (0.22-0.48 m farther; centroids: two within 0.6 m, one 0.6-0.7 m), which matched no person. A second person
+  // standing that close behind a shorter first one, showing only a head above them, would be
+  // joined too (not seen on seeds 11-18, 40-49 up to 1.0 m). 0 = off.
+  float head_radius_m = 0.7f;             // ≥ 0
   // Legs split from their body: a piece standing on the floor (lowest point within
   // cut_floor_contact_m) that does not pass alone joins a body that passes but does not reach the
   // floor (its lowest point higher than cut_floor_contact_m) when it is lower than the body (top
@@ -336,7 +345,8 @@ class Segmenter {
   void merge_fragments(const DepthFrame& frame, int32_t candidate_count);
   bool in_front_of_a_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* mean_z,
                           const bool* passes) const;
-  int32_t absorbing_user(int32_t candidate_count, int32_t k, const float* cx, const float* cy, const float* cz) const;
+  int32_t absorbing_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* cx, const float* cy,
+                         const float* cz) const;
   int32_t split_box(const DepthFrame& frame, int32_t k);  // 0 = kept, 1 = box dropped, 2 = no user
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
   void update_background(const DepthFrame& frame, const uint8_t* labels, const SegmentationResult* result);

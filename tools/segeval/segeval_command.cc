@@ -47,7 +47,7 @@ static const char* const kUsage =
     "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
     "                         fragment_radius_m, fragment_pair_radius_m, cut_max_fill, cut_max_solidity, cut_solidity_max_hidden,\n"
     "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, cut_floor_contact_m,\n"
-    "                         cut_bottom_area_fraction, fragment_min_share, absorb_radius_m, legs_radius_m, box_split_height_m,\n"
+    "                         cut_bottom_area_fraction, fragment_min_share, absorb_radius_m, head_radius_m, legs_radius_m, box_split_height_m,\n"
     "                         box_split_min_share, box_split_cell_m, box_split_min_dist_m,\n"
     "                         box_reject_min_share,\n"
     "                         floor_margin_per_m2_mm, floor_min_inlier_fraction, floor_min_extent_m, floor_samples,\n"
@@ -140,6 +140,7 @@ int run_segeval(int argc, char** argv) {
       else if (k == "tracked_area_fraction") cfg.tracked_area_fraction = float(v);
       else if (k == "fragment_min_share") cfg.fragment_min_share = float(v);
       else if (k == "absorb_radius_m") cfg.absorb_radius_m = float(v);
+      else if (k == "head_radius_m") cfg.head_radius_m = float(v);
       else if (k == "legs_radius_m") cfg.legs_radius_m = float(v);
       else if (k == "box_split_height_m") cfg.box_split_height_m = float(v);
       else if (k == "box_split_min_share") cfg.box_split_min_share = float(v);
