@@ -724,6 +724,21 @@ bool Pipeline::finish_votes(int32_t cap) {
   return dropped;
 }
 
+namespace {
+// The lower edge of the highest bucket of `hist` (kGuessBuckets of 1/8 octave from lowest_key) at
+// which `rank` samples are reached from above, or −1 (no guess) when the rank falls to bucket 0.
+float floor_at_rank(const uint16_t* hist, int32_t rank, int32_t lowest_key) {
+  int32_t above = 0, b = kGuessBuckets - 1;
+  for (; b > 0; --b)
+    if ((above += hist[b]) >= rank) break;
+  if (b == 0) return -1.0f;
+  const uint32_t bits = uint32_t(b + lowest_key) << 20;
+  float edge;
+  memcpy(&edge, &bits, sizeof bits);
+  return edge;
+}
+}  // namespace
+
 // A guess of each joint's final floor: about the weight that 2·cap candidates reach, estimated on
 // every k-th pixel (k ≈ pixels / kFloorSamples) and rounded down to its 1/8-octave bucket. A guess
 // may be wrong either way; too low costs appends, too high is caught by cast_bpc_votes_fast's check
@@ -767,15 +782,7 @@ void Pipeline::guess_bpc_floors(int32_t cap, float* floor) {
     ++taken;
   }
   if (rank >= taken) return;
-  for (int j = 0; j < joints; ++j) {
-    const uint16_t* h = guess_hist_ + j * kGuessBuckets;
-    int32_t above = 0, b = kGuessBuckets - 1;
-    for (; b > 0; --b)
-      if ((above += h[b]) >= rank) break;
-    if (b == 0) continue;  // the rank falls among the lightest weights: no guess
-    const uint32_t bits = uint32_t(b + kGuessLowestKey) << 20;  // the bucket's lower edge
-    memcpy(&floor[j], &bits, sizeof bits);
-  }
+  for (int j = 0; j < joints; ++j) floor[j] = floor_at_rank(guess_hist_ + j * kGuessBuckets, rank, kGuessLowestKey);
 }
 
 // The OJR caster's floor guess: as guess_bpc_floors, over each sampled pixel's live votes (trees ×
@@ -820,16 +827,8 @@ void Pipeline::guess_ojr_floors(int32_t cap, const uint32_t* lane_len2, float* f
     }
     ++taken;
   }
-  for (int j = 0; j < joints; ++j) {
-    if (sampled[j] < 2 * rank) continue;  // nearly everything is kept: no guess
-    const uint16_t* h = guess_hist_ + j * kGuessBuckets;
-    int32_t above = 0, b = kGuessBuckets - 1;
-    for (; b > 0; --b)
-      if ((above += h[b]) >= rank) break;
-    if (b == 0) continue;
-    const uint32_t bits = uint32_t(b + kGuessLowestKeyOjr) << 20;  // the bucket's lower edge
-    memcpy(&floor[j], &bits, sizeof bits);
-  }
+  for (int j = 0; j < joints; ++j)  // fewer than twice the rank: nearly everything is kept, no guess
+    if (sampled[j] >= 2 * rank) floor[j] = floor_at_rank(guess_hist_ + j * kGuessBuckets, rank, kGuessLowestKeyOjr);
 }
 
 void Pipeline::cast_bpc_votes_fast(const DepthFrame& f, FrameResult* r) {

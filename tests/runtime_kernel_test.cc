@@ -672,13 +672,13 @@ TEST(BpcScanKernel, EveryIsaAppendsTheContractsVotes) {
   }
 }
 
-// The fast BPC caster guesses each joint's floor from every k-th pixel. Here the sampled pixels
-// are far (z² makes them ~60x heavier) and Nsub exceeds their number, so the guess is too high for
-// every joint and must be caught and rescanned: the kernels must still agree with the reference.
-TEST(VoteCastingExactness, BpcFloorGuessTooHighIsRescanned) {
-  Runner r(blob::write_blob(random_bpc_joints(5, 16, 500)), 320, 240);
+// 4096 pixels with random leaves, every 16th far (4000 mm against 500): the fast casters' floor
+// guess samples every 8th pixel, so half its samples are heavy and it lands above the reference's
+// top-Nsub; the fast casters must rescan, and their proposals and flags must equal the reference's
+// on every SIMD kernel.
+static void expect_fast_casters_match_reference_with_far_samples(Runner& r, uint64_t seed) {
   const int32_t n = 4096, trees = r.view.tree_count();
-  std::mt19937_64 rng(3);
+  std::mt19937_64 rng(seed);
   std::vector<EvaluatedPixel> px(n);
   std::vector<uint32_t> leaves(size_t(trees) * n);
   for (int32_t i = 0; i < n; ++i) {
@@ -705,37 +705,20 @@ TEST(VoteCastingExactness, BpcFloorGuessTooHighIsRescanned) {
   }
 }
 
+// The fast BPC caster guesses each joint's floor from every k-th pixel. Here the sampled pixels
+// are far (z² makes them ~60x heavier) and Nsub exceeds their number, so the guess is too high for
+// every joint and must be caught and rescanned: the kernels must still agree with the reference.
+TEST(VoteCastingExactness, BpcFloorGuessTooHighIsRescanned) {
+  Runner r(blob::write_blob(random_bpc_joints(5, 16, 500)), 320, 240);
+  expect_fast_casters_match_reference_with_far_samples(r, 3);
+}
+
 // The OJR caster's floor guess from every k-th pixel: here every 16th pixel is far (weights ×64),
 // so the sampled pixels (every 8th) are half heavy and the guess lands above the reference's
 // top-Nsub; the joints left short must be scanned again for the kept votes to be the same.
 TEST(VoteCastingExactness, OjrFloorGuessTooHighIsRescanned) {
   Runner r(blob::write_blob(random_ojr_joints(9, 16, 2, 500)), 320, 240);
-  const int32_t n = 4096, trees = r.view.tree_count();
-  std::mt19937_64 rng(4);
-  std::vector<EvaluatedPixel> px(n);
-  std::vector<uint32_t> leaves(size_t(trees) * n);
-  for (int32_t i = 0; i < n; ++i) {
-    px[i] = EvaluatedPixel{uint16_t(rng() % 320), uint16_t(rng() % 240), uint16_t(i % 16 == 0 ? 4000 : 500), 0};
-    for (int t = 0; t < trees; ++t) leaves[size_t(t) * n + i] = uint32_t(rng() % r.view.meta->leaf_count);
-  }
-  const CameraIntrinsics intr = tools::kinect_intrinsics(320, 240);
-  FrameResult ref{}, fast{};
-  ASSERT_EQ(r.pipeline.set_kernel(KernelIsa::kScalar), Status::kOk);
-  ASSERT_EQ(r.pipeline.aggregate_from_leaves(intr, px.data(), leaves.data(), n, &ref), Status::kOk);
-  int proposals = 0;
-  for (int j = 0; j < 16; ++j) proposals += ref.proposal_count[j];
-  EXPECT_GT(proposals, 0);
-  for (KernelIsa isa : kSimdIsas) {
-    if (!kernel_isa_supported(isa)) continue;
-    ASSERT_EQ(r.pipeline.set_kernel(isa), Status::kOk);
-    ASSERT_EQ(r.pipeline.aggregate_from_leaves(intr, px.data(), leaves.data(), n, &fast), Status::kOk);
-    EXPECT_EQ(ref.flags, fast.flags) << kernel_isa_name(isa);
-    for (int j = 0; j < 16; ++j) {
-      ASSERT_EQ(ref.proposal_count[j], fast.proposal_count[j]) << kernel_isa_name(isa) << " joint " << j;
-      EXPECT_EQ(0, std::memcmp(ref.proposals[j], fast.proposals[j], sizeof(JointProposal) * size_t(ref.proposal_count[j])))
-          << kernel_isa_name(isa) << " joint " << j;
-    }
-  }
+  expect_fast_casters_match_reference_with_far_samples(r, 4);
 }
 
 // Stage 1 (foreground, eight pixels at a time) lists exactly the pixels of its definition: depth

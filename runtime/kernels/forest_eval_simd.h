@@ -62,6 +62,17 @@ inline void prefetch_node(const ForestKernelArgs& a, uint32_t n) {
     _mm_prefetch(reinterpret_cast<const char*>(a.nodes + n), _MM_HINT_T0);
 }
 
+// The scalar end of a visit, after the vector step made its two probe addresses (`addresses`: probe 1
+// in the low 32 bits, probe 2 in the high): the two probe loads, the child bit (sign of t + p2 − p1)
+// and node[i]'s child, prefetched when asked.
+template <bool kPrefetchChildren, bool kPacked>
+inline void finish_visit(const ForestKernelArgs& a, uint32_t* node, int32_t i, int32_t threshold, uint64_t addresses) {
+  const int32_t d = threshold + int32_t(a.probe_image[addresses >> 32]) - int32_t(a.probe_image[uint32_t(addresses)]);
+  const uint32_t child = 2 * node[i] + 1 + (uint32_t(d) >> 31);
+  node[i] = child;
+  if constexpr (kPrefetchChildren) prefetch_node<kPacked>(a, child);
+}
+
 // One level of one tree over a chunk whose setups are filled for `padded` pixels: node[i] holds each
 // pixel's node index and becomes its child's; when kPrefetchChildren, each child's node is prefetched.
 using LevelFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t padded);

@@ -15,7 +15,6 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
   const __m256i nibble_madd = _mm256_set1_epi32(int32_t(1u | (16u << 16)));
   const __m256i low_byte = _mm256_set1_epi64x(0xFF);
   const __m256i low_dwords = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
-  const uint16_t* image = a.probe_image;
   for (int32_t i = 0; i < padded; i += 4) {
     const __m256i raw = _mm256_set_epi64x(node_bits<kPacked>(a, node[i + 3]), node_bits<kPacked>(a, node[i + 2]),
                                           node_bits<kPacked>(a, node[i + 1]), node_bits<kPacked>(a, node[i]));
@@ -39,14 +38,10 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
     }
 #pragma GCC unroll 4
     for (int j = 0; j < 4; ++j) {
-      const uint32_t n = node[i + j];
-      const int32_t t = kPacked ? threshold[j] : int32_t(a.nodes[n].threshold_mm);
+      const int32_t t = kPacked ? threshold[j] : int32_t(a.nodes[node[i + j]].threshold_mm);
       const __m128i pair = address_pairs[j >> 1];
       const uint64_t q = (j & 1) ? uint64_t(_mm_extract_epi64(pair, 1)) : uint64_t(_mm_cvtsi128_si64(pair));
-      const int32_t d = t + int32_t(image[q >> 32]) - int32_t(image[uint32_t(q)]);
-      const uint32_t child = 2 * n + 1 + (uint32_t(d) >> 31);
-      node[i + j] = child;
-      if constexpr (kPrefetchChildren) prefetch_node<kPacked>(a, child);
+      finish_visit<kPrefetchChildren, kPacked>(a, node, i + j, t, q);
     }
   }
 }

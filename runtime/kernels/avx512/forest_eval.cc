@@ -27,7 +27,6 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
   const __m512i row_madd = _mm512_set1_epi32(int32_t(1u | (uint32_t(a.probe_stride) << 16)));
   const __m512i nibble_madd = _mm512_set1_epi32(int32_t(1u | (16u << 16)));
   const __m512i low_byte = _mm512_set1_epi64(0xFF);
-  const uint16_t* image = a.probe_image;
   for (int32_t i = 0; i < padded; i += 8) {
     const __m512i raw = _mm512_set_epi64(
         node_bits<kPacked>(a, node[i + 7]), node_bits<kPacked>(a, node[i + 6]), node_bits<kPacked>(a, node[i + 5]),
@@ -54,14 +53,10 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
     }
 #pragma GCC unroll 8
     for (int j = 0; j < 8; ++j) {
-      const uint32_t n = node[i + j];
-      const int32_t t = kPacked ? threshold[j] : int32_t(a.nodes[n].threshold_mm);
+      const int32_t t = kPacked ? threshold[j] : int32_t(a.nodes[node[i + j]].threshold_mm);
       const __m128i pair = address_pairs[j >> 1];
       const uint64_t q = (j & 1) ? uint64_t(_mm_extract_epi64(pair, 1)) : uint64_t(_mm_cvtsi128_si64(pair));
-      const int32_t d = t + int32_t(image[q >> 32]) - int32_t(image[uint32_t(q)]);
-      const uint32_t child = 2 * n + 1 + (uint32_t(d) >> 31);
-      node[i + j] = child;
-      if constexpr (kPrefetchChildren) prefetch_node<kPacked>(a, child);
+      finish_visit<kPrefetchChildren, kPacked>(a, node, i + j, t, q);
     }
   }
 }
