@@ -155,6 +155,63 @@ inline float tolerance_mm(float base_mm, float per_m2_mm, float z_mm) {
   return base_mm + per_m2_mm * zm * zm;
 }
 
+// Running statistics of a component (Segmenter::Candidate): pixel count, centroid sums,
+// extents, height range above the floor and image box. One place for the rules, so building a
+// component, re-measuring a cut one and merging two agree.
+template <class Stats>
+inline void clear_stats(Stats& c) {
+  c.pixels = 0;
+  c.sx = c.sy = c.sz = 0.0;
+  c.x_min = c.y_min = c.z_min = 1e30f;
+  c.x_max = c.y_max = c.z_max = c.top = -1e30f;
+  c.bottom = 1e30f;
+  c.u_min = c.v_min = 32767;
+  c.u_max = c.v_max = -1;
+}
+
+// (x, y, z): camera metres; horizontal: the point along the extent axis; up: height above the
+// floor (only when a floor is known).
+template <class Stats>
+inline void add_point(Stats& c, int32_t u, int32_t v, float x, float y, float z, float horizontal) {
+  ++c.pixels;
+  c.sx += x; c.sy += y; c.sz += z;
+  if (horizontal < c.x_min) c.x_min = horizontal;
+  if (horizontal > c.x_max) c.x_max = horizontal;
+  if (y < c.y_min) c.y_min = y;
+  if (y > c.y_max) c.y_max = y;
+  if (z < c.z_min) c.z_min = z;
+  if (z > c.z_max) c.z_max = z;
+  if (u < c.u_min) c.u_min = int16_t(u);
+  if (u > c.u_max) c.u_max = int16_t(u);
+  if (v < c.v_min) c.v_min = int16_t(v);
+  if (v > c.v_max) c.v_max = int16_t(v);
+}
+
+template <class Stats>
+inline void add_height(Stats& c, float up) {
+  if (up > c.top) c.top = up;
+  if (up < c.bottom) c.bottom = up;
+}
+
+// Without a floor, `top` is the y extent.
+template <class Stats>
+inline void add_stats(Stats& dst, const Stats& src, bool use_floor) {
+  dst.pixels += src.pixels;
+  dst.sx += src.sx; dst.sy += src.sy; dst.sz += src.sz;
+  if (src.x_min < dst.x_min) dst.x_min = src.x_min;
+  if (src.x_max > dst.x_max) dst.x_max = src.x_max;
+  if (src.y_min < dst.y_min) dst.y_min = src.y_min;
+  if (src.y_max > dst.y_max) dst.y_max = src.y_max;
+  if (src.z_min < dst.z_min) dst.z_min = src.z_min;
+  if (src.z_max > dst.z_max) dst.z_max = src.z_max;
+  dst.top = use_floor ? (src.top > dst.top ? src.top : dst.top) : dst.y_max - dst.y_min;
+  if (src.bottom < dst.bottom) dst.bottom = src.bottom;
+  if (src.u_min < dst.u_min) dst.u_min = src.u_min;
+  if (src.u_max > dst.u_max) dst.u_max = src.u_max;
+  if (src.v_min < dst.v_min) dst.v_min = src.v_min;
+  if (src.v_max > dst.v_max) dst.v_max = src.v_max;
+}
+
 }  // namespace
 
 const char* segmentation_stage_name(int32_t stage) {
@@ -585,14 +642,8 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
   for (int32_t k = 0; k < kept; ++k) {
     Candidate& c = candidates_[k];
     aux_[c.root] = k;
-    c.pixels = 0;
-    c.sx = c.sy = c.sz = 0.0;
-    c.x_min = c.y_min = c.z_min = 1e30f;
-    c.x_max = c.y_max = c.z_max = c.top = -1e30f;
-    c.bottom = 1e30f;
+    clear_stats(c);
     c.hidden_edge = 0;
-    c.u_min = c.v_min = 32767;
-    c.u_max = c.v_max = -1;
     c.user = 0;
     c.owner = k;
   }
@@ -641,24 +692,8 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
       const float z = float(row[u]) * 0.001f;
       const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
       const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
-      ++c.pixels;
-      c.sx += x; c.sy += y; c.sz += z;
-      const float horizontal = x * hx + y * hy + z * hz;
-      if (horizontal < c.x_min) c.x_min = horizontal;
-      if (horizontal > c.x_max) c.x_max = horizontal;
-      if (y < c.y_min) c.y_min = y;
-      if (y > c.y_max) c.y_max = y;
-      if (z < c.z_min) c.z_min = z;
-      if (z > c.z_max) c.z_max = z;
-      if (use_floor) {
-        const float up = floor_->nx * x + floor_->ny * y + floor_->nz * z + floor_->d;
-        if (up > c.top) c.top = up;
-        if (up < c.bottom) c.bottom = up;
-      }
-      if (u < c.u_min) c.u_min = int16_t(u);
-      if (u > c.u_max) c.u_max = int16_t(u);
-      if (v < c.v_min) c.v_min = int16_t(v);
-      if (v > c.v_max) c.v_max = int16_t(v);
+      add_point(c, u, v, x, y, z, x * hx + y * hy + z * hz);
+      if (use_floor) add_height(c, floor_->nx * x + floor_->ny * y + floor_->nz * z + floor_->d);
     }
   }
   if (!use_floor)
@@ -828,24 +863,11 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
   const bool use_floor = floor_->valid != 0;
   auto united = [&](const Candidate& x, const Candidate& y) {
     Candidate c = y;
-    c.pixels += x.pixels;
-    c.sx += x.sx; c.sy += x.sy; c.sz += x.sz;
-    if (x.x_min < c.x_min) c.x_min = x.x_min;
-    if (x.x_max > c.x_max) c.x_max = x.x_max;
-    if (x.y_min < c.y_min) c.y_min = x.y_min;
-    if (x.y_max > c.y_max) c.y_max = x.y_max;
-    if (x.z_min < c.z_min) c.z_min = x.z_min;
-    if (x.z_max > c.z_max) c.z_max = x.z_max;
-    c.top = use_floor ? (x.top > c.top ? x.top : c.top) : c.y_max - c.y_min;
-    if (x.bottom < c.bottom) c.bottom = x.bottom;
+    add_stats(c, x, use_floor);
     c.occluded += x.occluded;  // each counted in its own box: a lower bound for the union's
     c.hidden_edge += x.hidden_edge;
     c.hull += x.hull;          // each piece's own hull: the union's hull is at least as large,
     c.hull_filled += x.hull_filled;  // so its solidity comes out higher (more box-like), not lower
-    if (x.u_min < c.u_min) c.u_min = x.u_min;
-    if (x.u_max > c.u_max) c.u_max = x.u_max;
-    if (x.v_min < c.v_min) c.v_min = x.v_min;
-    if (x.v_max > c.v_max) c.v_max = x.v_max;
     return c;
   };
   // A fragment joins the nearest touching (or, within fragment_pair_radius_m, not touching)
@@ -1087,13 +1109,7 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
   };
   // The rest's statistics, and the dropped part's count and lowest point.
   Candidate rest = c;
-  rest.pixels = 0;
-  rest.sx = rest.sy = rest.sz = 0.0;
-  rest.x_min = rest.y_min = rest.z_min = 1e30f;
-  rest.x_max = rest.y_max = rest.z_max = rest.top = -1e30f;
-  rest.bottom = 1e30f;
-  rest.u_min = rest.v_min = 32767;
-  rest.u_max = rest.v_max = -1;
+  clear_stats(rest);
   int32_t dropped = 0;
   float dropped_bottom = 1e30f;
   for (int32_t v = c.v_min; v <= c.v_max; ++v) {
@@ -1110,21 +1126,8 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
       const float z = float(row[u]) * 0.001f;
       const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
       const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
-      ++rest.pixels;
-      rest.sx += x; rest.sy += y; rest.sz += z;
-      const float horizontal = x * ax + y * ay + z * az;
-      if (horizontal < rest.x_min) rest.x_min = horizontal;
-      if (horizontal > rest.x_max) rest.x_max = horizontal;
-      if (y < rest.y_min) rest.y_min = y;
-      if (y > rest.y_max) rest.y_max = y;
-      if (z < rest.z_min) rest.z_min = z;
-      if (z > rest.z_max) rest.z_max = z;
-      if (up > rest.top) rest.top = up;
-      if (up < rest.bottom) rest.bottom = up;
-      if (u < rest.u_min) rest.u_min = int16_t(u);
-      if (u > rest.u_max) rest.u_max = int16_t(u);
-      if (v < rest.v_min) rest.v_min = int16_t(v);
-      if (v > rest.v_max) rest.v_max = int16_t(v);
+      add_point(rest, u, v, x, y, z, x * ax + y * ay + z * az);
+      add_height(rest, up);
     }
   }
   if (dropped == 0 || rest.pixels == 0 || dropped_bottom > cfg.cut_floor_contact_m) return 0;
@@ -1227,20 +1230,7 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
       strict[best_k] = false;
       Candidate& dst = candidates_[into];
       Candidate& src = candidates_[best_k];
-      dst.pixels += src.pixels;
-      dst.sx += src.sx; dst.sy += src.sy; dst.sz += src.sz;
-      if (src.x_min < dst.x_min) dst.x_min = src.x_min;
-      if (src.x_max > dst.x_max) dst.x_max = src.x_max;
-      if (src.y_min < dst.y_min) dst.y_min = src.y_min;
-      if (src.y_max > dst.y_max) dst.y_max = src.y_max;
-      if (src.z_min < dst.z_min) dst.z_min = src.z_min;
-      if (src.z_max > dst.z_max) dst.z_max = src.z_max;
-      dst.top = floor_->valid != 0 ? (src.top > dst.top ? src.top : dst.top) : dst.y_max - dst.y_min;
-      if (src.bottom < dst.bottom) dst.bottom = src.bottom;
-      if (src.u_min < dst.u_min) dst.u_min = src.u_min;
-      if (src.u_max > dst.u_max) dst.u_max = src.u_max;
-      if (src.v_min < dst.v_min) dst.v_min = src.v_min;
-      if (src.v_max > dst.v_max) dst.v_max = src.v_max;
+      add_stats(dst, src, floor_->valid != 0);
       cx[into] = float(dst.sx / dst.pixels);
       cy[into] = float(dst.sy / dst.pixels);
       cz[into] = float(dst.sz / dst.pixels);
