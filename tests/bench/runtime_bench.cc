@@ -18,6 +18,7 @@
 #include "runtime/depthpose.h"
 #include "runtime/fixed_point.h"
 #include "runtime/kernels/forest_kernel.h"
+#include <cpuid.h>
 #include "tools/common/body_model.h"
 #include "tools/convert/pcl_import.h"
 #include "tools/demo/fixtures.h"
@@ -26,6 +27,28 @@
 using namespace dp;
 
 namespace {
+
+// The CPU's brand string (CPUID 0x80000002..4): figures depend on the core, and the VMs these
+// benchmarks run on have changed kind between sessions (AMD Zen 4, Intel Emerald Rapids).
+std::string cpu_brand() {
+  unsigned r[12] = {};
+  for (unsigned i = 0; i < 3; ++i)
+    if (!__get_cpuid(0x80000002u + i, &r[4 * i], &r[4 * i + 1], &r[4 * i + 2], &r[4 * i + 3])) return "unknown";
+  std::string b(reinterpret_cast<const char*>(r), sizeof r);
+  b = b.substr(0, b.find('\0'));
+  while (!b.empty() && b.back() == ' ') b.pop_back();
+  while (!b.empty() && b.front() == ' ') b.erase(b.begin());
+  for (char& c : b)
+    if (c == '"' || c == '\\') c = ' ';
+  // VMs often hide the model in the brand string: add CPUID's family and model.
+  unsigned a, bx, c, d;
+  if (__get_cpuid(1, &a, &bx, &c, &d)) {
+    const unsigned family = ((a >> 8) & 15) + (((a >> 8) & 15) == 15 ? (a >> 20) & 255 : 0);
+    const unsigned model = ((a >> 4) & 15) | (((a >> 8) & 15) >= 6 ? ((a >> 16) & 15) << 4 : 0);
+    b += " (family " + std::to_string(family) + ", model " + std::to_string(model) + ")";
+  }
+  return b;
+}
 
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -259,6 +282,7 @@ int main(int argc, char** argv) {
   const std::string only = argc > 1 && std::string(argv[1]).rfind("--only=", 0) == 0 ? std::string(argv[1]).substr(7) : "";
   // --rounds=N after --only=: N timed rounds of the SIMD path (default 5), e.g. to profile it.
   const int simd_rounds = argc > 2 && std::string(argv[2]).rfind("--rounds=", 0) == 0 ? std::atoi(argv[2] + 9) : 5;
+  std::printf("runtime bench on %s\n", cpu_brand().c_str());
   std::printf("runtime bench: kernels %s/%s/%s available: %d/%d/%d\n", kernel_isa_name(KernelIsa::kScalar),
               kernel_isa_name(KernelIsa::kAvx2), kernel_isa_name(KernelIsa::kAvx512), 1,
               int(kernel_isa_supported(KernelIsa::kAvx2)), int(kernel_isa_supported(KernelIsa::kAvx512)));
@@ -357,7 +381,7 @@ int main(int argc, char** argv) {
   FILE* j = std::fopen("build/bench/runtime.json", "w");
   if (!j) return 1;
   std::fprintf(j,
-               "{\n  \"ns_per_node_visit\": %.4f,\n  \"ns_per_node_visit_variant\": \"%s\",\n"
+               "{\n  \"cpu\": \"%s\",\n  \"ns_per_node_visit\": %.4f,\n  \"ns_per_node_visit_variant\": \"%s\",\n"
                "  \"scalar_ns_per_node_visit\": %.4f,\n  \"simd_vs_scalar\": %.3f,\n"
                "  \"bpc_fps_320x240\": %.1f,\n  \"ojr_fps_320x240\": %.1f,\n  \"bpc_fps_640x480\": %.1f,\n"
                "  \"ojr_fps_640x480\": %.1f,\n  \"bpc_scalar_fps_320x240\": %.1f,\n  \"bpc_scalar_fps_640x480\": %.1f,\n"
@@ -370,7 +394,7 @@ int main(int argc, char** argv) {
                "  \"shipped_bpc_rendered_cycles_320x240\": {\"foreground\": %.0f, \"forest\": %.0f, \"votes\": %.0f, \"mean_shift\": %.0f},\n"
                "  \"frames\": \"skeltrack 12 real Kinect frames, PCL 3 x depth-20 trees (shipped_*: models/*.blob on the same frames;"
                " shipped_*_rendered_*: 24 rendered people, test-split clips, seed 303)\"\n}\n",
-               simd_ns, kVariants[best_variant].name, scalar_ns, scalar_ns / simd_ns, runs[1].best.fps, runs[3].best.fps,
+               cpu_brand().c_str(), simd_ns, kVariants[best_variant].name, scalar_ns, scalar_ns / simd_ns, runs[1].best.fps, runs[3].best.fps,
                runs[0].best.fps, runs[2].best.fps, runs[1].scalar.fps, runs[0].scalar.fps, bpc_vga.arena_bytes,
                bpc_qvga.arena_bytes, bpc_vga_minimum, runs[0].best.stage_cycles[kStageForest], runs[0].best.stage_cycles[kStageMeanShift],
                runs[7].best.fps, runs[6].best.fps, runs[9].best.fps, runs[8].best.fps, runs[11].best.fps, runs[10].best.fps,
