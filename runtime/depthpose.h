@@ -19,7 +19,6 @@
 
 namespace dp {
 
-namespace kernels { struct PackedNode; }
 
 enum class Status : int32_t {
   kOk = 0,
@@ -112,6 +111,11 @@ struct FrameResult {
 enum class KernelIsa : int32_t { kScalar = 0, kAvx2 = 1, kAvx512 = 2, kBest = 3 };
 const char* kernel_isa_name(KernelIsa isa);
 bool kernel_isa_supported(KernelIsa isa);
+// What kBest means for the forest kernel: AVX2 when present (else scalar). On split nodes it measured
+// faster than the AVX-512 kernel (docs/runtime_speed.md, the layout study: a visit's scalar threshold
+// load is cheaper than its share of the 8-pixel step's lane decode, and 256-bit ops issue on more
+// ports). The other kernels' kBest is the widest available. Results are the same whichever runs.
+KernelIsa best_forest_kernel_isa();
 
 // A pixel the forest evaluated (for tools: segmentation output, overlays).
 struct EvaluatedPixel {
@@ -121,16 +125,16 @@ struct EvaluatedPixel {
 };
 
 // Bytes init() needs for frames up to max_width × max_height (0 when the arguments are invalid),
-// including a packed 8-byte copy of every node when the forest's offsets fit the packing (the SIMD
-// kernels are 7-16 % faster on it; shipped BPC: 1.6 MB, PCL's depth-20 trees: 25 MB).
+// including a split copy of every node, 10 bytes each (kernels::SplitTree: the SIMD forest kernels
+// are ~10 % faster on it than on the blob's nodes; shipped BPC: 2.0 MB, PCL's depth-20 trees: 31.5 MB).
 size_t required_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height);
-// The least init() accepts: the same without the packed copy (the kernels then read the blob's
-// nodes in place; results are identical). Equal to required_arena_bytes when nothing packs.
+// The least init() accepts: the same without the split copy (the kernels then read the blob's
+// nodes in place; results are identical).
 size_t minimum_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height);
 
 class Pipeline {
  public:
-  // Carves state out of `arena` (64-byte aligned, ≥ minimum_arena_bytes; the packed node copy is
+  // Carves state out of `arena` (64-byte aligned, ≥ minimum_arena_bytes; the split node copy is
   // made when it is ≥ required_arena_bytes). Copies the blob's RuntimeConfig into the arena
   // (set_config may change it later). Selects KernelIsa::kBest.
   // Returns kOk, kBadArgument, kArenaTooSmall (below minimum_arena_bytes) or kArenaMisaligned.
@@ -151,12 +155,13 @@ class Pipeline {
   Status process_user(const DepthFrame& frame, uint8_t user_id, FrameResult* result);
 
   // Chooses the kernels (tests and benchmarks compare them). kKernelUnavailable if the CPU lacks
-  // it. kBest picks the widest available. kScalar selects the scalar reference forest kernel and
+  // it. kBest picks the widest available (the forest kernel: best_forest_kernel_isa()). kScalar selects the scalar reference forest kernel and
   // vote casters (the specification) and the SSE4.1 mean-shift sums; every other choice uses that
   // ISA's forest kernel, BPC vote scan and mean-shift sums (runtime/kernels/) and the SSE4.1 OJR
   // caster, which give exactly the same votes and proposals (tests/runtime_kernel_test.cc proves it).
   Status set_kernel(KernelIsa isa);
-  KernelIsa kernel() const { return kernel_; }
+  KernelIsa kernel() const { return kernel_; }                // the vote and mean-shift kernels' ISA
+  KernelIsa forest_kernel() const { return forest_kernel_; }  // the forest kernel's (differs under kBest)
 
   const blob::RuntimeConfig& config() const { return *config_; }
   // Validates then replaces the runtime config (tune uses this). kBadConfig on invalid values.
@@ -182,13 +187,13 @@ class Pipeline {
   void part_distribution(int32_t pixel_index, uint16_t* probability_q15) const;
 
   size_t arena_used_bytes() const { return arena_used_; }
-  bool uses_packed_nodes() const { return packed_nodes_ != nullptr; }
+  bool uses_split_nodes() const { return split_offsets_ != nullptr; }
   const blob::LoadedBlob& blob() const { return blob_; }
 
  private:
   blob::LoadedBlob blob_{};
   blob::RuntimeConfig* config_ = nullptr;
-  KernelIsa kernel_ = KernelIsa::kScalar;
+  KernelIsa kernel_ = KernelIsa::kScalar, forest_kernel_ = KernelIsa::kScalar;
   int32_t max_width_ = 0, max_height_ = 0, max_pixels_ = 0;
   uint8_t* arena_ = nullptr;
   size_t arena_bytes_ = 0, arena_used_ = 0;
@@ -201,7 +206,8 @@ class Pipeline {
   int32_t* vote_counts_ = nullptr;
   struct Vote* starts_ = nullptr;       // [max_starts] for the joint being aggregated
   float* modes_ = nullptr;              // scratch for mean-shift modes
-  kernels::PackedNode* packed_nodes_ = nullptr;  // persistent (arena tail): compact copy of the nodes
+  uint64_t* split_offsets_ = nullptr;            // persistent (arena tail): split copy of the nodes
+  int16_t* split_thresholds_ = nullptr;          //   (kernels::SplitTree), or nullptr
   uint16_t* joint_mass_ = nullptr;               // persistent: per leaf record × joint mass (BPC)
   float* soa_ = nullptr;                         // scratch: mean-shift votes as structure of arrays
   uint64_t* select_keys_ = nullptr;              // scratch: one joint's vote keys while cutting it

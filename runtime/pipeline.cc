@@ -79,7 +79,8 @@ struct Layout {
   uint64_t* select_keys;              // vote cut: 2·kVoteSlots uint32 (weight bits, boundary tie keys)
   uint16_t* guess_hist;               // floor guess: [kMaxJoints][kGuessBuckets] sample counts
   blob::RuntimeConfig* config;
-  kernels::PackedNode* packed_nodes;  // nullptr when the forest's offsets do not fit the packing
+  uint64_t* split_offsets;            // the split node copy (kernels::SplitTree); nullptr in a minimum arena
+  int16_t* split_thresholds;
   uint16_t* joint_mass;               // BPC: per leaf record, Σ of its Q15 probabilities over each
                                       // joint's part mask (kMaxJoints lanes); nullptr when too large
 };
@@ -91,20 +92,15 @@ bool use_joint_mass(const blob::LoadedBlob& b) {
   return b.method() == blob::Method::kBpc && b.meta->leaf_count <= kMaxJointMassLeaves;
 }
 
-// The SIMD kernels decode packed 8-byte nodes' thresholds in vector lanes, shared by 4 or 8 pixels,
-// where blob nodes need a scalar threshold load per visit from a 10-byte node: packed is 7-16 %
-// faster (docs/runtime_speed.md), for an arena copy of 8 bytes per node (shipped BPC: 1.6 MB;
-// PCL's depth-20 trees: 25 MB). Forests with offsets beyond the packing run on the blob's nodes.
-constexpr bool kUsePackedNodes = true;
-bool packable(const blob::LoadedBlob& b) {
-  return kUsePackedNodes && int32_t(b.meta->max_abs_offset_pxm) <= kernels::kPackedMaxOffset;
-}
-
+// The SIMD kernels read split nodes (kernels::SplitTree: offsets and thresholds in two arrays) with
+// the fewest ops per visit of the layouts measured (docs/runtime_speed.md, the layout study), for an
+// arena copy of 10 bytes per node (shipped BPC: 2.0 MB; PCL's depth-20 trees: 31.5 MB). Without
+// it (a minimum arena) they read the blob's 10-byte nodes in place.
 bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, bool pack, Layout* l) {
   l->config = c.tail<blob::RuntimeConfig>(1);
-  l->packed_nodes = pack && packable(b)
-                        ? c.tail<kernels::PackedNode>(size_t(b.tree_count()) * blob::nodes_per_tree(b.depth()))
-                        : nullptr;
+  const size_t nodes = size_t(b.tree_count()) * blob::nodes_per_tree(b.depth());
+  l->split_offsets = pack ? c.tail<uint64_t>(nodes) : nullptr;
+  l->split_thresholds = pack ? c.tail<int16_t>(nodes) : nullptr;
   l->joint_mass = use_joint_mass(b) ? c.tail<uint16_t>(size_t(b.meta->leaf_count) * blob::kMaxJoints) : nullptr;
   l->probe_image = c.head<uint16_t>(kernels::padded_probe_elements(w, h));
   l->pixels = c.head<EvaluatedPixel>(size_t(max_pixels));
@@ -213,18 +209,22 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
   modes_ = l.modes;
   config_ = l.config;
   *config_ = *blob.config;
-  packed_nodes_ = l.packed_nodes;
+  split_offsets_ = l.split_offsets;
+  split_thresholds_ = l.split_thresholds;
   joint_mass_ = l.joint_mass;
   soa_ = l.soa;
   select_keys_ = l.select_keys;
   guess_hist_ = l.guess_hist;
   rebuild_joint_mass();
-  if (packed_nodes_) {
-    const size_t count = size_t(blob.tree_count()) * blob::nodes_per_tree(blob.depth());
-    for (size_t i = 0; i < count; ++i) packed_nodes_[i] = kernels::pack_node(blob.nodes[i]);
+  if (split_offsets_) {
+    const size_t per_tree = blob::nodes_per_tree(blob.depth());
+    for (size_t i = 0; i < size_t(blob.tree_count()) * per_tree; ++i) {
+      split_offsets_[i] = kernels::split_offsets_of(blob.nodes[i]);
+      split_thresholds_[i] = blob.nodes[i].threshold_mm;
+    }
   }
   evaluated_count_ = 0;
-  kernel_ = KernelIsa::kScalar;
+  kernel_ = forest_kernel_ = KernelIsa::kScalar;
   initialized_ = true;
   set_kernel(KernelIsa::kBest);
   return Status::kOk;
@@ -233,11 +233,13 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
 Status Pipeline::set_kernel(KernelIsa isa) {
   if (!kernel_isa_supported(isa)) return Status::kKernelUnavailable;
   if (isa == KernelIsa::kBest) {
-    isa = kernel_isa_supported(KernelIsa::kAvx512) ? KernelIsa::kAvx512
-          : kernel_isa_supported(KernelIsa::kAvx2) ? KernelIsa::kAvx2
-                                                     : KernelIsa::kScalar;
+    kernel_ = kernel_isa_supported(KernelIsa::kAvx512) ? KernelIsa::kAvx512
+              : kernel_isa_supported(KernelIsa::kAvx2) ? KernelIsa::kAvx2
+                                                         : KernelIsa::kScalar;
+    forest_kernel_ = best_forest_kernel_isa();
+  } else {
+    kernel_ = forest_kernel_ = isa;
   }
-  kernel_ = isa;
   return Status::kOk;
 }
 
@@ -379,14 +381,15 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   const float fref = blob_.meta->reference_focal_px;
   const int32_t focal = focal_factor_mm(0.5f * (f.intrinsics.fx + f.intrinsics.fy), fref);
   kernels::ForestKernelArgs per_tree[blob::kMaxTrees];
+  kernels::SplitTree split[blob::kMaxTrees];
   for (int t = 0; t < blob_.tree_count(); ++t) {
-    const kernels::PackedNode* packed =
-        packed_nodes_ ? packed_nodes_ + size_t(t) * blob::nodes_per_tree(blob_.depth()) : nullptr;
+    const size_t first = size_t(t) * blob::nodes_per_tree(blob_.depth());
+    if (split_offsets_) split[t] = kernels::SplitTree{split_offsets_ + first, split_thresholds_ + first};
     per_tree[t] = kernels::ForestKernelArgs{probe_image_, probe_stride, w, h, focal, pixels_, n, blob_.tree_nodes(t),
-                                            packed, blob_.tree_leaf_index(t), blob_.depth(),
-                                            leaves_ + size_t(t) * max_pixels_};
+                                            nullptr, blob_.tree_leaf_index(t), blob_.depth(),
+                                            leaves_ + size_t(t) * max_pixels_, split_offsets_ ? &split[t] : nullptr};
   }
-  kernels::forest_trees_kernel(kernel_)(per_tree, blob_.tree_count());
+  kernels::forest_trees_kernel(forest_kernel_)(per_tree, blob_.tree_count());
   const uint64_t t2 = cycles_now();
   r->stage_cycles[kStageForest] = t2 - t1;
 

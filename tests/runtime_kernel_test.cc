@@ -106,14 +106,71 @@ std::vector<uint16_t> read_skeltrack(const std::string& path) {
   return depth;
 }
 
+// A forest's trees in every node layout the kernels read (kernels::NodeLayout), and the kernel
+// arguments for tree t in one of them.
+struct TreeCopies {
+  const blob::LoadedBlob& b;
+  std::vector<kernels::PackedNode> packed;
+  std::vector<kernels::WideNode> wide;
+  std::vector<uint64_t> offsets;
+  std::vector<int16_t> thresholds;
+  std::vector<kernels::SplitTree> split;
+  explicit TreeCopies(const blob::LoadedBlob& blob) : b(blob) {
+    const size_t per_tree = blob::nodes_per_tree(b.depth());
+    for (size_t i = 0; i < size_t(b.tree_count()) * per_tree; ++i) {
+      const blob::TreeNode& n = b.nodes[i];
+      packed.push_back(kernels::pack_node(n));
+      wide.push_back(kernels::WideNode{n.du1, n.dv1, n.du2, n.dv2, n.threshold_mm, {7, 7, 7}});
+      offsets.push_back(kernels::split_offsets_of(n));
+      thresholds.push_back(n.threshold_mm);
+    }
+    for (int t = 0; t < b.tree_count(); ++t)
+      split.push_back(kernels::SplitTree{offsets.data() + t * per_tree, thresholds.data() + t * per_tree});
+  }
+  kernels::ForestKernelArgs args(int t, kernels::NodeLayout layout, const uint16_t* probe, int32_t width,
+                                 int32_t height, int32_t focal, const EvaluatedPixel* pixels, int32_t n,
+                                 uint32_t* out) const {
+    const size_t first = size_t(t) * blob::nodes_per_tree(b.depth());
+    using L = kernels::NodeLayout;
+    return kernels::ForestKernelArgs{probe, width + 2, width, height, focal, pixels, n, b.tree_nodes(t),
+                                     layout == L::kPacked8 ? packed.data() + first : nullptr, b.tree_leaf_index(t),
+                                     b.depth(), out, layout == L::kSplit ? &split[size_t(t)] : nullptr,
+                                     layout == L::kWide16 ? wide.data() + first : nullptr};
+  }
+};
+const kernels::NodeLayout kLayouts[] = {kernels::NodeLayout::kBlob10, kernels::NodeLayout::kPacked8,
+                                        kernels::NodeLayout::kWide16, kernels::NodeLayout::kSplit};
+const char* layout_name(kernels::NodeLayout l) {
+  switch (l) {
+    case kernels::NodeLayout::kBlob10: return "blob 10B";
+    case kernels::NodeLayout::kPacked8: return "packed 8B";
+    case kernels::NodeLayout::kWide16: return "16B";
+    case kernels::NodeLayout::kSplit: return "split";
+  }
+  return "?";
+}
+// The ISA's trees kernel over `layout`: evaluate_trees for the layouts the pipeline passes (split,
+// packed or blob nodes, chosen by the arguments), evaluate_trees_study for 16-byte nodes.
+void run_trees(KernelIsa isa, kernels::NodeLayout layout, const kernels::ForestKernelArgs* a, int trees) {
+  if (layout != kernels::NodeLayout::kWide16 || isa == KernelIsa::kScalar) return kernels::forest_trees_kernel(isa)(a, trees);
+  if (isa == KernelIsa::kAvx2) return kernels::avx2::evaluate_trees_study(a, trees, layout);
+  return kernels::avx512::evaluate_trees_study(a, trees, layout);
+}
+
 }  // namespace
 
 TEST(KernelDispatch, ThisMachineHasBoth) {
-  // The development and CI machines are Zen 4: both SIMD paths must be present and selected.
+  // The development and CI machines (AMD Zen 4, Intel Xeon) have AVX-512: both SIMD paths must be
+  // present. kBest is the AVX2 forest kernel (faster on split nodes) and the widest vote kernels.
   EXPECT_TRUE(kernel_isa_supported(KernelIsa::kAvx2));
   EXPECT_TRUE(kernel_isa_supported(KernelIsa::kAvx512));
-  EXPECT_EQ(kernels::forest_kernel(KernelIsa::kBest), kernels::forest_kernel(KernelIsa::kAvx512));
+  EXPECT_EQ(best_forest_kernel_isa(), KernelIsa::kAvx2);
+  EXPECT_EQ(kernels::forest_kernel(KernelIsa::kBest), kernels::forest_kernel(KernelIsa::kAvx2));
+  EXPECT_EQ(kernels::forest_trees_kernel(KernelIsa::kBest), kernels::forest_trees_kernel(KernelIsa::kAvx2));
   EXPECT_NE(kernels::forest_kernel(KernelIsa::kAvx2), kernels::forest_kernel(KernelIsa::kScalar));
+  EXPECT_EQ(kernels::bpc_scan_kernel(KernelIsa::kBest), kernels::bpc_scan_kernel(KernelIsa::kAvx512));
+  Pipeline p;
+  EXPECT_EQ(p.forest_kernel(), KernelIsa::kScalar);  // before init
 }
 
 TEST(KernelPacking, PackedNodeRoundTrips) {
@@ -164,8 +221,8 @@ static void kernel_input(const SyntheticFrame& f, std::vector<uint16_t>* probe, 
     }
 }
 
-TEST(KernelExactness, KernelsAgreeOnBothLayoutsDirectly) {
-  // Calls the kernels without the pipeline: blob nodes vs packed nodes, every kernel.
+TEST(KernelExactness, KernelsAgreeOnEveryLayoutDirectly) {
+  // Calls the kernels without the pipeline: every node layout (kernels::NodeLayout), every kernel.
   const blob::BlobContents c = tools::random_bpc_forest(11, 1, 14, 8, 1500, 400);
   const std::vector<uint8_t> bytes = blob::write_blob(c);
   blob::LoadedBlob b;
@@ -174,23 +231,24 @@ TEST(KernelExactness, KernelsAgreeOnBothLayoutsDirectly) {
   std::vector<uint16_t> probe;
   std::vector<EvaluatedPixel> pixels;
   kernel_input(f, &probe, &pixels);
-  std::vector<kernels::PackedNode> packed;
-  for (size_t i = 0; i < blob::nodes_per_tree(b.depth()); ++i) packed.push_back(kernels::pack_node(b.nodes[i]));
+  const TreeCopies copies(b);
   const int32_t n = int32_t(pixels.size());
-  auto evaluate = [&](KernelIsa isa, bool use_packed) {
+  auto evaluate = [&](KernelIsa isa, kernels::NodeLayout layout) {
     std::vector<uint32_t> out(pixels.size(), 0xFFFFFFFFu);
-    kernels::ForestKernelArgs a{probe.data(), f.width + 2, f.width, f.height, focal_factor_mm(600.0f, 525.0f),
-                                pixels.data(), n, b.tree_nodes(0), use_packed ? packed.data() : nullptr,
-                                b.tree_leaf_index(0), b.depth(), out.data()};
-    kernels::forest_kernel(isa)(a);
+    const kernels::ForestKernelArgs a = copies.args(0, layout, probe.data(), f.width, f.height,
+                                                    focal_factor_mm(600.0f, 525.0f), pixels.data(), n, out.data());
+    run_trees(isa, layout, &a, 1);
     return out;
   };
-  const std::vector<uint32_t> ref = evaluate(KernelIsa::kScalar, false);
+  const std::vector<uint32_t> ref = evaluate(KernelIsa::kScalar, kernels::NodeLayout::kBlob10);
+  int compared = 0;
   for (KernelIsa isa : kSimdIsas)
-    for (bool use_packed : {false, true}) {
+    for (kernels::NodeLayout layout : kLayouts) {
       if (!kernel_isa_supported(isa)) continue;
-      EXPECT_EQ(evaluate(isa, use_packed), ref) << kernel_isa_name(isa) << (use_packed ? " packed" : " blob nodes");
+      EXPECT_EQ(evaluate(isa, layout), ref) << kernel_isa_name(isa) << " " << layout_name(layout);
+      ++compared;
     }
+  EXPECT_EQ(compared, 8);
 }
 
 TEST(KernelExactness, EveryPixelCountAndEveryImageEdge) {
@@ -212,30 +270,25 @@ TEST(KernelExactness, EveryPixelCountAndEveryImageEdge) {
   for (const EvaluatedPixel& p : all)
     if (p.u == 0 || p.v == 0 || p.u == f.width - 1 || p.v == f.height - 1) edge.push_back(p);
   ASSERT_GE(edge.size(), 19u);
-  const size_t per_tree = blob::nodes_per_tree(b.depth());
-  std::vector<kernels::PackedNode> packed;
-  for (size_t i = 0; i < 2 * per_tree; ++i) packed.push_back(kernels::pack_node(b.nodes[i]));
+  const TreeCopies copies(b);
   for (int32_t n = 1; n <= 19; ++n) {
     std::vector<EvaluatedPixel> pixels(edge.begin(), edge.begin() + n);
     pixels[0] = EvaluatedPixel{0, 0, 700, 0};  // a near corner pixel: large probe offsets
     if (n > 1) pixels[1] = EvaluatedPixel{uint16_t(f.width - 1), uint16_t(f.height - 1), 650, 0};
-    auto run = [&](KernelIsa isa, bool use_packed) {
+    auto run = [&](KernelIsa isa, kernels::NodeLayout layout) {
       std::vector<std::vector<uint32_t>> out(2, std::vector<uint32_t>(size_t(n), 0xFFFFFFFFu));
       kernels::ForestKernelArgs a[2];
       for (int t = 0; t < 2; ++t)
-        a[t] = kernels::ForestKernelArgs{probe.data(), f.width + 2, f.width, f.height, focal_factor_mm(525.0f, 525.0f),
-                                         pixels.data(), n, b.tree_nodes(t),
-                                         use_packed ? packed.data() + t * per_tree : nullptr, b.tree_leaf_index(t),
-                                         b.depth(), out[size_t(t)].data()};
-      kernels::forest_trees_kernel(isa)(a, 2);
+        a[t] = copies.args(t, layout, probe.data(), f.width, f.height, focal_factor_mm(525.0f, 525.0f), pixels.data(),
+                           n, out[size_t(t)].data());
+      run_trees(isa, layout, a, 2);
       return out;
     };
-    const auto ref = run(KernelIsa::kScalar, false);
+    const auto ref = run(KernelIsa::kScalar, kernels::NodeLayout::kBlob10);
     for (KernelIsa isa : kSimdIsas)
-      for (bool use_packed : {false, true}) {
+      for (kernels::NodeLayout layout : kLayouts) {
         if (!kernel_isa_supported(isa)) continue;
-        EXPECT_EQ(run(isa, use_packed), ref) << kernel_isa_name(isa) << (use_packed ? " packed" : " blob nodes")
-                                             << " pixels " << n;
+        EXPECT_EQ(run(isa, layout), ref) << kernel_isa_name(isa) << " " << layout_name(layout) << " pixels " << n;
       }
   }
 }
@@ -253,23 +306,24 @@ TEST(KernelExactness, AllTreesInOneCallEqualOneCallPerTree) {
   kernel_input(f, &probe, &pixels);
   pixels.pop_back();  // an odd count: the last chunk gets a padding pixel
   ASSERT_GT(pixels.size(), 2u * 2048u);
-  const size_t per_tree = blob::nodes_per_tree(b.depth());
-  std::vector<kernels::PackedNode> packed;
-  for (size_t i = 0; i < 3 * per_tree; ++i) packed.push_back(kernels::pack_node(b.nodes[i]));
+  const TreeCopies copies(b);
   const int32_t n = int32_t(pixels.size());
   std::vector<std::vector<uint32_t>> ref(3, std::vector<uint32_t>(pixels.size()));
-  auto args = [&](int t, bool use_packed, uint32_t* out) {
-    return kernels::ForestKernelArgs{probe.data(), f.width + 2, f.width, f.height, focal_factor_mm(300.0f, 525.0f),
-                                     pixels.data(), n, b.tree_nodes(t), use_packed ? packed.data() + t * per_tree : nullptr,
-                                     b.tree_leaf_index(t), b.depth(), out};
+  using L = kernels::NodeLayout;
+  auto args = [&](int t, L layout, uint32_t* out) {
+    return copies.args(t, layout, probe.data(), f.width, f.height, focal_factor_mm(300.0f, 525.0f), pixels.data(), n, out);
   };
-  for (int t = 0; t < 3; ++t) kernels::forest_kernel(KernelIsa::kScalar)(args(t, false, ref[size_t(t)].data()));
+  for (int t = 0; t < 3; ++t) kernels::forest_kernel(KernelIsa::kScalar)(args(t, L::kBlob10, ref[size_t(t)].data()));
+  // Per tree: all blob nodes, tree 1 packed, all packed, all split, and one of each.
+  const L mixes[5][3] = {{L::kBlob10, L::kBlob10, L::kBlob10}, {L::kBlob10, L::kPacked8, L::kBlob10},
+                         {L::kPacked8, L::kPacked8, L::kPacked8}, {L::kSplit, L::kSplit, L::kSplit},
+                         {L::kSplit, L::kPacked8, L::kBlob10}};
   for (KernelIsa isa : {KernelIsa::kScalar, KernelIsa::kAvx2, KernelIsa::kAvx512, KernelIsa::kBest}) {
     if (!kernel_isa_supported(isa)) continue;
-    for (int layout = 0; layout < 3; ++layout) {  // none packed, tree 1 packed, all packed
+    for (int layout = 0; layout < 5; ++layout) {
       std::vector<std::vector<uint32_t>> out(3, std::vector<uint32_t>(pixels.size(), 0xFFFFFFFFu));
       kernels::ForestKernelArgs a[3];
-      for (int t = 0; t < 3; ++t) a[t] = args(t, layout == 2 || (layout == 1 && t == 1), out[size_t(t)].data());
+      for (int t = 0; t < 3; ++t) a[t] = args(t, mixes[layout][t], out[size_t(t)].data());
       kernels::forest_trees_kernel(isa)(a, 3);
       for (int t = 0; t < 3; ++t)
         EXPECT_EQ(out[size_t(t)], ref[size_t(t)]) << kernel_isa_name(isa) << " layout " << layout << " tree " << t;

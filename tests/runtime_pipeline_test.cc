@@ -159,36 +159,36 @@ TEST(Pipeline, RefusesFramesBeyondItsSizeAndBadArenas) {
   EXPECT_GE(L.arena_bytes, L.pipeline.arena_used_bytes());
 }
 
-// The packed node copy is the difference between required and minimum arena; without it the
-// kernels read the blob's nodes, and every output is the same.
-TEST(Pipeline, MinimumArenaSkipsThePackedCopyWithIdenticalResults) {
+// The split node copy (8 + 2 bytes per node) is the difference between required and minimum
+// arena; without it the kernels read the blob's nodes, and every output is the same.
+TEST(Pipeline, MinimumArenaSkipsTheSplitCopyWithIdenticalResults) {
   const blob::BlobContents c = tools::random_bpc_forest(31, 3, 12, 6, 300, 300);
-  Loaded packed(c, 160, 120);
-  ASSERT_TRUE(packed.pipeline.uses_packed_nodes());
-  const size_t minimum = minimum_arena_bytes(packed.view, 160, 120);
-  const size_t copy = size_t(3) * blob::nodes_per_tree(12) * 8;
-  EXPECT_GE(packed.arena_bytes - minimum, copy);
-  EXPECT_LT(packed.arena_bytes - minimum, copy + 128);  // the copy and its alignment, nothing else
+  Loaded split(c, 160, 120);
+  ASSERT_TRUE(split.pipeline.uses_split_nodes());
+  const size_t minimum = minimum_arena_bytes(split.view, 160, 120);
+  const size_t copy = size_t(3) * blob::nodes_per_tree(12) * 10;
+  EXPECT_GE(split.arena_bytes - minimum, copy);
+  EXPECT_LT(split.arena_bytes - minimum, copy + 128);  // the two arrays and their alignment, nothing else
   std::unique_ptr<uint8_t, decltype(&std::free)> small(static_cast<uint8_t*>(std::aligned_alloc(64, (minimum + 63) / 64 * 64)),
                                                        &std::free);
   Pipeline in_place;
-  ASSERT_EQ(in_place.init(packed.view, 160, 120, small.get(), minimum), Status::kOk);
-  EXPECT_FALSE(in_place.uses_packed_nodes());
+  ASSERT_EQ(in_place.init(split.view, 160, 120, small.get(), minimum), Status::kOk);
+  EXPECT_FALSE(in_place.uses_split_nodes());
   EXPECT_LE(in_place.arena_used_bytes(), minimum);
   Pipeline too_small;
-  EXPECT_EQ(too_small.init(packed.view, 160, 120, small.get(), minimum - 1), Status::kArenaTooSmall);
+  EXPECT_EQ(too_small.init(split.view, 160, 120, small.get(), minimum - 1), Status::kArenaTooSmall);
   int compared = 0;
   for (KernelIsa isa : {KernelIsa::kScalar, KernelIsa::kAvx2, KernelIsa::kAvx512}) {
     if (!kernel_isa_supported(isa)) continue;
-    ASSERT_EQ(packed.pipeline.set_kernel(isa), Status::kOk);
+    ASSERT_EQ(split.pipeline.set_kernel(isa), Status::kOk);
     ASSERT_EQ(in_place.set_kernel(isa), Status::kOk);
     for (int i = 0; i < 3; ++i) {
       const SyntheticFrame f = tools::make_disc_frame(160, 120, 60.0f + 15 * i, 55.0f, 30.0f, uint16_t(1500 + 300 * i));
       FrameResult a, b;
-      ASSERT_EQ(packed.pipeline.process(f.view(), &a), Status::kOk);
+      ASSERT_EQ(split.pipeline.process(f.view(), &a), Status::kOk);
       ASSERT_EQ(in_place.process(f.view(), &b), Status::kOk);
       EXPECT_GT(a.evaluated_pixels, 0);
-      for (int j = 0; j < int(packed.view.meta->joint_count); ++j) {
+      for (int j = 0; j < int(split.view.meta->joint_count); ++j) {
         ASSERT_EQ(a.proposal_count[j], b.proposal_count[j]) << kernel_isa_name(isa) << " joint " << j;
         for (int k = 0; k < a.proposal_count[j]; ++k, ++compared) {
           EXPECT_EQ(a.proposals[j][k].x_m, b.proposals[j][k].x_m);

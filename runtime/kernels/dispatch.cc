@@ -49,6 +49,10 @@ bool kernel_isa_supported(KernelIsa isa) {
   return kernels::forest_kernel(isa) != nullptr;
 }
 
+KernelIsa best_forest_kernel_isa() {
+  return cached_features().avx2 ? KernelIsa::kAvx2 : KernelIsa::kScalar;
+}
+
 const char* kernel_isa_name(KernelIsa isa) {
   switch (isa) {
     case KernelIsa::kScalar: return "scalar";
@@ -76,10 +80,12 @@ Fn choose(KernelIsa isa, Fn scalar, Fn avx2_fn, Fn avx512_fn) {
 }  // namespace
 
 ForestKernelFn forest_kernel(KernelIsa isa) {
+  if (isa == KernelIsa::kBest) isa = best_forest_kernel_isa();
   return choose<ForestKernelFn>(isa, &ref::evaluate_tree, &avx2::evaluate_tree, &avx512::evaluate_tree);
 }
 
 ForestTreesKernelFn forest_trees_kernel(KernelIsa isa) {
+  if (isa == KernelIsa::kBest) isa = best_forest_kernel_isa();
   return choose<ForestTreesKernelFn>(isa, &ref::evaluate_trees, &avx2::evaluate_trees, &avx512::evaluate_trees);
 }
 

@@ -41,36 +41,65 @@ inline int32_t scale_q13_of(int32_t focal_factor, int32_t z_mm) {  // = dp::scal
   return s < 32767 ? s : 32767;
 }
 
-// Node n's first 8 bytes: the packed node, or the blob node's four int16 offsets (its threshold
-// follows at byte 8; blob nodes are 10 bytes, so the load is unaligned).
-template <bool kPacked>
-inline long long node_bits(const ForestKernelArgs& a, uint32_t n) {
-  if constexpr (kPacked) {
-    return static_cast<long long>(a.packed_nodes[n].bits);
-  } else {
-    long long bits;
-    memcpy(&bits, a.nodes + n, sizeof bits);
-    return bits;
+// Where a kernel reads node n (policies; the level loops are templates over them): its four offsets
+// as 4 int16 lanes of 64 bits (`bits`), its threshold (`threshold`, unless kThresholdInLanes: then
+// the low nibbles of the lanes carry it, kernels::pack_node's layout, and `bits` holds δ·16), and
+// the prefetch of its line(s).
+struct BlobNodes {  // the blob's 10-byte nodes (the 8-byte load is unaligned)
+  static constexpr bool kThresholdInLanes = false;
+  const blob::TreeNode* nodes;
+  explicit BlobNodes(const ForestKernelArgs& a) : nodes(a.nodes) {}
+  long long bits(uint32_t n) const {
+    long long b;
+    memcpy(&b, nodes + n, sizeof b);
+    return b;
   }
-}
-
-template <bool kPacked>
-inline void prefetch_node(const ForestKernelArgs& a, uint32_t n) {
-  if constexpr (kPacked)
-    _mm_prefetch(reinterpret_cast<const char*>(a.packed_nodes + n), _MM_HINT_T0);
-  else
-    _mm_prefetch(reinterpret_cast<const char*>(a.nodes + n), _MM_HINT_T0);
-}
+  int32_t threshold(uint32_t n) const { return nodes[n].threshold_mm; }
+  void prefetch(uint32_t n) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + n), _MM_HINT_T0); }
+};
+struct PackedNodes {  // what the pipeline evaluates
+  static constexpr bool kThresholdInLanes = true;
+  const PackedNode* nodes;
+  explicit PackedNodes(const ForestKernelArgs& a) : nodes(a.packed_nodes) {}
+  long long bits(uint32_t n) const { return static_cast<long long>(nodes[n].bits); }
+  int32_t threshold(uint32_t) const { return 0; }
+  void prefetch(uint32_t n) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + n), _MM_HINT_T0); }
+};
+struct WideNodes {  // layout study: 16-byte nodes
+  static constexpr bool kThresholdInLanes = false;
+  const WideNode* nodes;
+  explicit WideNodes(const ForestKernelArgs& a) : nodes(a.study_nodes) {}
+  long long bits(uint32_t n) const {
+    long long b;
+    memcpy(&b, nodes + n, sizeof b);
+    return b;
+  }
+  int32_t threshold(uint32_t n) const { return nodes[n].threshold_mm; }
+  void prefetch(uint32_t n) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + n), _MM_HINT_T0); }
+};
+struct SplitNodes {  // what the pipeline evaluates: offsets and thresholds in two arrays
+  static constexpr bool kThresholdInLanes = false;
+  const uint64_t* offsets;
+  const int16_t* thresholds;
+  explicit SplitNodes(const ForestKernelArgs& a) : offsets(a.split->offsets), thresholds(a.split->thresholds_mm) {}
+  long long bits(uint32_t n) const { return static_cast<long long>(offsets[n]); }
+  int32_t threshold(uint32_t n) const { return thresholds[n]; }
+  void prefetch(uint32_t n) const {
+    _mm_prefetch(reinterpret_cast<const char*>(offsets + n), _MM_HINT_T0);
+    _mm_prefetch(reinterpret_cast<const char*>(thresholds + n), _MM_HINT_T0);
+  }
+};
 
 // The scalar end of a visit, after the vector step made its two probe addresses (`addresses`: probe 1
 // in the low 32 bits, probe 2 in the high): the two probe loads, the child bit (sign of t + p2 − p1)
 // and node[i]'s child, prefetched when asked.
-template <bool kPrefetchChildren, bool kPacked>
-inline void finish_visit(const ForestKernelArgs& a, uint32_t* node, int32_t i, int32_t threshold, uint64_t addresses) {
+template <bool kPrefetchChildren, class Nodes>
+inline void finish_visit(const ForestKernelArgs& a, const Nodes& nodes, uint32_t* node, int32_t i, int32_t threshold,
+                         uint64_t addresses) {
   const int32_t d = threshold + int32_t(a.probe_image[addresses >> 32]) - int32_t(a.probe_image[uint32_t(addresses)]);
   const uint32_t child = 2 * node[i] + 1 + (uint32_t(d) >> 31);
   node[i] = child;
-  if constexpr (kPrefetchChildren) prefetch_node<kPacked>(a, child);
+  if constexpr (kPrefetchChildren) nodes.prefetch(child);
 }
 
 // One level of one tree over a chunk whose setups are filled for `padded` pixels: node[i] holds each
@@ -96,10 +125,11 @@ using ChunkFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uin
                          int32_t count, int32_t padded);
 
 // Every tree over the same pixels, chunk by chunk: a chunk's per-pixel setup (a division per pixel)
-// is made once for all trees, then each tree runs its levels over it (kPackedChunk when the tree has
-// packed nodes, else kBlobChunk). A chunk is padded to a multiple of kPixelsPerStep with copies of
+// is made once for all trees, then each tree runs its levels over it (kSplitChunk when the tree has
+// split nodes, else kPackedChunk when it has packed nodes, else kBlobChunk). A chunk is padded to a multiple of kPixelsPerStep with copies of
 // its last pixel, whose results are discarded.
-template <int32_t kPixelsPerStep, ChunkFn kPackedChunk, ChunkFn kBlobChunk>
+// (The layout study passes one ChunkFn for all three.)
+template <int32_t kPixelsPerStep, ChunkFn kSplitChunk, ChunkFn kPackedChunk, ChunkFn kBlobChunk>
 inline void evaluate_trees_simd(const ForestKernelArgs* per_tree, int32_t tree_count) {
   static_assert(kChunkPixels % kPixelsPerStep == 0, "steps tile the chunk");
   if (tree_count <= 0) return;
@@ -118,7 +148,9 @@ inline void evaluate_trees_simd(const ForestKernelArgs* per_tree, int32_t tree_c
       setup.origin[i][1] = setup.origin[i][3] = v;
     }
     for (int32_t t = 0; t < tree_count; ++t) {
-      if (per_tree[t].packed_nodes)
+      if (per_tree[t].split)
+        kSplitChunk(per_tree[t], setup, node, base, count, padded);
+      else if (per_tree[t].packed_nodes)
         kPackedChunk(per_tree[t], setup, node, base, count, padded);
       else
         kBlobChunk(per_tree[t], setup, node, base, count, padded);

@@ -54,6 +54,28 @@ inline PackedNode pack_node(const blob::TreeNode& n) {
   return PackedNode{bits};
 }
 
+// Node layouts (issue 5's study, `make bench`; docs/runtime_speed.md), all read by the same kernel
+// code. The pipeline copies the blob's nodes into kSplit at init (or, in a minimum arena, the kernels
+// read the blob's kBlob10 nodes in place); kPacked8 and kWide16 are kept for the study.
+enum class NodeLayout : int32_t { kBlob10, kPacked8, kWide16, kSplit };
+// kSplit: one tree's offsets and thresholds in two arrays, node n at [n] (heap order): offsets[n] holds
+// du1, dv1, du2, dv2 as 4 little-endian int16 (what one 8-byte load puts in a vector's lanes), and
+// the threshold is one scalar load. Fewest ops per visit of the layouts measured.
+struct SplitTree {
+  const uint64_t* offsets;
+  const int16_t* thresholds_mm;
+};
+inline uint64_t split_offsets_of(const blob::TreeNode& n) {
+  return uint64_t(uint16_t(n.du1)) | uint64_t(uint16_t(n.dv1)) << 16 | uint64_t(uint16_t(n.du2)) << 32 |
+         uint64_t(uint16_t(n.dv2)) << 48;
+}
+struct WideNode {  // kWide16: the blob node, aligned and padded to 16 bytes
+  int16_t du1, dv1, du2, dv2;
+  int16_t threshold_mm;
+  int16_t pad[3];
+};
+static_assert(sizeof(WideNode) == 16, "WideNode is 16 bytes");
+
 struct ForestKernelArgs {
   const uint16_t* probe_image;    // padded probe image (above): foreground depth or kBackgroundDepthMm
   int32_t probe_stride;           // width + 2
@@ -62,11 +84,13 @@ struct ForestKernelArgs {
   const EvaluatedPixel* pixels;   // pixels to classify; z_mm > 0, u < width, v < height
   int32_t pixel_count;
   const blob::TreeNode* nodes;    // one tree: nodes_per_tree(depth) nodes in heap order
-  const PackedNode* packed_nodes; // the same tree packed (heap order), or nullptr; kernels may use
-                                  // either, the result is the same
+  const PackedNode* packed_nodes; // the same tree packed (heap order), or nullptr
   const uint32_t* leaf_index;     // that tree's leaves_per_tree(depth) leaf-record indices
   int32_t depth;                  // validated 1..kMaxDepth
   uint32_t* leaf_out;             // pixel_count outputs: leaf-record index reached
+  const SplitTree* split;         // the same tree split (kSplit), or nullptr. The SIMD kernels read
+                                  // split, else packed_nodes, else nodes; the result is the same
+  const WideNode* study_nodes;    // evaluate_trees_study(kWide16) only: the same tree, 16-byte nodes
 };
 
 using ForestKernelFn = void (*)(const ForestKernelArgs& args);
@@ -83,10 +107,14 @@ void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count);
 namespace avx2 {
 void evaluate_tree(const ForestKernelArgs& args);
 void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count);
+// The layout study: every tree read in `layout` (kSplit from split, kPacked8 from packed_nodes,
+// kWide16 from study_nodes, kBlob10 from nodes). Same results as evaluate_trees.
+void evaluate_trees_study(const ForestKernelArgs* per_tree, int32_t tree_count, NodeLayout layout);
 }  // namespace avx2
 namespace avx512 {
 void evaluate_tree(const ForestKernelArgs& args);
 void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count);
+void evaluate_trees_study(const ForestKernelArgs* per_tree, int32_t tree_count, NodeLayout layout);
 }  // namespace avx512
 
 // The kernel for `isa`, or nullptr when this build or this CPU lacks it (kBest never nullptr).

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <memory>
 #include <random>
@@ -148,22 +149,76 @@ KernelInput kernel_input(const Frame& f, float reference_focal) {
 struct Variant {
   const char* name;
   KernelIsa isa;
-  bool packed;
+  kernels::NodeLayout layout;  // kBlob10 or kSplit through forest_trees_kernel, unless `study`
+  bool study;                  // through the ISA's evaluate_trees_study
 };
-const Variant kVariants[] = {{"scalar ref", KernelIsa::kScalar, false},
-                             {"avx2 10B nodes", KernelIsa::kAvx2, false},
-                             {"avx2 8B packed", KernelIsa::kAvx2, true},
-                             {"avx512 10B nodes", KernelIsa::kAvx512, false},
-                             {"avx512 8B packed", KernelIsa::kAvx512, true}};
+using kernels::NodeLayout;
+const Variant kVariants[] = {{"scalar ref", KernelIsa::kScalar, NodeLayout::kBlob10, false},
+                             {"avx2 10B nodes", KernelIsa::kAvx2, NodeLayout::kBlob10, false},
+                             {"avx2 split", KernelIsa::kAvx2, NodeLayout::kSplit, false},
+                             {"avx512 10B nodes", KernelIsa::kAvx512, NodeLayout::kBlob10, false},
+                             {"avx512 split", KernelIsa::kAvx512, NodeLayout::kSplit, false}};
 constexpr int kVariantCount = sizeof kVariants / sizeof kVariants[0];
+// Issue 5's layout study, each layout through the same kernel code (runtime/kernels/forest_kernel.h,
+// NodeLayout): the blob's 10-byte nodes, packed 8-byte nodes, 16-byte nodes, split (structure of
+// arrays: offsets and thresholds apart; what the pipeline evaluates).
+const Variant kLayoutStudy[] = {{"avx2 10B", KernelIsa::kAvx2, NodeLayout::kBlob10, true},
+                                {"avx2 8B packed", KernelIsa::kAvx2, NodeLayout::kPacked8, true},
+                                {"avx2 16B", KernelIsa::kAvx2, NodeLayout::kWide16, true},
+                                {"avx2 split", KernelIsa::kAvx2, NodeLayout::kSplit, true},
+                                {"avx512 10B", KernelIsa::kAvx512, NodeLayout::kBlob10, true},
+                                {"avx512 8B packed", KernelIsa::kAvx512, NodeLayout::kPacked8, true},
+                                {"avx512 16B", KernelIsa::kAvx512, NodeLayout::kWide16, true},
+                                {"avx512 split", KernelIsa::kAvx512, NodeLayout::kSplit, true}};
+
+// The forest in every layout the kernels can read: the blob's nodes, and per tree the packed,
+// 16-byte and split copies.
+struct Layouts {
+  const blob::LoadedBlob* blob;
+  std::vector<kernels::PackedNode> packed;
+  std::vector<kernels::WideNode> wide;
+  std::vector<uint64_t> split_offsets;
+  std::vector<int16_t> split_thresholds;
+  std::vector<kernels::SplitTree> split;  // per tree
+  explicit Layouts(const blob::LoadedBlob& b) : blob(&b) {
+    const size_t n = size_t(b.tree_count()) * blob::nodes_per_tree(b.depth());
+    for (size_t i = 0; i < n; ++i) {
+      const blob::TreeNode& t = b.nodes[i];
+      packed.push_back(kernels::pack_node(t));
+      wide.push_back(kernels::WideNode{t.du1, t.dv1, t.du2, t.dv2, t.threshold_mm, {0, 0, 0}});
+      split_offsets.push_back(kernels::split_offsets_of(t));
+      split_thresholds.push_back(t.threshold_mm);
+    }
+    for (int k = 0; k < b.tree_count(); ++k)
+      split.push_back(kernels::SplitTree{split_offsets.data() + k * blob::nodes_per_tree(b.depth()),
+                                         split_thresholds.data() + k * blob::nodes_per_tree(b.depth())});
+  }
+  kernels::ForestKernelArgs args(int t, const Variant& v, const KernelInput& in, uint32_t* out) const {
+    const size_t first = size_t(t) * blob::nodes_per_tree(blob->depth());
+    return kernels::ForestKernelArgs{in.probe.data(), in.width + 2, in.width, in.height, in.focal, in.pixels.data(),
+                                     int32_t(in.pixels.size()), blob->tree_nodes(t),
+                                     v.layout == NodeLayout::kPacked8 ? packed.data() + first : nullptr,
+                                     blob->tree_leaf_index(t), blob->depth(), out,
+                                     v.layout == NodeLayout::kSplit ? &split[size_t(t)] : nullptr,
+                                     v.layout == NodeLayout::kWide16 ? wide.data() + first : nullptr};
+  }
+};
+
+void run_variant(const Variant& v, const kernels::ForestKernelArgs* a, int trees) {
+  if (!v.study) return kernels::forest_trees_kernel(v.isa)(a, trees);
+  if (v.isa == KernelIsa::kAvx2) return kernels::avx2::evaluate_trees_study(a, trees, v.layout);
+  return kernels::avx512::evaluate_trees_study(a, trees, v.layout);
+}
 
 // ns per node visit of each variant over all inputs. Each (input, variant) pair is timed `rounds`
 // times, variants interleaved, and its fastest run kept: the machine is shared, so the minimum of
-// short runs is the stable figure, and pairs are compared inside one run.
-std::vector<double> kernel_ns_per_visit(const blob::LoadedBlob& b, const std::vector<kernels::PackedNode>& packed,
+// short runs is the stable figure, and pairs are compared inside one run. Every variant's leaves are
+// checked against the first variant's (a layout that read wrongly would be timed for nothing).
+std::vector<double> kernel_ns_per_visit(const Layouts& layouts, const std::vector<Variant>& variants,
                                         const std::vector<KernelInput>& inputs, int rounds) {
-  std::vector<double> total(kVariantCount, 0.0);
-  std::vector<uint32_t> out;  // tree t's leaves at [t · max_pixels, ...)
+  const blob::LoadedBlob& b = *layouts.blob;
+  std::vector<double> total(variants.size(), 0.0);
+  std::vector<uint32_t> out, first_out;  // tree t's leaves at [t · max_pixels, ...)
   size_t max_pixels = 0, visits = 0;
   for (const auto& in : inputs) {
     max_pixels = std::max(max_pixels, in.pixels.size());
@@ -171,24 +226,23 @@ std::vector<double> kernel_ns_per_visit(const blob::LoadedBlob& b, const std::ve
   }
   out.resize(max_pixels * size_t(b.tree_count()));
   for (const auto& in : inputs) {
-    std::vector<double> best(kVariantCount, 1e30);
+    std::vector<double> best(variants.size(), 1e30);
     for (int r = 0; r < rounds; ++r)
-      for (int v = 0; v < kVariantCount; ++v) {
+      for (size_t v = 0; v < variants.size(); ++v) {
+        if (!kernel_isa_supported(variants[v].isa)) continue;
         // All trees in one call, as the pipeline runs them.
-        const kernels::ForestTreesKernelFn fn = kernels::forest_trees_kernel(kVariants[v].isa);
-        if (!fn) continue;
         kernels::ForestKernelArgs a[blob::kMaxTrees];
-        for (int t = 0; t < b.tree_count(); ++t)
-          a[t] = kernels::ForestKernelArgs{
-              in.probe.data(), in.width + 2, in.width, in.height, in.focal, in.pixels.data(), int32_t(in.pixels.size()),
-              b.tree_nodes(t),
-              kVariants[v].packed ? packed.data() + size_t(t) * blob::nodes_per_tree(b.depth()) : nullptr,
-              b.tree_leaf_index(t), b.depth(), out.data() + size_t(t) * max_pixels};
+        for (int t = 0; t < b.tree_count(); ++t) a[t] = layouts.args(t, variants[v], in, out.data() + size_t(t) * max_pixels);
         const double t0 = now_s();
-        fn(a, b.tree_count());
+        run_variant(variants[v], a, b.tree_count());
         best[v] = std::min(best[v], now_s() - t0);
+        if (r == 0 && v == 0) first_out = out;
+        if (r == 0 && v > 0 && out != first_out) {
+          std::fprintf(stderr, "bench: %s gives other leaves than %s\n", variants[v].name, variants[0].name);
+          std::exit(1);
+        }
       }
-    for (int v = 0; v < kVariantCount; ++v) total[v] += best[v];
+    for (size_t v = 0; v < variants.size(); ++v) total[v] += best[v];
   }
   for (double& t : total) t = t * 1e9 / double(visits);
   return total;
@@ -278,6 +332,7 @@ void print_end_to_end(const char* label, const EndToEnd& scalar, const EndToEnd&
 
 int main(int argc, char** argv) {
   const bool kernels_only = argc > 1 && std::string(argv[1]) == "--kernels-only";
+  const bool layouts_only = argc > 1 && std::string(argv[1]) == "--layouts";  // the node-layout study alone
   // --only=A,B: the end-to-end rows whose label contains A or B, nothing else, no json (quick A/B runs).
   const std::string only = argc > 1 && std::string(argv[1]).rfind("--only=", 0) == 0 ? std::string(argv[1]).substr(7) : "";
   // --rounds=N after --only=: N timed rounds of the SIMD path (default 5), e.g. to profile it.
@@ -294,9 +349,7 @@ int main(int argc, char** argv) {
   const std::vector<uint8_t> pcl_bytes = blob::write_blob(pcl);
   blob::LoadedBlob pb;
   if (blob::load_blob(pcl_bytes.data(), pcl_bytes.size(), &pb) != blob::BlobStatus::kOk) return 1;
-  std::vector<kernels::PackedNode> packed;
-  for (size_t i = 0; i < size_t(pb.tree_count()) * blob::nodes_per_tree(pb.depth()); ++i)
-    packed.push_back(kernels::pack_node(pb.nodes[i]));
+  const Layouts layouts(pb);
 
   const std::vector<Frame> real_vga = skeltrack_frames(false), real_qvga = skeltrack_frames(true);
   const std::vector<Frame> syn_vga = synthetic_frames(false), syn_qvga = synthetic_frames(true);
@@ -311,10 +364,11 @@ int main(int argc, char** argv) {
                       {"synthetic 640x480", &syn_vga}, {"synthetic 320x240", &syn_qvga}};
   std::vector<double> real_vga_ns;
   for (const Set& s : sets) {
-    if (!only.empty()) break;
+    if (!only.empty() || layouts_only) break;
     std::vector<KernelInput> inputs;
     for (const Frame& f : *s.frames) inputs.push_back(kernel_input(f, pb.meta->reference_focal_px));
-    const std::vector<double> ns = kernel_ns_per_visit(pb, packed, inputs, kernels_only ? 5 : 4);
+    const std::vector<double> ns = kernel_ns_per_visit(
+        layouts, std::vector<Variant>(std::begin(kVariants), std::end(kVariants)), inputs, kernels_only ? 5 : 4);
     double best = 1e30;
     for (int v = 1; v < kVariantCount; ++v) best = std::min(best, ns[v]);
     std::printf("  %-24s", s.name);
@@ -323,7 +377,20 @@ int main(int argc, char** argv) {
     if (s.frames == &real_vga) real_vga_ns = ns;
     if (kernels_only) break;
   }
-  if (kernels_only) return 0;
+  // --- node layouts ------------------------------------------------------------------------------
+  std::vector<double> layout_ns;
+  if ((only.empty() && !kernels_only) || layouts_only) {
+    std::printf("\nnode layouts, ns per node visit, skeltrack 640x480 (same kernel code per ISA, only the node reads differ):\n ");
+    for (const Variant& v : kLayoutStudy) std::printf(" %17s", v.name);
+    std::printf("\n ");
+    std::vector<KernelInput> inputs;
+    for (const Frame& f : real_vga) inputs.push_back(kernel_input(f, pb.meta->reference_focal_px));
+    layout_ns = kernel_ns_per_visit(layouts, std::vector<Variant>(std::begin(kLayoutStudy), std::end(kLayoutStudy)),
+                                    inputs, 4);
+    for (double x : layout_ns) std::printf(" %17.3f", x);
+    std::printf("\n");
+  }
+  if (kernels_only || layouts_only) return 0;
   int best_variant = 1;
   for (int v = 1; v < kVariantCount && only.empty(); ++v)
     if (real_vga_ns[v] < real_vga_ns[best_variant]) best_variant = v;
@@ -369,7 +436,7 @@ int main(int argc, char** argv) {
     print_end_to_end(e.label, e.scalar, e.best);
   }
   const size_t bpc_vga_minimum = minimum_arena_bytes(bpc_vga.view, 640, 480);
-  std::printf("\narena bytes: BPC 640x480 %zu (%zu used; %zu without the packed node copy), 320x240 %zu; OJR 640x480 %zu\n",
+  std::printf("\narena bytes: BPC 640x480 %zu (%zu used; %zu without the split node copy), 320x240 %zu; OJR 640x480 %zu\n",
               bpc_vga.arena_bytes, bpc_vga.pipeline.arena_used_bytes(), bpc_vga_minimum, bpc_qvga.arena_bytes,
               ojr_vga.arena_bytes);
 
@@ -377,6 +444,9 @@ int main(int argc, char** argv) {
   const double simd_ns = real_vga_ns[best_variant], scalar_ns = real_vga_ns[0];
   std::printf("\nheadline: %.3f ns/visit (%s) vs scalar %.3f: x%.2f; BPC 320x240 %.0f fps, 640x480 %.0f fps\n", simd_ns,
               kVariants[best_variant].name, scalar_ns, scalar_ns / simd_ns, runs[1].best.fps, runs[0].best.fps);
+  std::string layout_json;
+  for (size_t v = 0; v < layout_ns.size(); ++v)
+    layout_json += std::string(v ? ", " : "") + "\"" + kLayoutStudy[v].name + "\": " + std::to_string(layout_ns[v]);
   std::system("mkdir -p build/bench");
   FILE* j = std::fopen("build/bench/runtime.json", "w");
   if (!j) return 1;
@@ -392,6 +462,7 @@ int main(int argc, char** argv) {
                "  \"shipped_bpc_rendered_fps_320x240\": %.1f,\n  \"shipped_bpc_rendered_fps_640x480\": %.1f,\n"
                "  \"shipped_ojr_rendered_fps_320x240\": %.1f,\n  \"shipped_ojr_rendered_fps_640x480\": %.1f,\n"
                "  \"shipped_bpc_rendered_cycles_320x240\": {\"foreground\": %.0f, \"forest\": %.0f, \"votes\": %.0f, \"mean_shift\": %.0f},\n"
+               "  \"node_layouts_ns_per_visit\": {%s},\n"
                "  \"frames\": \"skeltrack 12 real Kinect frames, PCL 3 x depth-20 trees (shipped_*: models/*.blob on the same frames;"
                " shipped_*_rendered_*: 24 rendered people, test-split clips, seed 303)\"\n}\n",
                cpu_brand().c_str(), simd_ns, kVariants[best_variant].name, scalar_ns, scalar_ns / simd_ns, runs[1].best.fps, runs[3].best.fps,
@@ -400,7 +471,7 @@ int main(int argc, char** argv) {
                runs[7].best.fps, runs[6].best.fps, runs[9].best.fps, runs[8].best.fps, runs[11].best.fps, runs[10].best.fps,
                runs[13].best.fps, runs[12].best.fps, runs[11].best.stage_cycles[kStageForeground],
                runs[11].best.stage_cycles[kStageForest], runs[11].best.stage_cycles[kStageVotes],
-               runs[11].best.stage_cycles[kStageMeanShift]);
+               runs[11].best.stage_cycles[kStageMeanShift], layout_json.c_str());
   std::fclose(j);
   std::printf("wrote build/bench/runtime.json\n");
   return 0;

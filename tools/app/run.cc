@@ -371,9 +371,9 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   TimeHistogram times;
   RunSummary summary;
 
-  std::fprintf(log, "run: %s on %s (%dx%d, fx %.1f fy %.1f cx %.1f cy %.1f), kernel %s, arena %zu bytes\n",
+  std::fprintf(log, "run: %s on %s (%dx%d, fx %.1f fy %.1f cx %.1f cy %.1f), kernel %s (forest %s), arena %zu bytes\n",
                options.blob_path.c_str(), options.source_spec.c_str(), w, h, intrinsics.fx, intrinsics.fy, intrinsics.cx,
-               intrinsics.cy, kernel_isa_name(pipeline.kernel()), arena_bytes);
+               intrinsics.cy, kernel_isa_name(pipeline.kernel()), kernel_isa_name(pipeline.forest_kernel()), arena_bytes);
   if (segment)
     std::fprintf(log, "run: segmentation on (floor, %s, users), arena %zu bytes\n",
                  sequential ? "background model" : "no background model", segmenter.arena_used_bytes());

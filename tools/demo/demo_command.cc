@@ -41,8 +41,8 @@ static int run_demo(int argc, char** argv) {
   SyntheticFrame f = make_disc_frame(320, 240, 200.0f, 100.0f, 10.0f, 2000);
   FrameResult r;
   if (Status s = p.process(f.view(), &r); s != Status::kOk) fail(status_message(s));
-  std::printf("demo: %d foreground pixels, arena %zu bytes, kernel %s\n", r.foreground_pixels, p.arena_used_bytes(),
-              kernel_isa_name(p.kernel()));
+  std::printf("demo: %d foreground pixels, arena %zu bytes, kernel %s (forest %s)\n", r.foreground_pixels,
+              p.arena_used_bytes(), kernel_isa_name(p.kernel()), kernel_isa_name(p.forest_kernel()));
   for (int j = 0; j < r.joint_count; ++j)
     for (int k = 0; k < r.proposal_count[j]; ++k)
       std::printf("  %s proposal %d: x %.3f y %.3f z %.3f m, confidence %.2f\n", b.meta->joint_names[j], k,

@@ -39,7 +39,7 @@ void describe_blob(const blob::LoadedBlob& b, FILE* out) {
   // The recorded figure is what the converting runtime needed; a later runtime may carve more
   // scratch, so the figure to size an arena by is the linked runtime's own.
   std::fprintf(out, "max probe offset %u pixel·m; arena for %ux%u frames: %zu bytes with this runtime, "
-               "%zu at least without the packed node copy (%llu recorded at conversion)\n", m.max_abs_offset_pxm,
+               "%zu at least without the split node copy (%llu recorded at conversion)\n", m.max_abs_offset_pxm,
                m.max_width, m.max_height, required_arena_bytes(b, int32_t(m.max_width), int32_t(m.max_height)),
                minimum_arena_bytes(b, int32_t(m.max_width), int32_t(m.max_height)), (unsigned long long)m.arena_bytes);
   // Per-tree statistics: padded (never split) nodes and distinct leaves.

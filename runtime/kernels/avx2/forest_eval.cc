@@ -6,8 +6,10 @@
 namespace dp::kernels::avx2 {
 namespace {
 
-template <bool kPrefetchChildren, bool kPacked>
+template <bool kPrefetchChildren, class Nodes>
 void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t padded) {
+  constexpr bool kPacked = Nodes::kThresholdInLanes;
+  const Nodes nodes(a);
   const __m256i lane_mask = _mm256_set1_epi16(int16_t(0xFFF0));
   const __m256i nibble_mask = _mm256_set1_epi16(0x000F);
   const __m256i high = _mm256_set1_epi32(int32_t(uint32_t(a.width + 1) | (uint32_t(a.height + 1) << 16)));
@@ -16,8 +18,8 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
   const __m256i low_byte = _mm256_set1_epi64x(0xFF);
   const __m256i low_dwords = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
   for (int32_t i = 0; i < padded; i += 4) {
-    const __m256i raw = _mm256_set_epi64x(node_bits<kPacked>(a, node[i + 3]), node_bits<kPacked>(a, node[i + 2]),
-                                          node_bits<kPacked>(a, node[i + 1]), node_bits<kPacked>(a, node[i]));
+    const __m256i raw = _mm256_set_epi64x(nodes.bits(node[i + 3]), nodes.bits(node[i + 2]),
+                                          nodes.bits(node[i + 1]), nodes.bits(node[i]));
     // 4·δ per lane: packed lanes hold δ·16 above a threshold nibble; blob lanes hold δ.
     const __m256i offsets4 =
         kPacked ? _mm256_srai_epi16(_mm256_and_si256(raw, lane_mask), 2) : _mm256_slli_epi16(raw, 2);
@@ -38,21 +40,35 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
     }
 #pragma GCC unroll 4
     for (int j = 0; j < 4; ++j) {
-      const int32_t t = kPacked ? threshold[j] : int32_t(a.nodes[node[i + j]].threshold_mm);
+      const int32_t t = kPacked ? threshold[j] : nodes.threshold(node[i + j]);
       const __m128i pair = address_pairs[j >> 1];
       const uint64_t q = (j & 1) ? uint64_t(_mm_extract_epi64(pair, 1)) : uint64_t(_mm_cvtsi128_si64(pair));
-      finish_visit<kPrefetchChildren, kPacked>(a, node, i + j, t, q);
+      finish_visit<kPrefetchChildren>(a, nodes, node, i + j, t, q);
     }
   }
 }
 
-template <bool kPacked>
-constexpr ChunkFn kChunk = &evaluate_chunk_by_levels<&level_of_chunk<false, kPacked>, &level_of_chunk<true, kPacked>>;
+template <class Nodes>
+constexpr ChunkFn kChunk = &evaluate_chunk_by_levels<&level_of_chunk<false, Nodes>, &level_of_chunk<true, Nodes>>;
+
+// Every tree read as Nodes (the layout study).
+template <class Nodes>
+void evaluate_trees_as(const ForestKernelArgs* per_tree, int32_t tree_count) {
+  evaluate_trees_simd<4, kChunk<Nodes>, kChunk<Nodes>, kChunk<Nodes>>(per_tree, tree_count);
+}
 
 }  // namespace
 
 void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count) {
-  evaluate_trees_simd<4, kChunk<true>, kChunk<false>>(per_tree, tree_count);
+  evaluate_trees_simd<4, kChunk<SplitNodes>, kChunk<PackedNodes>, kChunk<BlobNodes>>(per_tree, tree_count);
+}
+void evaluate_trees_study(const ForestKernelArgs* per_tree, int32_t tree_count, NodeLayout layout) {
+  switch (layout) {
+    case NodeLayout::kBlob10: return evaluate_trees_as<BlobNodes>(per_tree, tree_count);
+    case NodeLayout::kPacked8: return evaluate_trees_as<PackedNodes>(per_tree, tree_count);
+    case NodeLayout::kWide16: return evaluate_trees_as<WideNodes>(per_tree, tree_count);
+    case NodeLayout::kSplit: return evaluate_trees_as<SplitNodes>(per_tree, tree_count);
+  }
 }
 void evaluate_tree(const ForestKernelArgs& args) { evaluate_trees(&args, 1); }
 }  // namespace dp::kernels::avx2
