@@ -733,14 +733,15 @@ TEST(SegmentationCut, ABoxBesideSomeonePartlyHiddenStaysApart) {
 }
 
 TEST(SegmentationCut, ABoxInFrontOfSomeonesLegsIsNotTheirLegs) {
-  // Someone (z 2.8–3.0 m) whose legs a box 0.6 m in front hides: the box stands on the floor, is
-  // lower than the body and partly hidden itself (a post in front of it), 0.55 m from the body
-  // along the floor, but it hides the body's lower edge: it is in front of the body, not its legs.
+  // Someone (z 2.8–3.0 m) whose legs a box 0.5 m in front hides: the box stands on the floor, is
+  // lower than the body and partly hidden itself (a post in front of it), within
+  // hidden_legs_radius_m of the body along the floor, but it hides the body's lower edge across a
+  // depth jump: it is in front of the body, not its legs.
   tools::Scene s;
   s.camera.height_m = 0.9f;
   s.camera.pitch_deg = 0.0f;
   s.boxes.push_back({-0.25f, 0.25f, 0.0f, 1.7f, 2.8f, 3.0f, 1});  // the body
-  s.boxes.push_back({-0.35f, 0.35f, 0.0f, 0.7f, 2.2f, 2.5f, 0});  // the box
+  s.boxes.push_back({-0.35f, 0.35f, 0.0f, 0.7f, 2.2f, 2.3f, 0});  // the box
   s.cylinders.push_back({0.0f, 1.6f, 0.04f, 0.0f, 0.6f, 0});       // the post
   const tools::RenderedScene f = tools::render_scene(s);
   SegmenterHarness h(default_segmenter_config(false));

@@ -821,12 +821,11 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
   if (cfg.fragment_join_mm <= 0.0f || n < 2) return;
   // Which candidates touch (4-neighbours within fragment_join_mm): one pass over the image.
   uint64_t touches[kMaxCandidates] = {};
-  // And which hide part of which (a 4-neighbour nearer by more than hidden_gap_mm): bit m of
-  // hides[k] when k is in front of m.
+  // And which hide part of which (a 4-neighbour nearer by more than fragment_join_mm, beyond a
+  // depth jump): bit m of hides[k] when k is in front of m.
   uint64_t hides[kMaxCandidates] = {};
   const int32_t w = f.width;
   const int32_t join = int32_t(cfg.fragment_join_mm);
-  const int32_t gap = int32_t(cfg.hidden_gap_mm);
   const bool use_floor = floor_->valid != 0;
   const bool hidden_legs_on = cfg.hidden_area_fraction > 0.0f && use_floor && cfg.hidden_legs_radius_m > 0.0f;
   for (int32_t v = 0; v < f.height; ++v) {
@@ -843,8 +842,8 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
           touches[k] |= uint64_t(1) << m;
           touches[m] |= uint64_t(1) << k;
         }
-        if (hidden_legs_on && m >= 0 && m != k && dz < -gap) hides[k] |= uint64_t(1) << m;
-        if (hidden_legs_on && m >= 0 && m != k && dz > gap) hides[m] |= uint64_t(1) << k;
+        if (hidden_legs_on && m >= 0 && m != k && dz < -join) hides[k] |= uint64_t(1) << m;
+        if (hidden_legs_on && m >= 0 && m != k && dz > join) hides[m] |= uint64_t(1) << k;
       }
       if (v + 1 < f.height && parent[u + w] >= 0) {
         const int32_t m = aux_[parent[u + w]];
@@ -853,8 +852,8 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
           touches[k] |= uint64_t(1) << m;
           touches[m] |= uint64_t(1) << k;
         }
-        if (hidden_legs_on && m >= 0 && m != k && dz < -gap) hides[k] |= uint64_t(1) << m;
-        if (hidden_legs_on && m >= 0 && m != k && dz > gap) hides[m] |= uint64_t(1) << k;
+        if (hidden_legs_on && m >= 0 && m != k && dz < -join) hides[k] |= uint64_t(1) << m;
+        if (hidden_legs_on && m >= 0 && m != k && dz > join) hides[m] |= uint64_t(1) << k;
       }
     }
   }

@@ -204,14 +204,15 @@ struct SegmenterConfig {
   //   - both have at least hidden_min_edge hidden edges (both are partly hidden),
   //   - the piece is lower than the other in height (top) and in the image (top row), and its top
   //     is at most hidden_legs_max_gap_m below the other's lowest point,
-  //   - it does not itself hide part of the other (no 4-neighbour of the other nearer by more than
-  //     hidden_gap_mm: a box in front of someone's legs is not their legs),
+  //   - it does not itself hide part of the other (no pixel 4-neighbour to one of the other and
+  //     nearer than it by more than fragment_join_mm: a box in front of someone's legs is not their
+  //     legs),
   //   - it holds at most hidden_legs_max_ratio times the other's pixels, and
   //   - their centroids are within hidden_legs_radius_m of each other along the floor.
-  // On two-person tuning seeds 41 and 47 an upper body matched as a user of its own while its legs,
-  // 0.40-0.60 m away and 1.3-4.6 times its pixels, were left out (false user and missed person);
-  // a box beside someone's upper body joined at 0.74-0.80 m (hence 0.7) and at 7.4 times its
-  // pixels (hence 5). 0 = off.
+  // On two-person tuning seeds 41, 47 and 49 an upper body was a user of its own while its legs,
+  // 0.40-0.67 m away and 1.3-4.6 times its pixels, were left out (a false user and a missed
+  // person); boxes joined at 0.73-0.80 m (hence 0.7) and at 7.4 times the upper piece's pixels
+  // (hence 5). 0 = off.
   float hidden_legs_radius_m = 0.7f;      // ≥ 0
   float hidden_legs_max_gap_m = 0.3f;     // ≥ 0
   float hidden_legs_max_ratio = 5.0f;     // > 0
