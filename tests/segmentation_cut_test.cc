@@ -674,3 +674,80 @@ TEST(SegmentationCut, SomeoneFartherBehindShowingTheirHeadStaysAUser) {
                 count_pixels(h.labels, f, uint8_t(h.result.users[1].id), 2),
             int(0.95 * truth_pixels(f, 2)));
 }
+
+namespace {
+
+// Someone at z 3.0 m behind a bar (z 1.8 m, 0.65–0.8 m high, wider than a person) that cuts them
+// in two: an upper body (a box 0.4 m wide) above the bar, and the legs (a cylinder) below it,
+// `legs_x` to the side (a step to the side, a leaning body: the centroids of the two pieces lie
+// 0.4–0.6 m apart along the floor on the tuning seeds). The camera, 0.9 m high, looks level. The
+// upper body passes the person test; the legs, lower than a person, do not, and they do not touch.
+tools::Scene body_behind_bar(float legs_x, uint8_t legs_truth) {
+  tools::Scene s;
+  s.camera.height_m = 0.9f;
+  s.camera.pitch_deg = 0.0f;
+  s.boxes.push_back({-0.8f, 0.9f, 0.65f, 0.8f, 1.8f, 1.85f, 0});  // the bar
+  s.boxes.push_back({-0.2f, 0.2f, 0.45f, 1.7f, 3.0f, 3.2f, 1});   // the upper body
+  s.cylinders.push_back({legs_x, 3.1f, 0.1f, 0.0f, 0.75f, legs_truth});
+  return s;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, TheLegsOfSomeonePartlyHiddenJoinThem) {
+  const tools::RenderedScene f = tools::render_scene(body_behind_bar(0.45f, 1));
+  SegmenterConfig off = default_segmenter_config(false);
+  off.hidden_legs_radius_m = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  ASSERT_TRUE(n.result.floor.valid);
+  ASSERT_EQ(n.result.user_count, 1);
+  const int upper = count_pixels(n.labels, f, uint8_t(n.result.users[0].id), 1);
+  ASSERT_LT(upper, int(0.8 * truth_pixels(f, 1))) << "without the rule the legs should stay out";
+
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.95 * truth_pixels(f, 1)))
+      << "upper body alone " << upper << " of " << truth_pixels(f, 1);
+  EXPECT_EQ(labelled_truth(h.labels, f, 0), 0);
+}
+
+TEST(SegmentationCut, ABoxBesideSomeonePartlyHiddenStaysApart) {
+  // The same scene with a post (0.75 m high, 0.2 m wide) instead of the legs, 0.9 m beside the
+  // upper body: beyond hidden_legs_radius_m it stays background (with a radius of 1 m it would
+  // join like legs). The upper body stays a user.
+  const tools::RenderedScene f = tools::render_scene(body_behind_bar(0.9f, 0));
+  SegmenterConfig wide = default_segmenter_config(false);
+  wide.hidden_legs_radius_m = 1.0f;
+  SegmenterHarness w(wide);
+  ASSERT_EQ(w.run(f), Status::kOk);
+  ASSERT_EQ(w.result.user_count, 1);
+  ASSERT_GT(labelled_truth(w.labels, f, 0), 0) << "with a 1 m radius the post should join";
+
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.95 * truth_pixels(f, 1)));
+  EXPECT_EQ(labelled_truth(h.labels, f, 0), 0) << "the box joined the upper body";
+}
+
+TEST(SegmentationCut, ABoxInFrontOfSomeonesLegsIsNotTheirLegs) {
+  // Someone (z 2.8–3.0 m) whose legs a box 0.5 m in front hides: the box stands on the floor, is
+  // lower than the body and partly hidden itself (a post in front of it), within
+  // hidden_legs_radius_m of the body along the floor, but it hides the body's lower edge across a
+  // depth jump: it is in front of the body, not its legs.
+  tools::Scene s;
+  s.camera.height_m = 0.9f;
+  s.camera.pitch_deg = 0.0f;
+  s.boxes.push_back({-0.25f, 0.25f, 0.0f, 1.7f, 2.8f, 3.0f, 1});  // the body
+  s.boxes.push_back({-0.35f, 0.35f, 0.0f, 0.7f, 2.2f, 2.3f, 0});  // the box
+  s.cylinders.push_back({0.0f, 1.6f, 0.04f, 0.0f, 0.6f, 0});       // the post
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.95 * truth_pixels(f, 1)));
+  EXPECT_EQ(labelled_truth(h.labels, f, 0), 0) << "the box joined the body";
+}

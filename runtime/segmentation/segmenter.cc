@@ -240,7 +240,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
          c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
@@ -821,8 +821,13 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
   if (cfg.fragment_join_mm <= 0.0f || n < 2) return;
   // Which candidates touch (4-neighbours within fragment_join_mm): one pass over the image.
   uint64_t touches[kMaxCandidates] = {};
+  // And which hide part of which (a 4-neighbour nearer by more than fragment_join_mm, beyond a
+  // depth jump): bit m of hides[k] when k is in front of m.
+  uint64_t hides[kMaxCandidates] = {};
   const int32_t w = f.width;
   const int32_t join = int32_t(cfg.fragment_join_mm);
+  const bool use_floor = floor_->valid != 0;
+  const bool hidden_legs_on = cfg.hidden_area_fraction > 0.0f && use_floor && cfg.hidden_legs_radius_m > 0.0f;
   for (int32_t v = 0; v < f.height; ++v) {
     const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     const int32_t* parent = parent_ + size_t(v) * w;
@@ -837,6 +842,8 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
           touches[k] |= uint64_t(1) << m;
           touches[m] |= uint64_t(1) << k;
         }
+        if (hidden_legs_on && m >= 0 && m != k && dz < -join) hides[k] |= uint64_t(1) << m;
+        if (hidden_legs_on && m >= 0 && m != k && dz > join) hides[m] |= uint64_t(1) << k;
       }
       if (v + 1 < f.height && parent[u + w] >= 0) {
         const int32_t m = aux_[parent[u + w]];
@@ -845,6 +852,8 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
           touches[k] |= uint64_t(1) << m;
           touches[m] |= uint64_t(1) << k;
         }
+        if (hidden_legs_on && m >= 0 && m != k && dz < -join) hides[k] |= uint64_t(1) << m;
+        if (hidden_legs_on && m >= 0 && m != k && dz > join) hides[m] |= uint64_t(1) << k;
       }
     }
   }
@@ -860,7 +869,6 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
   bool hidden_only[kMaxCandidates];
   for (int32_t k = 0; k < n; ++k)
     hidden_only[k] = full[k] && !person[k] && candidates_[k].hidden_edge >= cfg.hidden_min_edge;
-  const bool use_floor = floor_->valid != 0;
   auto united = [&](const Candidate& x, const Candidate& y) {
     Candidate c = y;
     add_stats(c, x, use_floor);
@@ -877,6 +885,7 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
   float radius = cfg.fragment_radius_m > cfg.hidden_pair_radius_m || !hidden_on ? cfg.fragment_radius_m
                                                                               : cfg.hidden_pair_radius_m;
   if (cfg.legs_radius_m > radius) radius = cfg.legs_radius_m;
+  if (hidden_legs_on && cfg.hidden_legs_radius_m > radius) radius = cfg.hidden_legs_radius_m;
   for (int32_t k = 0; k < n; ++k) {
     if (candidates_[k].pixels == 0) continue;
     Candidate& frag = candidates_[k];
@@ -914,9 +923,20 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
                               body.bottom > cfg.cut_floor_contact_m && frag.bottom <= cfg.cut_floor_contact_m &&
                               frag.top < body.top && frag.v_min > body.v_min && cols_shared > 0 &&
                               frag.pixels <= 2 * body.pixels && d2 <= cfg.legs_radius_m * cfg.legs_radius_m;
+      // The legs of someone partly hidden (header, hidden_legs_radius_m): both pieces have hidden
+      // edges, the piece stands on the floor and does not pass, the other passes; the piece is lower
+      // in height and in the image and reaches up to within hidden_legs_max_gap_m of the other's
+      // lowest point.
+      const bool hidden_legs = hidden_legs_on && !full[k] && full[m] && frag.hidden_edge >= cfg.hidden_min_edge &&
+                               body.hidden_edge >= cfg.hidden_min_edge && frag.bottom <= cfg.cut_floor_contact_m &&
+                               body.bottom > cfg.cut_floor_contact_m && frag.top < body.top && frag.v_min > body.v_min &&
+                               frag.top + cfg.hidden_legs_max_gap_m >= body.bottom && !((hides[k] >> m) & 1u) &&
+                               float(frag.pixels) <= cfg.hidden_legs_max_ratio * float(body.pixels) &&
+                               d2 <= cfg.hidden_legs_radius_m * cfg.hidden_legs_radius_m;
       const bool close = d2 <= cfg.fragment_pair_radius_m * cfg.fragment_pair_radius_m ||
-                         (both_hidden && d2 <= cfg.hidden_pair_radius_m * cfg.hidden_pair_radius_m) || legs_below;
-      if (d2 > cfg.fragment_radius_m * cfg.fragment_radius_m && !both_hidden && !legs_below) continue;
+                         (both_hidden && d2 <= cfg.hidden_pair_radius_m * cfg.hidden_pair_radius_m) || legs_below ||
+                         hidden_legs;
+      if (d2 > cfg.fragment_radius_m * cfg.fragment_radius_m && !both_hidden && !legs_below && !hidden_legs) continue;
       // Pieces that do not touch (a person cut in two by someone standing in front) join only
       // when closer along the floor than two people can stand.
       if (!touching && !close) continue;
@@ -948,6 +968,9 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     hidden_only[best] = candidates_[best].hidden_edge >= cfg.hidden_min_edge && !passes_person_test(f, candidates_[best], false);
     person[best] = full[best] = true;
     touches[best] |= touches[k];
+    hides[best] |= hides[k];
+    for (int32_t j = 0; j < n; ++j)
+      if ((hides[j] >> k) & 1u) hides[j] |= uint64_t(1) << best;
     frag.owner = best;
     frag.pixels = 0;  // no longer a component of its own
   }

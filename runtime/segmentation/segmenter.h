@@ -196,6 +196,26 @@ struct SegmenterConfig {
   // leg) join within this distance of each other along the floor, instead of
   // fragment_pair_radius_m / fragment_radius_m.
   float hidden_pair_radius_m = 0.8f;      // ≥ 0
+  // The legs of someone partly hidden: the person in front cuts a body behind them into an upper
+  // piece and its legs, and the legs are often the larger piece, which hidden_pair_radius_m does
+  // not join. A piece standing on the floor (lowest point within cut_floor_contact_m) that does not
+  // pass alone joins a piece that passes (also only as hidden, or after merges) and does not reach
+  // the floor (lowest point higher than cut_floor_contact_m), touching or not, when
+  //   - both have at least hidden_min_edge hidden edges (both are partly hidden),
+  //   - the piece is lower than the other in height (top) and in the image (top row), and its top
+  //     is at most hidden_legs_max_gap_m below the other's lowest point,
+  //   - it does not itself hide part of the other (no pixel 4-neighbour to one of the other and
+  //     nearer than it by more than fragment_join_mm: a box in front of someone's legs is not their
+  //     legs),
+  //   - it holds at most hidden_legs_max_ratio times the other's pixels, and
+  //   - their centroids are within hidden_legs_radius_m of each other along the floor.
+  // On two-person tuning seeds 41, 47 and 49 an upper body was a user of its own while its legs,
+  // 0.40-0.67 m away and 1.3-4.6 times its pixels, were left out (a false user and a missed
+  // person); boxes joined at 0.73-0.80 m (hence 0.7) and at 7.4 times the upper piece's pixels
+  // (hence 5). 0 = off.
+  float hidden_legs_radius_m = 0.7f;      // ≥ 0
+  float hidden_legs_max_gap_m = 0.3f;     // ≥ 0
+  float hidden_legs_max_ratio = 5.0f;     // > 0
 
   // Users.
   int32_t max_users = 8;                  // 1..kMaxUsers

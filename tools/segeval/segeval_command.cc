@@ -46,7 +46,8 @@ static const char* const kUsage =
     "  --set K=V,...          override SegmenterConfig numbers: min_person_height_m, min_person_area_m2,\n"
     "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
     "                         fragment_radius_m, fragment_pair_radius_m, cut_max_fill, cut_max_solidity, cut_solidity_max_hidden,\n"
-    "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, cut_floor_contact_m,\n"
+    "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, hidden_legs_radius_m,\n"
+    "                         hidden_legs_max_gap_m, hidden_legs_max_ratio, cut_floor_contact_m,\n"
     "                         cut_bottom_area_fraction, fragment_min_share, absorb_radius_m, head_radius_m, legs_radius_m, box_split_height_m,\n"
     "                         box_split_min_share, box_split_cell_m, box_split_min_dist_m,\n"
     "                         box_reject_min_share,\n"
@@ -136,6 +137,9 @@ int run_segeval(int argc, char** argv) {
       else if (k == "hidden_gap_mm") cfg.hidden_gap_mm = float(v);
       else if (k == "hidden_min_edge") cfg.hidden_min_edge = int32_t(v);
       else if (k == "hidden_pair_radius_m") cfg.hidden_pair_radius_m = float(v);
+      else if (k == "hidden_legs_radius_m") cfg.hidden_legs_radius_m = float(v);
+      else if (k == "hidden_legs_max_gap_m") cfg.hidden_legs_max_gap_m = float(v);
+      else if (k == "hidden_legs_max_ratio") cfg.hidden_legs_max_ratio = float(v);
       else if (k == "cut_solidity_max_hidden") cfg.cut_solidity_max_hidden = float(v);
       else if (k == "tracked_area_fraction") cfg.tracked_area_fraction = float(v);
       else if (k == "fragment_min_share") cfg.fragment_min_share = float(v);
