@@ -20,6 +20,7 @@
 #include "runtime/kernels/forest_kernel.h"
 #include "runtime/kernels/mean_shift_kernel.h"
 #include "runtime/kernels/vote_kernel.h"
+#include "tests/node_layouts.h"
 #include "tools/convert/pcl_import.h"
 #include "tools/demo/fixtures.h"
 
@@ -106,38 +107,7 @@ std::vector<uint16_t> read_skeltrack(const std::string& path) {
   return depth;
 }
 
-// A forest's trees in every node layout the kernels read (kernels::NodeLayout), and the kernel
-// arguments for tree t in one of them.
-struct TreeCopies {
-  const blob::LoadedBlob& b;
-  std::vector<kernels::PackedNode> packed;
-  std::vector<kernels::WideNode> wide;
-  std::vector<uint64_t> offsets;
-  std::vector<int16_t> thresholds;
-  std::vector<kernels::SplitTree> split;
-  explicit TreeCopies(const blob::LoadedBlob& blob) : b(blob) {
-    const size_t per_tree = blob::nodes_per_tree(b.depth());
-    for (size_t i = 0; i < size_t(b.tree_count()) * per_tree; ++i) {
-      const blob::TreeNode& n = b.nodes[i];
-      packed.push_back(kernels::pack_node(n));
-      wide.push_back(kernels::WideNode{n.du1, n.dv1, n.du2, n.dv2, n.threshold_mm, {7, 7, 7}});
-      offsets.push_back(kernels::split_offsets_of(n));
-      thresholds.push_back(n.threshold_mm);
-    }
-    for (int t = 0; t < b.tree_count(); ++t)
-      split.push_back(kernels::SplitTree{offsets.data() + t * per_tree, thresholds.data() + t * per_tree});
-  }
-  kernels::ForestKernelArgs args(int t, kernels::NodeLayout layout, const uint16_t* probe, int32_t width,
-                                 int32_t height, int32_t focal, const EvaluatedPixel* pixels, int32_t n,
-                                 uint32_t* out) const {
-    const size_t first = size_t(t) * blob::nodes_per_tree(b.depth());
-    using L = kernels::NodeLayout;
-    return kernels::ForestKernelArgs{probe, width + 2, width, height, focal, pixels, n, b.tree_nodes(t),
-                                     layout == L::kPacked8 ? packed.data() + first : nullptr, b.tree_leaf_index(t),
-                                     b.depth(), out, layout == L::kSplit ? &split[size_t(t)] : nullptr,
-                                     layout == L::kWide16 ? wide.data() + first : nullptr};
-  }
-};
+using testing_support::TreeCopies;
 const kernels::NodeLayout kLayouts[] = {kernels::NodeLayout::kBlob10, kernels::NodeLayout::kPacked8,
                                         kernels::NodeLayout::kWide16, kernels::NodeLayout::kSplit};
 const char* layout_name(kernels::NodeLayout l) {

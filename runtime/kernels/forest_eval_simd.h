@@ -45,10 +45,13 @@ inline int32_t scale_q13_of(int32_t focal_factor, int32_t z_mm) {  // = dp::scal
 // as 4 int16 lanes of 64 bits (`bits`), its threshold (`threshold`, unless kThresholdInLanes: then
 // the low nibbles of the lanes carry it, kernels::pack_node's layout, and `bits` holds δ·16), and
 // the prefetch of its line(s).
-struct BlobNodes {  // the blob's 10-byte nodes (the 8-byte load is unaligned)
+// An array of node structs with fields du1, dv1, du2, dv2, threshold_mm (offsets first: the 8-byte
+// load is unaligned for the blob's 10-byte nodes), taken from ForestKernelArgs::*kNodes.
+template <class Node, const Node* ForestKernelArgs::*kNodes>
+struct ArrayNodes {
   static constexpr bool kThresholdInLanes = false;
-  const blob::TreeNode* nodes;
-  explicit BlobNodes(const ForestKernelArgs& a) : nodes(a.nodes) {}
+  const Node* nodes;
+  explicit ArrayNodes(const ForestKernelArgs& a) : nodes(a.*kNodes) {}
   long long bits(uint32_t n) const {
     long long b;
     memcpy(&b, nodes + n, sizeof b);
@@ -57,24 +60,14 @@ struct BlobNodes {  // the blob's 10-byte nodes (the 8-byte load is unaligned)
   int32_t threshold(uint32_t n) const { return nodes[n].threshold_mm; }
   void prefetch(uint32_t n) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + n), _MM_HINT_T0); }
 };
+using BlobNodes = ArrayNodes<blob::TreeNode, &ForestKernelArgs::nodes>;  // the blob's 10-byte nodes
+using WideNodes = ArrayNodes<WideNode, &ForestKernelArgs::study_nodes>;  // layout study: 16-byte nodes
 struct PackedNodes {  // what the pipeline evaluates
   static constexpr bool kThresholdInLanes = true;
   const PackedNode* nodes;
   explicit PackedNodes(const ForestKernelArgs& a) : nodes(a.packed_nodes) {}
   long long bits(uint32_t n) const { return static_cast<long long>(nodes[n].bits); }
   int32_t threshold(uint32_t) const { return 0; }
-  void prefetch(uint32_t n) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + n), _MM_HINT_T0); }
-};
-struct WideNodes {  // layout study: 16-byte nodes
-  static constexpr bool kThresholdInLanes = false;
-  const WideNode* nodes;
-  explicit WideNodes(const ForestKernelArgs& a) : nodes(a.study_nodes) {}
-  long long bits(uint32_t n) const {
-    long long b;
-    memcpy(&b, nodes + n, sizeof b);
-    return b;
-  }
-  int32_t threshold(uint32_t n) const { return nodes[n].threshold_mm; }
   void prefetch(uint32_t n) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + n), _MM_HINT_T0); }
 };
 struct SplitNodes {  // what the pipeline evaluates: offsets and thresholds in two arrays
@@ -155,6 +148,24 @@ inline void evaluate_trees_simd(const ForestKernelArgs* per_tree, int32_t tree_c
       else
         kBlobChunk(per_tree[t], setup, node, base, count, padded);
     }
+  }
+}
+
+// Every tree read by one chunk function (the layout study).
+template <int32_t kPixelsPerStep, ChunkFn kChunk>
+void evaluate_trees_with(const ForestKernelArgs* per_tree, int32_t tree_count) {
+  evaluate_trees_simd<kPixelsPerStep, kChunk, kChunk, kChunk>(per_tree, tree_count);
+}
+
+// The layout study for an ISA whose chunk function for a node policy is Chunk<Nodes>::kFn: every
+// tree read as `layout`.
+template <int32_t kPixelsPerStep, template <class> class Chunk>
+void evaluate_trees_study_simd(const ForestKernelArgs* per_tree, int32_t tree_count, NodeLayout layout) {
+  switch (layout) {
+    case NodeLayout::kBlob10: return evaluate_trees_with<kPixelsPerStep, Chunk<BlobNodes>::kFn>(per_tree, tree_count);
+    case NodeLayout::kPacked8: return evaluate_trees_with<kPixelsPerStep, Chunk<PackedNodes>::kFn>(per_tree, tree_count);
+    case NodeLayout::kWide16: return evaluate_trees_with<kPixelsPerStep, Chunk<WideNodes>::kFn>(per_tree, tree_count);
+    case NodeLayout::kSplit: return evaluate_trees_with<kPixelsPerStep, Chunk<SplitNodes>::kFn>(per_tree, tree_count);
   }
 }
 

@@ -19,6 +19,7 @@
 #include "runtime/depthpose.h"
 #include "runtime/fixed_point.h"
 #include "runtime/kernels/forest_kernel.h"
+#include "tests/node_layouts.h"
 #include <cpuid.h>
 #include "tools/common/body_model.h"
 #include "tools/convert/pcl_import.h"
@@ -171,36 +172,14 @@ const Variant kLayoutStudy[] = {{"avx2 10B", KernelIsa::kAvx2, NodeLayout::kBlob
                                 {"avx512 16B", KernelIsa::kAvx512, NodeLayout::kWide16, true},
                                 {"avx512 split", KernelIsa::kAvx512, NodeLayout::kSplit, true}};
 
-// The forest in every layout the kernels can read: the blob's nodes, and per tree the packed,
-// 16-byte and split copies.
+// The forest in every layout the kernels can read, and the arguments for one variant.
 struct Layouts {
   const blob::LoadedBlob* blob;
-  std::vector<kernels::PackedNode> packed;
-  std::vector<kernels::WideNode> wide;
-  std::vector<uint64_t> split_offsets;
-  std::vector<int16_t> split_thresholds;
-  std::vector<kernels::SplitTree> split;  // per tree
-  explicit Layouts(const blob::LoadedBlob& b) : blob(&b) {
-    const size_t n = size_t(b.tree_count()) * blob::nodes_per_tree(b.depth());
-    for (size_t i = 0; i < n; ++i) {
-      const blob::TreeNode& t = b.nodes[i];
-      packed.push_back(kernels::pack_node(t));
-      wide.push_back(kernels::WideNode{t.du1, t.dv1, t.du2, t.dv2, t.threshold_mm, {0, 0, 0}});
-      split_offsets.push_back(kernels::split_offsets_of(t));
-      split_thresholds.push_back(t.threshold_mm);
-    }
-    for (int k = 0; k < b.tree_count(); ++k)
-      split.push_back(kernels::SplitTree{split_offsets.data() + k * blob::nodes_per_tree(b.depth()),
-                                         split_thresholds.data() + k * blob::nodes_per_tree(b.depth())});
-  }
+  testing_support::TreeCopies copies;
+  explicit Layouts(const blob::LoadedBlob& b) : blob(&b), copies(b) {}
   kernels::ForestKernelArgs args(int t, const Variant& v, const KernelInput& in, uint32_t* out) const {
-    const size_t first = size_t(t) * blob::nodes_per_tree(blob->depth());
-    return kernels::ForestKernelArgs{in.probe.data(), in.width + 2, in.width, in.height, in.focal, in.pixels.data(),
-                                     int32_t(in.pixels.size()), blob->tree_nodes(t),
-                                     v.layout == NodeLayout::kPacked8 ? packed.data() + first : nullptr,
-                                     blob->tree_leaf_index(t), blob->depth(), out,
-                                     v.layout == NodeLayout::kSplit ? &split[size_t(t)] : nullptr,
-                                     v.layout == NodeLayout::kWide16 ? wide.data() + first : nullptr};
+    return copies.args(t, v.layout, in.probe.data(), in.width, in.height, in.focal, in.pixels.data(),
+                       int32_t(in.pixels.size()), out);
   }
 };
 

@@ -65,26 +65,17 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
 #pragma GCC diagnostic pop
 
 template <class Nodes>
-constexpr ChunkFn kChunk = &evaluate_chunk_by_levels<&level_of_chunk<false, Nodes>, &level_of_chunk<true, Nodes>>;
-
-// Every tree read as Nodes (the layout study).
-template <class Nodes>
-void evaluate_trees_as(const ForestKernelArgs* per_tree, int32_t tree_count) {
-  evaluate_trees_simd<8, kChunk<Nodes>, kChunk<Nodes>, kChunk<Nodes>>(per_tree, tree_count);
-}
+struct Chunk {
+  static constexpr ChunkFn kFn = &evaluate_chunk_by_levels<&level_of_chunk<false, Nodes>, &level_of_chunk<true, Nodes>>;
+};
 
 }  // namespace
 
 void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count) {
-  evaluate_trees_simd<8, kChunk<SplitNodes>, kChunk<PackedNodes>, kChunk<BlobNodes>>(per_tree, tree_count);
+  evaluate_trees_simd<8, Chunk<SplitNodes>::kFn, Chunk<PackedNodes>::kFn, Chunk<BlobNodes>::kFn>(per_tree, tree_count);
 }
 void evaluate_trees_study(const ForestKernelArgs* per_tree, int32_t tree_count, NodeLayout layout) {
-  switch (layout) {
-    case NodeLayout::kBlob10: return evaluate_trees_as<BlobNodes>(per_tree, tree_count);
-    case NodeLayout::kPacked8: return evaluate_trees_as<PackedNodes>(per_tree, tree_count);
-    case NodeLayout::kWide16: return evaluate_trees_as<WideNodes>(per_tree, tree_count);
-    case NodeLayout::kSplit: return evaluate_trees_as<SplitNodes>(per_tree, tree_count);
-  }
+  evaluate_trees_study_simd<8, Chunk>(per_tree, tree_count, layout);
 }
 void evaluate_tree(const ForestKernelArgs& args) { evaluate_trees(&args, 1); }
 }  // namespace dp::kernels::avx512
