@@ -751,3 +751,67 @@ TEST(SegmentationCut, ABoxInFrontOfSomeonesLegsIsNotTheirLegs) {
   EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.95 * truth_pixels(f, 1)));
   EXPECT_EQ(labelled_truth(h.labels, f, 0), 0) << "the box joined the body";
 }
+
+// Eighth pass (cut_fill_border_columns). A box cut by the top border fills its image box; a low
+// box beside it and a little farther back, beyond a depth jump, touches it in the image. Measured
+// over the union's box (widened by the low box and the empty rows above it) the two fill little,
+// like legs.
+tools::Scene box_with_low_box_beside(float low_x0) {
+  tools::Scene s = low_camera();
+  s.camera.roll_deg = 0.0f;
+  s.camera.pitch_deg = 28.0f;
+  s.boxes.push_back({-0.2f, 0.05f, 0.0f, 0.78f, 1.1f, 1.5f, 7});
+  s.boxes.push_back({low_x0, low_x0 + 0.3f, 0.0f, 0.15f, 1.25f, 1.4f, 8});
+  return s;
+}
+
+TEST(SegmentationCut, ABoxCutByTheTopBorderWithALowBoxBesideItIsNotAUser) {
+  const tools::RenderedScene f = tools::render_scene(box_with_low_box_beside(0.1f));
+  bool top = false, low_top = true;
+  float fill = 0.0f, low_fill = 0.0f;
+  truth_box(f, 7, &top, &fill);
+  truth_box(f, 8, &low_top, &low_fill);
+  ASSERT_TRUE(top);
+  ASSERT_FALSE(low_top);
+  ASSERT_GT(fill, 0.6f) << "the box alone should fill its image box";
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  EXPECT_EQ(h.result.user_count, 0);
+  EXPECT_EQ(labelled_truth(h.labels, f, 7), 0);
+  // Over the union's box the two pass as someone cut by the border.
+  SegmenterConfig off = default_segmenter_config(false);
+  off.cut_fill_border_columns = 0;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  ASSERT_EQ(n.result.user_count, 1);
+  EXPECT_GT(labelled_truth(n.labels, f, 7), 0);
+  EXPECT_GT(labelled_truth(n.labels, f, 8), 0);
+}
+
+TEST(SegmentationCut, LegsSplitFromTheHipsByADepthJumpStayAUser) {
+  // The legs a step nearer than the hips (a depth jump at the thighs): the hips touch the top
+  // border, the legs below them do not. The legs share the hips' columns, so the union is still
+  // measured over its whole box, legs apart, and passes.
+  tools::Scene s = low_camera();
+  s.camera.roll_deg = 0.0f;
+  s.cylinders.push_back({-0.22f, 1.25f, 0.07f, 0.0f, 0.62f, 1});
+  s.cylinders.push_back({0.22f, 1.25f, 0.07f, 0.0f, 0.62f, 1});
+  s.boxes.push_back({-0.29f, 0.29f, 0.62f, 1.0f, 1.4f, 1.62f, 1});
+  s.cylinders.push_back({0.0f, 1.5f, 0.2f, 1.0f, 1.7f, 1});
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool top = false;
+  float fill = 0.0f;
+  truth_box(f, 1, &top, &fill);
+  ASSERT_TRUE(top);
+  for (int on = 0; on <= 1; ++on) {
+    SegmenterConfig c = default_segmenter_config(false);
+    c.cut_fill_border_columns = on;
+    SegmenterHarness h(c);
+    ASSERT_EQ(h.run(f), Status::kOk);
+    ASSERT_TRUE(h.result.floor.valid);
+    ASSERT_EQ(h.result.user_count, 1) << "cut_fill_border_columns=" << on;
+    EXPECT_LT(h.result.users[0].top_height_m, 0.85f);
+    EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.9 * truth_pixels(f, 1))) << "cut_fill_border_columns=" << on;
+  }
+}

@@ -240,7 +240,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f &&
+         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f && (c.cut_fill_border_columns == 0 || c.cut_fill_border_columns == 1) &&
          c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
@@ -704,6 +704,9 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
   for (int32_t k = 0; k < kept; ++k) {
     Candidate& c = candidates_[k];
     c.occluded = c.hull = c.hull_filled = 0;
+    c.cut_pixels = c.v_min == 0 ? c.pixels : 0;
+    c.cut_u_min = c.v_min == 0 ? c.u_min : int16_t(32767);
+    c.cut_u_max = c.v_min == 0 ? c.u_max : int16_t(-1);
     if (!use_floor || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || c.pixels == 0) continue;
     const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(cfg.join_mm);
     for (int32_t v = c.v_min; v <= c.v_max; ++v) {
@@ -808,8 +811,11 @@ bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool
   if (c.top >= cfg.min_person_height_m) return true;
   // Cut by the top border: the height is out of view (header, cut_max_fill).
   if (!cut || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0 || c.bottom > cfg.cut_floor_contact_m) return false;
-  const float box = float(c.u_max - c.u_min + 1) * float(c.v_max - c.v_min + 1);
-  if (float(c.pixels + c.occluded) <= cfg.cut_max_fill * box) return true;
+  // A union: over the columns of its pieces cut by the border only (header, cut_fill_border_columns).
+  const bool pieces = cfg.cut_fill_border_columns != 0 && c.cut_u_max >= c.cut_u_min && c.cut_pixels < c.pixels;
+  const int32_t cols = pieces ? c.cut_u_max - c.cut_u_min + 1 : c.u_max - c.u_min + 1;
+  const float box = float(cols) * float(c.v_max - c.v_min + 1);
+  if (float((pieces ? c.cut_pixels : c.pixels) + c.occluded) <= cfg.cut_max_fill * box) return true;
   // The hull only where nothing in front cuts the silhouette: an object seen partly behind legs
   // takes their outline (header, cut_solidity_max_hidden).
   return c.hull > 0 && float(c.hull_filled) <= cfg.cut_max_solidity * float(c.hull) &&
@@ -876,6 +882,25 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     c.hidden_edge += x.hidden_edge;
     c.hull += x.hull;          // each piece's own hull: the union's hull is at least as large,
     c.hull_filled += x.hull_filled;  // so its solidity comes out higher (more box-like), not lower
+    // The columns of the pieces cut by the top border, widened by a piece that shares columns with
+    // them (below them: a shin, the body under raised arms), not by one beside them.
+    const bool xc = x.cut_u_max >= x.cut_u_min, yc = y.cut_u_max >= y.cut_u_min;
+    if (xc != yc) {
+      const Candidate& cut = xc ? x : y;
+      const Candidate& other = xc ? y : x;
+      c.cut_u_min = cut.cut_u_min;
+      c.cut_u_max = cut.cut_u_max;
+      c.cut_pixels = cut.cut_pixels;
+      if (other.u_min <= cut.cut_u_max && other.u_max >= cut.cut_u_min) {
+        if (other.u_min < c.cut_u_min) c.cut_u_min = other.u_min;
+        if (other.u_max > c.cut_u_max) c.cut_u_max = other.u_max;
+        c.cut_pixels += other.pixels;
+      }
+    } else if (xc) {
+      if (x.cut_u_min < c.cut_u_min) c.cut_u_min = x.cut_u_min;
+      if (x.cut_u_max > c.cut_u_max) c.cut_u_max = x.cut_u_max;
+      c.cut_pixels += x.cut_pixels;
+    }
     return c;
   };
   // A fragment joins the nearest touching (or, within fragment_pair_radius_m, not touching)

@@ -46,6 +46,7 @@ static const char* const kUsage =
     "  --set K=V,...          override SegmenterConfig numbers: min_person_height_m, min_person_area_m2,\n"
     "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
     "                         fragment_radius_m, fragment_pair_radius_m, cut_max_fill, cut_max_solidity, cut_solidity_max_hidden,\n"
+    "                         cut_fill_border_columns,\n"
     "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, hidden_legs_radius_m,\n"
     "                         hidden_legs_max_gap_m, hidden_legs_max_ratio, cut_floor_contact_m,\n"
     "                         cut_bottom_area_fraction, fragment_min_share, absorb_radius_m, head_radius_m, legs_radius_m, box_split_height_m,\n"
@@ -141,6 +142,7 @@ int run_segeval(int argc, char** argv) {
       else if (k == "hidden_legs_max_gap_m") cfg.hidden_legs_max_gap_m = float(v);
       else if (k == "hidden_legs_max_ratio") cfg.hidden_legs_max_ratio = float(v);
       else if (k == "cut_solidity_max_hidden") cfg.cut_solidity_max_hidden = float(v);
+      else if (k == "cut_fill_border_columns") cfg.cut_fill_border_columns = int32_t(v);
       else if (k == "tracked_area_fraction") cfg.tracked_area_fraction = float(v);
       else if (k == "fragment_min_share") cfg.fragment_min_share = float(v);
       else if (k == "absorb_radius_m") cfg.absorb_radius_m = float(v);
