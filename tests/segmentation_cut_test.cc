@@ -815,3 +815,84 @@ TEST(SegmentationCut, LegsSplitFromTheHipsByADepthJumpStayAUser) {
     EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.9 * truth_pixels(f, 1))) << "cut_fill_border_columns=" << on;
   }
 }
+
+namespace {
+
+// Σ z²/(fx·fy) over the pixels of `truth`: the body surface in view, as segeval counts it.
+float truth_area_m2(const tools::RenderedScene& f, uint8_t truth) {
+  double a = 0.0;
+  for (size_t i = 0; i < f.truth.size(); ++i)
+    if (f.truth[i] == truth && f.depth_mm[i] != 0) {
+      const double z = f.depth_mm[i] * 1e-3;
+      a += z * z / (double(f.intrinsics.fx) * f.intrinsics.fy);
+    }
+  return float(a);
+}
+
+// A low camera looking down steeply: someone 2.5 m away shows only their shins and feet under the
+// top border.
+tools::Scene steep_camera() {
+  tools::Scene s;
+  s.camera.height_m = 0.8f;
+  s.camera.pitch_deg = 36.0f;
+  s.camera.roll_deg = 2.0f;
+  return s;
+}
+
+}  // namespace
+
+// Ninth pass (cut_top_area_fraction): the shins of someone far from a low camera, cut by the top
+// border, have less than the person area; their silhouette still tells them from a box.
+TEST(SegmentationCut, ShinsCutByTheTopBorderWithLessThanThePersonAreaAreAUser) {
+  tools::Scene s = steep_camera();
+  s.cylinders.push_back({-0.42f, 2.5f, 0.03f, 0.0f, 0.7f, 1});  // thin shins, 0.24 m apart
+  s.cylinders.push_back({-0.18f, 2.5f, 0.03f, 0.0f, 0.7f, 1});
+  s.boxes.push_back({-0.45f, -0.15f, 0.0f, 0.05f, 2.45f, 2.55f, 1});  // the feet join them
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool top = false;
+  float fill = 0.0f;
+  truth_box(f, 1, &top, &fill);
+  ASSERT_TRUE(top) << "the scene should cut the shins at the top border";
+  ASSERT_LT(fill, 0.6f);
+  const SegmenterConfig on = default_segmenter_config(false);
+  ASSERT_GT(on.cut_top_area_fraction, 0.0f);
+  const float area = truth_area_m2(f, 1);
+  ASSERT_LT(area, on.min_person_area_m2) << "the scene should show less than the person area";
+  ASSERT_GT(area, 0.0f);
+  ASSERT_GT(area, on.cut_top_area_fraction * on.min_person_area_m2 * 1.1f);
+
+  SegmenterHarness h(on);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.9 * truth_pixels(f, 1)));
+
+  // With the rule off they are too small.
+  SegmenterConfig off = on;
+  off.cut_top_area_fraction = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 0);
+}
+
+TEST(SegmentationCut, ASmallBoxCutByTheTopBorderStaysNoUser) {
+  // The same place and the same area as the shins above, but solid: it fills its image box and its
+  // hull, and the smaller area needed does not make it a person.
+  tools::Scene s = steep_camera();
+  s.boxes.push_back({-0.38f, -0.22f, 0.0f, 0.78f, 2.42f, 2.58f, 1});
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool top = false;
+  float fill = 0.0f;
+  truth_box(f, 1, &top, &fill);
+  ASSERT_TRUE(top);
+  ASSERT_GT(fill, 0.8f);
+  const SegmenterConfig on = default_segmenter_config(false);
+  const float area = truth_area_m2(f, 1);
+  ASSERT_LT(area, on.min_person_area_m2);
+  ASSERT_GT(area, on.cut_top_area_fraction * on.min_person_area_m2);
+  SegmenterHarness h(on);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  EXPECT_EQ(h.result.user_count, 0);
+  EXPECT_GT(h.result.component_count, 0);
+}

@@ -241,7 +241,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
          c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f && (c.cut_fill_border_columns == 0 || c.cut_fill_border_columns == 1) &&
-         c.cut_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -792,7 +792,7 @@ void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand) {
   }
 }
 
-bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool cut) const {
+bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool cut, bool short_top) const {
   const SegmenterConfig& cfg = *config_;
   const float z = float(c.sz / c.pixels);
   const float need = cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (z * z);
@@ -807,8 +807,11 @@ bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool
   if (cut && cfg.hidden_area_fraction > 0.0f && c.hidden_edge >= cfg.hidden_min_edge &&
       c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.hidden_area_fraction * need)
     return true;
-  if (float(c.pixels) < need) return false;
-  if (c.top >= cfg.min_person_height_m) return true;
+  // Short of the area, only the top-border test may still pass it (header, cut_top_area_fraction).
+  const bool area = float(c.pixels) >= need;
+  if (!area && !(cut && short_top && cfg.cut_top_area_fraction > 0.0f && float(c.pixels) >= cfg.cut_top_area_fraction * need))
+    return false;
+  if (area && c.top >= cfg.min_person_height_m) return true;
   // Cut by the top border: the height is out of view (header, cut_max_fill).
   if (!cut || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0 || c.bottom > cfg.cut_floor_contact_m) return false;
   // A union: over the columns of its pieces cut by the border only (header, cut_fill_border_columns).
@@ -1044,17 +1047,23 @@ int32_t Segmenter::absorbing_user(const DepthFrame& f, int32_t n, int32_t k, con
   // A piece without a person's area (it passes as hidden or cut) may be the top of a user's body
   // (header, head_radius_m).
   const bool small = float(c.pixels) < cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (cz[k] * cz[k]);
+  // Such a piece cut by the top border (with cut_top_area_fraction it may pass that way) beside a
+  // larger user cut there too is mostly that user's other leg, a step nearer or farther (header).
+  const bool leg_piece = cfg.cut_top_area_fraction > 0.0f && cfg.legs_radius_m > 0.0f && small && c.v_min == 0;
   int32_t best = -1;
-  const float r = cfg.absorb_radius_m > cfg.head_radius_m ? cfg.absorb_radius_m : cfg.head_radius_m;
+  float r = cfg.absorb_radius_m > cfg.head_radius_m ? cfg.absorb_radius_m : cfg.head_radius_m;
+  if (leg_piece && cfg.legs_radius_m > r) r = cfg.legs_radius_m;
   float best_d2 = r * r;
   for (int32_t m = 0; m < n; ++m) {
     const Candidate& u = candidates_[m];
-    if (m == k || u.user == 0 || u.pixels <= c.pixels || cz[m] >= cz[k]) continue;
-    const bool inside = cfg.absorb_radius_m > 0.0f && c.u_min >= u.u_min - 2 && c.u_max <= u.u_max + 2 &&
+    if (m == k || u.user == 0 || u.pixels <= c.pixels) continue;
+    const bool nearer = cz[m] < cz[k];
+    const bool inside = nearer && cfg.absorb_radius_m > 0.0f && c.u_min >= u.u_min - 2 && c.u_max <= u.u_max + 2 &&
                         c.v_min >= u.v_min - 2 && c.v_max <= u.v_max + 2;
-    const bool head = cfg.head_radius_m > 0.0f && small && c.top > u.top && c.v_min < u.v_min &&
+    const bool head = nearer && cfg.head_radius_m > 0.0f && small && c.top > u.top && c.v_min < u.v_min &&
                       c.u_min <= u.u_max && u.u_min <= c.u_max;
-    if (!inside && !head) continue;
+    const bool leg = leg_piece && u.v_min == 0;
+    if (!inside && !head && !leg) continue;
     float d[3] = {cx[k] - cx[m], cy[k] - cy[m], cz[k] - cz[m]};
     if (use_floor) {
       const float up = d[0] * floor_->nx + d[1] * floor_->ny + d[2] * floor_->nz;
@@ -1063,8 +1072,9 @@ int32_t Segmenter::absorbing_user(const DepthFrame& f, int32_t n, int32_t k, con
       d[1] = 0.0f;
     }
     const float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-    const float lim = inside && cfg.absorb_radius_m > (head ? cfg.head_radius_m : 0.0f) ? cfg.absorb_radius_m
-                                                                                         : cfg.head_radius_m;
+    float lim = inside && cfg.absorb_radius_m > (head ? cfg.head_radius_m : 0.0f) ? cfg.absorb_radius_m
+                                                                                   : (head ? cfg.head_radius_m : 0.0f);
+    if (leg && cfg.legs_radius_m > lim) lim = cfg.legs_radius_m;
     if (d2 <= lim * lim && d2 <= best_d2) { best_d2 = d2; best = m; }
   }
   return best;
@@ -1223,7 +1233,7 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
     cy[k] = float(c.sy / c.pixels);
     cz[k] = float(c.sz / c.pixels);
     const float need = cfg.min_person_area_m2 * focal2 / (cz[k] * cz[k]);
-    strict[k] = passes_person_test(f, c);
+    strict[k] = passes_person_test(f, c, true, true);
     relaxed[k] = c.x_max - c.x_min <= cfg.max_person_width_m && float(c.pixels) >= cfg.tracked_area_fraction * need;
   }
   // Greedy nearest-centroid association: repeatedly the closest (track, component) pair.

@@ -187,6 +187,18 @@ struct SegmenterConfig {
   // pixels over the union's box, as before).
   int32_t cut_fill_border_columns = 1;    // 0 or 1
   float cut_floor_contact_m = 0.3f;       // ≥ 0
+  // People cut by the top border far from a low camera show only their shins and feet: under the
+  // person area although the same silhouette test (cut_max_fill, cut_max_solidity) already tells
+  // them from boxes. A component about to become a new user that is cut by the top border, stands
+  // on the floor and passes that test needs only this fraction of the person area
+  // (min_person_area_m2); merging still judges pieces by the full area. With this on, a component
+  // about to become a new user that touches the top border without the full area (however it
+  // passed) joins instead a larger user also cut by the top border whose centroid is within
+  // legs_radius_m along the floor (the other leg, a step nearer or farther). 0 = off (the full
+  // area, as before). On tuning seeds 11-18/40-59, 0.8 finds 19 more people and adds no false
+  // user; 0.3-0.7 find up to 10 more but add a false user on seeds 11-18 (docs/segmentation.md,
+  // ninth pass).
+  float cut_top_area_fraction = 0.8f;     // 0..1
   // People cut by the bottom border (the head and shoulders of someone close to a high camera)
   // keep their height above the floor but lose area: a component touching the bottom border with
   // a floor known and its top at least min_person_height_m high needs only this fraction of the
@@ -374,7 +386,9 @@ class Segmenter {
   int32_t classify_pixels(const DepthFrame& frame);
   int32_t label_components(const DepthFrame& frame, SegmentationResult* result);
   // cut: also the relaxed tests for components cut by the image border.
-  bool passes_person_test(const DepthFrame& frame, const Candidate& candidate, bool cut = true) const;
+  // short_top: a component cut by the top border may have only cut_top_area_fraction of the area
+  // (only for new users: merging judges pieces as before).
+  bool passes_person_test(const DepthFrame& frame, const Candidate& candidate, bool cut = true, bool short_top = false) const;
   void merge_fragments(const DepthFrame& frame, int32_t candidate_count);
   bool in_front_of_a_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* mean_z,
                           const bool* passes) const;
