@@ -896,3 +896,73 @@ TEST(SegmentationCut, ASmallBoxCutByTheTopBorderStaysNoUser) {
   EXPECT_EQ(h.result.user_count, 0);
   EXPECT_GT(h.result.component_count, 0);
 }
+
+namespace {
+
+// Two shins joined by the feet, cut by the top border of steep_camera().
+void add_shins(tools::Scene* s, float x, float z, float radius, uint8_t truth) {
+  s->cylinders.push_back({x - 0.12f, z, radius, 0.0f, 0.7f, truth});
+  s->cylinders.push_back({x + 0.12f, z, radius, 0.0f, 0.7f, truth});
+  s->boxes.push_back({x - 0.15f, x + 0.15f, 0.0f, 0.05f, z - 0.05f, z + 0.05f, truth});
+}
+
+int users_with(const SegmenterHarness& h, const tools::RenderedScene& f, uint8_t truth) {
+  int n = 0;
+  for (int id = 1; id <= 15; ++id) n += count_pixels(h.labels, f, uint8_t(id), truth) > 0;
+  return n;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, ASmallPieceCutByTheTopBorderNearAUserCutThereJoinsIt) {
+  // A larger piece with the full area (truth 1) and, 0.2 m behind and 0.45 m aside, a smaller one
+  // with 0.8-1 of it (truth 2, standing for the other leg): with cut_top_area_fraction the smaller
+  // passes and, within legs_radius_m of the larger user, joins it rather than making a second user.
+  tools::Scene s = steep_camera();
+  add_shins(&s, 0.15f, 2.3f, 0.05f, 1);
+  add_shins(&s, -0.3f, 2.5f, 0.03f, 2);
+  const tools::RenderedScene f = tools::render_scene(s);
+  const SegmenterConfig on = default_segmenter_config(false);
+  ASSERT_GT(truth_area_m2(f, 1), on.min_person_area_m2);
+  ASSERT_LT(truth_area_m2(f, 2), on.min_person_area_m2);
+  SegmenterHarness h(on);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  EXPECT_EQ(h.result.user_count, 1);
+  EXPECT_EQ(users_with(h, f, 1), 1);
+  EXPECT_EQ(users_with(h, f, 2), 1);
+  // Without the join the smaller piece is a second user.
+  SegmenterConfig no_join = on;
+  no_join.legs_radius_m = 0.0f;
+  SegmenterHarness j(no_join);
+  ASSERT_EQ(j.run(f), Status::kOk);
+  EXPECT_EQ(j.result.user_count, 2);
+  // With the rule off the smaller piece is left out.
+  SegmenterConfig off = on;
+  off.cut_top_area_fraction = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 1);
+  EXPECT_EQ(users_with(n, f, 2), 0);
+}
+
+TEST(SegmentationCut, ASmallPieceCutByTheTopBorderFarFromAUserStaysAUser) {
+  // The same pieces 1.2 m apart: someone else's shins, a user of their own.
+  tools::Scene s = steep_camera();
+  add_shins(&s, 0.9f, 2.3f, 0.05f, 1);
+  add_shins(&s, -0.3f, 2.5f, 0.03f, 2);
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  EXPECT_EQ(h.result.user_count, 2);
+  EXPECT_EQ(users_with(h, f, 1), 1);
+  EXPECT_EQ(users_with(h, f, 2), 1);
+  // With the rule off the smaller one is too small to be a user.
+  SegmenterConfig off = default_segmenter_config(false);
+  off.cut_top_area_fraction = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 1);
+  EXPECT_EQ(users_with(n, f, 2), 0);
+}
