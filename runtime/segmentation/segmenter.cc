@@ -1129,17 +1129,25 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
     const int32_t p = parent_[i];
     return p >= 0 && aux_[p] >= 0 && candidates_[aux_[p]].owner == k;
   };
-  for (int32_t v = c.v_min; v <= c.v_max; ++v) {
-    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
-    for (int32_t u = c.u_min; u <= c.u_max; ++u) {
-      if (!own(v * w + u)) continue;
-      float up;
-      const int32_t cell = cell_of(u, v, row[u], &up);
-      // A cell reaching the top image row has its top out of view (legs cut by the border reach
-      // the same height in every cell, like a lid): never dropped.
-      if (cell >= 0 && (up > cell_top[cell] || v == 0)) cell_top[cell] = v == 0 ? 1e30f : up;
+  // visit(u, v, pixel index, depth mm, cell or -1, height above the floor) for every pixel of the
+  // component, in raster order within its image box.
+  auto for_each_pixel = [&](auto&& visit) {
+    for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+      const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+      for (int32_t u = c.u_min; u <= c.u_max; ++u) {
+        const int32_t i = v * w + u;
+        if (!own(i)) continue;
+        float up;
+        const int32_t cell = cell_of(u, v, row[u], &up);
+        visit(u, v, i, row[u], cell, up);
+      }
     }
-  }
+  };
+  for_each_pixel([&](int32_t, int32_t v, int32_t, uint16_t, int32_t cell, float up) {
+    // A cell reaching the top image row has its top out of view (legs cut by the border reach
+    // the same height in every cell, like a lid): never dropped.
+    if (cell >= 0 && (up > cell_top[cell] || v == 0)) cell_top[cell] = v == 0 ? 1e30f : up;
+  });
   // The lid: a box's or cylinder's cells all reach the same height (its top face, or the top edge
   // of its faces), a body's low cells (feet, a leg, a hand) do not. Pixel-weighted histogram of
   // the low cells' tops in kLidBins bins below box_split_height_m; the lid is the pair of
@@ -1147,17 +1155,11 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
   constexpr int32_t kLidBins = 32;
   int32_t lid_hist[kLidBins] = {};
   const float bin_scale = float(kLidBins) / cfg.box_split_height_m;
-  for (int32_t v = c.v_min; v <= c.v_max; ++v) {
-    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
-    for (int32_t u = c.u_min; u <= c.u_max; ++u) {
-      if (!own(v * w + u)) continue;
-      float up;
-      const int32_t cell = cell_of(u, v, row[u], &up);
-      if (cell < 0 || cell_top[cell] >= cfg.box_split_height_m || cell_top[cell] < 0.0f) continue;
-      const int32_t bin = int32_t(cell_top[cell] * bin_scale);
-      ++lid_hist[bin < kLidBins ? bin : kLidBins - 1];
-    }
-  }
+  for_each_pixel([&](int32_t, int32_t, int32_t, uint16_t, int32_t cell, float) {
+    if (cell < 0 || cell_top[cell] >= cfg.box_split_height_m || cell_top[cell] < 0.0f) return;
+    const int32_t bin = int32_t(cell_top[cell] * bin_scale);
+    ++lid_hist[bin < kLidBins ? bin : kLidBins - 1];
+  });
   int32_t lid_bin = 0;
   for (int32_t b = 1; b + 1 < kLidBins; ++b)
     if (lid_hist[b] + lid_hist[b + 1] > lid_hist[lid_bin] + lid_hist[lid_bin + 1]) lid_bin = b;
@@ -1170,24 +1172,18 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
   clear_stats(rest);
   int32_t dropped = 0;
   float dropped_bottom = 1e30f;
-  for (int32_t v = c.v_min; v <= c.v_max; ++v) {
-    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
-    for (int32_t u = c.u_min; u <= c.u_max; ++u) {
-      if (!own(v * w + u)) continue;
-      float up;
-      const int32_t cell = cell_of(u, v, row[u], &up);
-      if (in_lid(cell)) {
-        ++dropped;
-        if (up < dropped_bottom) dropped_bottom = up;
-        continue;
-      }
-      const float z = float(row[u]) * 0.001f;
-      const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
-      const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
-      add_point(rest, u, v, x, y, z, x * ax + y * ay + z * az);
-      add_height(rest, up);
+  for_each_pixel([&](int32_t u, int32_t v, int32_t, uint16_t z_mm, int32_t cell, float up) {
+    if (in_lid(cell)) {
+      ++dropped;
+      if (up < dropped_bottom) dropped_bottom = up;
+      return;
     }
-  }
+    const float z = float(z_mm) * 0.001f;
+    const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
+    const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
+    add_point(rest, u, v, x, y, z, x * ax + y * ay + z * az);
+    add_height(rest, up);
+  });
   if (dropped == 0 || rest.pixels == 0 || dropped_bottom > cfg.cut_floor_contact_m) return 0;
   const bool rest_passes = passes_person_test(f, rest);
   // Centroid distance along the floor between the dropped part and the rest.
@@ -1202,16 +1198,9 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
     const bool lid = cfg.box_reject_min_share > 0.0f && float(dropped) >= cfg.box_reject_min_share * float(c.pixels);
     return lid ? 2 : 0;
   }
-  for (int32_t v = c.v_min; v <= c.v_max; ++v) {
-    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
-    for (int32_t u = c.u_min; u <= c.u_max; ++u) {
-      const int32_t i = v * w + u;
-      if (!own(i)) continue;
-      float up;
-      const int32_t cell = cell_of(u, v, row[u], &up);
-      if (in_lid(cell)) parent_[i] = -1;
-    }
-  }
+  for_each_pixel([&](int32_t, int32_t, int32_t i, uint16_t, int32_t cell, float) {
+    if (in_lid(cell)) parent_[i] = -1;
+  });
   c = rest;
   return 1;
 }
