@@ -19,7 +19,6 @@
 
 namespace dp {
 
-
 enum class Status : int32_t {
   kOk = 0,
   kBadArgument,        // null pointer, non-positive size, stride < width, bad intrinsics
@@ -155,8 +154,9 @@ class Pipeline {
   Status process_user(const DepthFrame& frame, uint8_t user_id, FrameResult* result);
 
   // Chooses the kernels (tests and benchmarks compare them). kKernelUnavailable if the CPU lacks
-  // it. kBest picks the widest available (the forest kernel: best_forest_kernel_isa()). kScalar selects the scalar reference forest kernel and
-  // vote casters (the specification) and the SSE4.1 mean-shift sums; every other choice uses that
+  // it. kBest picks the widest available (the forest kernel: best_forest_kernel_isa()). kScalar
+  // selects the scalar reference forest kernel and vote casters (the specification) and the SSE4.1
+  // mean-shift sums; every other choice uses that
   // ISA's forest kernel, BPC vote scan and mean-shift sums (runtime/kernels/) and the SSE4.1 OJR
   // caster, which give exactly the same votes and proposals (tests/runtime_kernel_test.cc proves it).
   Status set_kernel(KernelIsa isa);
