@@ -115,6 +115,9 @@ bool kernel_isa_supported(KernelIsa isa);
 // load is cheaper than its share of the 8-pixel step's lane decode, and 256-bit ops issue on more
 // ports). The other kernels' kBest is the widest available. Results are the same whichever runs.
 KernelIsa best_forest_kernel_isa();
+// What kBest means for every other kernel: the widest ISA this build and CPU run (AVX-512, else AVX2,
+// else scalar).
+KernelIsa widest_kernel_isa();
 
 // A pixel the forest evaluated (for tools: segmentation output, overlays).
 struct EvaluatedPixel {

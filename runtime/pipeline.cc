@@ -233,9 +233,7 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
 Status Pipeline::set_kernel(KernelIsa isa) {
   if (!kernel_isa_supported(isa)) return Status::kKernelUnavailable;
   if (isa == KernelIsa::kBest) {
-    kernel_ = kernel_isa_supported(KernelIsa::kAvx512) ? KernelIsa::kAvx512
-              : kernel_isa_supported(KernelIsa::kAvx2) ? KernelIsa::kAvx2
-                                                         : KernelIsa::kScalar;
+    kernel_ = widest_kernel_isa();
     forest_kernel_ = best_forest_kernel_isa();
   } else {
     kernel_ = forest_kernel_ = isa;

@@ -139,6 +139,8 @@ TEST(KernelDispatch, ThisMachineHasBoth) {
   EXPECT_EQ(kernels::forest_trees_kernel(KernelIsa::kBest), kernels::forest_trees_kernel(KernelIsa::kAvx2));
   EXPECT_NE(kernels::forest_kernel(KernelIsa::kAvx2), kernels::forest_kernel(KernelIsa::kScalar));
   EXPECT_EQ(kernels::bpc_scan_kernel(KernelIsa::kBest), kernels::bpc_scan_kernel(KernelIsa::kAvx512));
+  EXPECT_EQ(widest_kernel_isa(), KernelIsa::kAvx512);
+  EXPECT_EQ(kernels::mean_shift_sums_kernel(KernelIsa::kBest), kernels::mean_shift_sums_kernel(widest_kernel_isa()));
   Pipeline p;
   EXPECT_EQ(p.forest_kernel(), KernelIsa::kScalar);  // before init
 }

@@ -49,6 +49,11 @@ bool kernel_isa_supported(KernelIsa isa) {
   return kernels::forest_kernel(isa) != nullptr;
 }
 
+KernelIsa widest_kernel_isa() {
+  const CpuFeatures f = cached_features();
+  return f.avx512 ? KernelIsa::kAvx512 : f.avx2 ? KernelIsa::kAvx2 : KernelIsa::kScalar;
+}
+
 KernelIsa best_forest_kernel_isa() {
   return cached_features().avx2 ? KernelIsa::kAvx2 : KernelIsa::kScalar;
 }
@@ -73,7 +78,7 @@ Fn choose(KernelIsa isa, Fn scalar, Fn avx2_fn, Fn avx512_fn) {
     case KernelIsa::kScalar: return scalar;
     case KernelIsa::kAvx2: return f.avx2 ? avx2_fn : nullptr;
     case KernelIsa::kAvx512: return f.avx512 ? avx512_fn : nullptr;
-    case KernelIsa::kBest: return f.avx512 ? avx512_fn : f.avx2 ? avx2_fn : scalar;
+    case KernelIsa::kBest: return choose(widest_kernel_isa(), scalar, avx2_fn, avx512_fn);
   }
   return nullptr;
 }
