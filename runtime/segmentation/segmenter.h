@@ -209,8 +209,9 @@ struct SegmenterConfig {
   // cells' tops lie within one height band of 2·(3 cm + 4 mm/m²·z̄²) (the depth noise spreads a
   // far box's cell tops). A box or cylinder reaches its top in every cell (lid share near 1); a
   // body's cells reach many heights. Needs a floor. On tuning seeds 11-18/40-59, 0.4 with 0.7 m
-  // finds 10 more people and adds one false user; 0.45 with 0.7 m finds 17 and adds 7
-  // (docs/segmentation.md, tenth pass). low_max_lid_share = 0 turns this off (as before).
+  // finds 10 more people and adds one false user (the second piece of someone lying); 0.45 with
+  // 0.7 m finds 17 and adds 7 (docs/segmentation.md, tenth pass). low_max_lid_share = 0 turns this
+  // off (as before).
   float low_max_lid_share = 0.4f;         // 0..1 (share of the component's pixels)
   float low_min_height_m = 0.7f;          // ≥ 0, metres above the floor
   // People cut by the bottom border (the head and shoulders of someone close to a high camera)
