@@ -966,3 +966,69 @@ TEST(SegmentationCut, ASmallPieceCutByTheTopBorderFarFromAUserStaysAUser) {
   EXPECT_EQ(n.result.user_count, 1);
   EXPECT_EQ(users_with(n, f, 2), 0);
 }
+
+namespace {
+
+// Tenth pass (low_max_lid_share). Someone low over the floor (crouching, on all fours), as four
+// steps one behind the other whose tops reach 0.2, 0.4, 0.6 and 0.78 m (feet, knees, hips, head):
+// lower than min_person_height_m, like furniture, but its cells on the floor reach many heights.
+// The camera 1.2 m high looks slightly down.
+tools::Scene low_body(uint8_t truth) {
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 10.0f;
+  const float tops[4] = {0.2f, 0.4f, 0.6f, 0.78f};
+  for (int i = 0; i < 4; ++i)
+    s.boxes.push_back({-0.3f + 0.03f * float(i), 0.3f - 0.03f * float(i), 0.0f, tops[i], 2.2f + 0.2f * float(i),
+                       2.4f + 0.2f * float(i), truth});
+  return s;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, SomeoneLowOverTheFloorIsAUser) {
+  const tools::RenderedScene f = tools::render_scene(low_body(1));
+  ASSERT_GT(truth_pixels(f, 1), 0);
+  // Without the rule: too low for the height test, no user (the scene tests the rule).
+  SegmenterConfig off = default_segmenter_config(false);
+  off.low_max_lid_share = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  ASSERT_TRUE(n.result.floor.valid);
+  ASSERT_EQ(n.result.user_count, 0);
+
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_GT(h.segmenter.config().low_max_lid_share, 0.0f);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_LT(h.result.users[0].top_height_m, h.segmenter.config().min_person_height_m);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.95 * truth_pixels(f, 1)));
+
+  // Lower than low_min_height_m it is not judged this way.
+  SegmenterConfig high = default_segmenter_config(false);
+  high.low_min_height_m = 0.8f;
+  SegmenterHarness m(high);
+  ASSERT_EQ(m.run(f), Status::kOk);
+  EXPECT_EQ(m.result.user_count, 0);
+}
+
+TEST(SegmentationCut, ABoxAsLowAsSomeoneLowOverTheFloorIsNoUser) {
+  // A solid box with the same footprint and top (0.78 m): every cell reaches its lid.
+  tools::Scene s = low_body(1);
+  s.boxes.clear();
+  s.boxes.push_back({-0.3f, 0.3f, 0.0f, 0.78f, 2.2f, 3.0f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  ASSERT_GT(truth_pixels(f, 0), 0);
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_GT(h.segmenter.config().low_max_lid_share, 0.0f);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  EXPECT_EQ(h.result.user_count, 0);
+  // It has the area and stands on the floor: with any lid share allowed it would be a user (the
+  // scene tests the lid share, not the other conditions).
+  SegmenterConfig any = default_segmenter_config(false);
+  any.low_max_lid_share = 1.0f;
+  SegmenterHarness a(any);
+  ASSERT_EQ(a.run(f), Status::kOk);
+  EXPECT_EQ(a.result.user_count, 1);
+}

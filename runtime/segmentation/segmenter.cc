@@ -241,7 +241,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
          c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f && (c.cut_fill_border_columns == 0 || c.cut_fill_border_columns == 1) &&
-         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -1205,6 +1205,78 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
   return 1;
 }
 
+// Someone low over the floor (header, low_max_lid_share): a component with the person area and
+// width, standing on the floor, its top in view, at least low_min_height_m but less than
+// min_person_height_m high, whose cells on the floor (box_split_cell_m, a kLowCells² grid centred on
+// its centroid; pixels outside the grid count as outside the lid) reach many heights: at most
+// low_max_lid_share of its pixels lie in cells whose tops fall within the height band (kLowBins
+// bins below min_person_height_m, as wide as the depth noise at its mean depth) holding the most
+// pixels. A box or cylinder reaches its top in every cell. Work: two passes over the candidate's
+// image box, 48 × 48 cells (9 KB) and 64 bins on the stack.
+bool Segmenter::low_person(const DepthFrame& f, int32_t k) const {
+  const SegmenterConfig& cfg = *config_;
+  const Candidate& c = candidates_[k];
+  if (cfg.low_max_lid_share <= 0.0f || floor_->valid == 0 || c.pixels == 0 || c.v_min == 0) return false;
+  if (c.top >= cfg.min_person_height_m || c.top < cfg.low_min_height_m || c.bottom > cfg.cut_floor_contact_m) return false;
+  if (c.x_max - c.x_min > cfg.max_person_width_m) return false;
+  const float z = float(c.sz / c.pixels);
+  if (float(c.pixels) < cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (z * z)) return false;
+  constexpr int32_t kLowCells = 48;
+  constexpr int32_t kLowBins = 64;
+  float cell_top[kLowCells * kLowCells];
+  for (int32_t i = 0; i < kLowCells * kLowCells; ++i) cell_top[i] = -1e30f;
+  // Floor axes: a = camera x without its vertical part, b = n × a.
+  const float nx = floor_->nx, ny = floor_->ny, nz = floor_->nz;
+  float ax = 1.0f - nx * nx, ay = -nx * ny, az = -nx * nz;
+  const float len = sqrtf(ax * ax + ay * ay + az * az);
+  if (len < 1e-3f) return false;
+  ax /= len; ay /= len; az /= len;
+  const float bx = ny * az - nz * ay, by = nz * ax - nx * az, bz = nx * ay - ny * ax;
+  const float mx = float(c.sx / c.pixels), my = float(c.sy / c.pixels), mz = float(c.sz / c.pixels);
+  const float inv_cell = 1.0f / cfg.box_split_cell_m;
+  const float a0 = mx * ax + my * ay + mz * az, b0 = mx * bx + my * by + mz * bz;
+  const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
+  const int32_t w = f.width;
+  // pass 0: each cell's top; pass 1: pixel-weighted histogram of the cells' tops.
+  int32_t hist[kLowBins] = {};
+  const float bin_scale = float(kLowBins) / cfg.min_person_height_m;
+  for (int32_t pass = 0; pass < 2; ++pass)
+    for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+      const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+      for (int32_t u = c.u_min; u <= c.u_max; ++u) {
+        const int32_t p = parent_[v * w + u];
+        if (p < 0 || aux_[p] < 0 || candidates_[aux_[p]].owner != k) continue;
+        const float pz = float(row[u]) * 0.001f;
+        const float px = (float(u) - f.intrinsics.cx) * pz * inv_fx;
+        const float py = -(float(v) - f.intrinsics.cy) * pz * inv_fy;
+        const int32_t ia = int32_t(floorf((px * ax + py * ay + pz * az - a0) * inv_cell)) + kLowCells / 2;
+        const int32_t ib = int32_t(floorf((px * bx + py * by + pz * bz - b0) * inv_cell)) + kLowCells / 2;
+        if (ia < 0 || ia >= kLowCells || ib < 0 || ib >= kLowCells) continue;
+        float& top = cell_top[ia * kLowCells + ib];
+        if (pass == 0) {
+          const float up = nx * px + ny * py + nz * pz + floor_->d;
+          if (up > top) top = up;
+        } else if (top >= 0.0f) {
+          const int32_t bin = int32_t(top * bin_scale);
+          ++hist[bin < kLowBins ? bin : kLowBins - 1];
+        }
+      }
+    }
+  // The band widens with the depth noise, which spreads a box's cell tops: 2·(3 cm + 4 mm/m²·z²)
+  // (13 cm at 3 m, 22 cm at 4.5 m; with a fixed 5.3 cm band boxes beyond 3 m fell to lid shares of
+  // 0.2-0.4, like the people).
+  constexpr float kBandM = 0.03f, kBandPerM2 = 0.004f;
+  int32_t band = int32_t(2.0f * (kBandM + kBandPerM2 * z * z) * bin_scale + 0.5f);
+  if (band < 1) band = 1;
+  if (band > kLowBins) band = kLowBins;
+  int32_t lid = 0, run = 0;
+  for (int32_t b = 0; b < kLowBins; ++b) {
+    run += hist[b] - (b >= band ? hist[b - band] : 0);
+    if (run > lid) lid = run;
+  }
+  return float(lid) <= cfg.low_max_lid_share * float(c.pixels);
+}
+
 void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult* r) {
   const SegmenterConfig& cfg = *config_;
   merge_fragments(f, n);
@@ -1222,7 +1294,7 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
     cy[k] = float(c.sy / c.pixels);
     cz[k] = float(c.sz / c.pixels);
     const float need = cfg.min_person_area_m2 * focal2 / (cz[k] * cz[k]);
-    strict[k] = passes_person_test(f, c, true, true);
+    strict[k] = passes_person_test(f, c, true, true) || low_person(f, k);
     relaxed[k] = c.x_max - c.x_min <= cfg.max_person_width_m && float(c.pixels) >= cfg.tracked_area_fraction * need;
   }
   // Greedy nearest-centroid association: repeatedly the closest (track, component) pair.

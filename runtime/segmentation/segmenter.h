@@ -199,6 +199,21 @@ struct SegmenterConfig {
   // user; 0.3-0.7 find up to 10 more but add a false user on seeds 11-18 (docs/segmentation.md,
   // ninth pass).
   float cut_top_area_fraction = 0.8f;     // 0..1
+  // People low over the floor (lying with an arm raised, crouching, on all fours, bending low) fail
+  // the height test like the furniture (the synthetic clutter is 0.3-0.8 m tall). A component about
+  // to become a new user that has the full person area and width, stands on the floor (lowest point
+  // within cut_floor_contact_m), shows its top (not cut by the top border) and whose top is at least
+  // low_min_height_m but below min_person_height_m passes when its lid share is at most
+  // low_max_lid_share: its pixels are binned on the floor in box_split_cell_m cells, each cell's top
+  // is its highest point, and the lid share is the largest share of the component's pixels whose
+  // cells' tops lie within one height band of 2·(3 cm + 4 mm/m²·z̄²) (the depth noise spreads a
+  // far box's cell tops). A box or cylinder reaches its top in every cell (lid share near 1); a
+  // body's cells reach many heights. Needs a floor. On tuning seeds 11-18/40-59, 0.4 with 0.7 m
+  // finds 10 more people and adds one false user (the second piece of someone lying); 0.45 with
+  // 0.7 m finds 17 and adds 7 (docs/segmentation.md, tenth pass). low_max_lid_share = 0 turns this
+  // off (as before).
+  float low_max_lid_share = 0.4f;         // 0..1 (share of the component's pixels)
+  float low_min_height_m = 0.7f;          // ≥ 0, metres above the floor
   // People cut by the bottom border (the head and shoulders of someone close to a high camera)
   // keep their height above the floor but lose area: a component touching the bottom border with
   // a floor known and its top at least min_person_height_m high needs only this fraction of the
@@ -394,6 +409,7 @@ class Segmenter {
                           const bool* passes) const;
   int32_t absorbing_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* cx, const float* cy,
                          const float* cz) const;
+  bool low_person(const DepthFrame& frame, int32_t k) const;  // low_max_lid_share (header)
   int32_t split_box(const DepthFrame& frame, int32_t k);  // 0 = kept, 1 = box dropped, 2 = no user
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
   void update_background(const DepthFrame& frame, const uint8_t* labels, const SegmentationResult* result);
