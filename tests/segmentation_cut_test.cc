@@ -287,12 +287,20 @@ TEST(SegmentationCut, LegsApartCutByTheTopBorderAreAUserByTheirHull) {
   EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.9 * truth_pixels(f, 1)));
   EXPECT_EQ(count_pixels(h.labels, f, 1, 0), 0) << "the box is (part of) the user";
 
-  // Without the hull test they are dropped like the box.
+  // Without the hull test and the gap rule (cut_gap_min_share, eleventh pass: the floor shows
+  // between the legs in their lower rows) they are dropped like the box.
   SegmenterConfig off = default_segmenter_config(false);
   off.cut_max_solidity = 0.0f;
+  off.cut_gap_min_share = 0.0f;
   SegmenterHarness n(off);
   ASSERT_EQ(n.run(f), Status::kOk);
   EXPECT_EQ(n.result.user_count, 0);
+  // The gap rule alone takes them too.
+  SegmenterConfig gap_only = default_segmenter_config(false);
+  gap_only.cut_max_solidity = 0.0f;
+  SegmenterHarness g(gap_only);
+  ASSERT_EQ(g.run(f), Status::kOk);
+  EXPECT_EQ(g.result.user_count, 1);
 }
 
 namespace {
@@ -1031,4 +1039,77 @@ TEST(SegmentationCut, ABoxAsLowAsSomeoneLowOverTheFloorIsNoUser) {
   SegmenterHarness a(any);
   ASSERT_EQ(a.run(f), Status::kOk);
   EXPECT_EQ(a.result.user_count, 1);
+}
+
+namespace {
+
+// Hips and thighs (a solid block, wider) over two shins standing close together, cut by the top
+// border of low_camera(): the silhouette fills more than cut_max_fill of its image box and more
+// than cut_max_solidity of its hull, but the floor shows between the shins. With `apart` false
+// the shins are one solid block of the same outer width (no gap).
+void add_legs_together(tools::Scene* s, float x, float z, bool apart, uint8_t truth) {
+  s->boxes.push_back({x - 0.22f, x + 0.22f, 0.35f, 1.0f, z - 0.1f, z + 0.1f, truth});
+  if (apart) {
+    s->cylinders.push_back({x - 0.09f, z, 0.07f, 0.0f, 0.4f, truth});
+    s->cylinders.push_back({x + 0.09f, z, 0.07f, 0.0f, 0.4f, truth});
+  } else {
+    s->boxes.push_back({x - 0.16f, x + 0.16f, 0.0f, 0.4f, z - 0.07f, z + 0.07f, truth});
+  }
+}
+
+}  // namespace
+
+// Eleventh pass (cut_gap_min_share): legs cut by the top border, close together, pass the
+// silhouette test by the rows where the floor shows between them.
+TEST(SegmentationCut, LegsTogetherCutByTheTopBorderAreAUserByTheGapBetweenThem) {
+  tools::Scene s = low_camera();
+  add_legs_together(&s, -0.1f, 1.5f, true, 1);
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool top = false;
+  float fill = 0.0f;
+  truth_box(f, 1, &top, &fill);
+  const SegmenterConfig on = default_segmenter_config(false);
+  ASSERT_GT(on.cut_gap_min_share, 0.0f);
+  ASSERT_TRUE(top) << "the scene should cut the legs at the top border";
+  ASSERT_GT(fill, on.cut_max_fill) << "the fill test alone should refuse them";
+  ASSERT_LT(fill, on.cut_gap_max_fill);
+  SegmenterHarness h(on);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.9 * truth_pixels(f, 1)));
+  // With the rule off the fill and hull tests refuse them.
+  SegmenterConfig off = on;
+  off.cut_gap_min_share = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 0);
+}
+
+TEST(SegmentationCut, TheSameOutlineWithoutAGapCutByTheTopBorderStaysNoUser) {
+  // The same block with the shins as one solid piece (a box or a cabinet on a plinth): no row shows
+  // the floor between two runs, so the rule does not pass it.
+  tools::Scene s = low_camera();
+  add_legs_together(&s, -0.1f, 1.5f, false, 1);
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool top = false;
+  float fill = 0.0f;
+  truth_box(f, 1, &top, &fill);
+  ASSERT_TRUE(top);
+  const SegmenterConfig on = default_segmenter_config(false);
+  ASSERT_GT(fill, on.cut_max_fill);
+  SegmenterHarness h(on);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  EXPECT_EQ(h.result.user_count, 0);
+  EXPECT_GT(h.result.component_count, 0);
+  // Nor is a solid outline filling more than cut_gap_max_fill passed by a gap: the legs above with
+  // the cap at the cut_max_fill level stay no user.
+  tools::Scene g = low_camera();
+  add_legs_together(&g, -0.1f, 1.5f, true, 1);
+  SegmenterConfig capped = on;
+  capped.cut_gap_max_fill = on.cut_max_fill;
+  SegmenterHarness c(capped);
+  ASSERT_EQ(c.run(tools::render_scene(g)), Status::kOk);
+  EXPECT_EQ(c.result.user_count, 0);
 }

@@ -241,7 +241,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
          c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f && (c.cut_fill_border_columns == 0 || c.cut_fill_border_columns == 1) &&
-         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -703,7 +703,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
   // them is unknown. At most kMaxCandidates boxes, each within the frame.
   for (int32_t k = 0; k < kept; ++k) {
     Candidate& c = candidates_[k];
-    c.occluded = c.hull = c.hull_filled = 0;
+    c.occluded = c.hull = c.hull_filled = c.gap_rows = 0;
     c.cut_pixels = c.v_min == 0 ? c.pixels : 0;
     c.cut_u_min = c.v_min == 0 ? c.u_min : int16_t(32767);
     c.cut_u_max = c.v_min == 0 ? c.u_max : int16_t(-1);
@@ -733,15 +733,33 @@ void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand) {
   int16_t* right = hull_rows_ + rows;     // rightmost u per row
   int16_t* lchain = hull_rows_ + 2 * rows;// row offsets of the left chain's vertices
   int16_t* rchain = hull_rows_ + 3 * rows;
+  // Rows with a gap between two runs of the component's pixels, at least 2 pixels wide, seen
+  // through (no reading nearer than the component's nearest point less join_mm: nothing in front
+  // hides it; pixels without a reading allowed, at least one with a reading): the space between
+  // two legs (header, cut_gap_min_share). Counted for every top-border component, rule on or off.
+  const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(config_->join_mm);
+  c.gap_rows = 0;
   for (int32_t v = c.v_min; v <= c.v_max; ++v) {
     const int32_t* parent = parent_ + size_t(v) * w;
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
     int16_t lo = -1, hi = -1;
+    int32_t gap = 0, seen = 0;  // since the last own pixel: gap pixels, of them with a reading
+    bool through = true, two_runs = false;
     for (int32_t u = c.u_min; u <= c.u_max; ++u) {
       const int32_t p = parent[u];
-      if (p < 0 || aux_[p] < 0 || &candidates_[aux_[p]] != cand) continue;
+      if (p < 0 || aux_[p] < 0 || &candidates_[aux_[p]] != cand) {
+        ++gap;
+        seen += row[u] != 0;
+        through = through && (row[u] == 0 || int32_t(row[u]) >= front);
+        continue;
+      }
+      if (lo >= 0 && gap >= 2 && seen > 0 && through) two_runs = true;
+      gap = seen = 0;
+      through = true;
       if (lo < 0) lo = int16_t(u);
       hi = int16_t(u);
     }
+    c.gap_rows += two_runs;
     left[v - c.v_min] = lo;
     right[v - c.v_min] = hi;
   }
@@ -765,7 +783,6 @@ void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand) {
   }
   c.hull = c.hull_filled = 0;
   if (nl == 0) return;
-  const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(config_->join_mm);
   int32_t li = 0, ri = 0;
   for (int32_t r = lchain[0]; r <= lchain[nl - 1]; ++r) {
     while (li + 1 < nl && lchain[li + 1] < r) ++li;
@@ -818,11 +835,16 @@ bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool
   const bool pieces = cfg.cut_fill_border_columns != 0 && c.cut_u_max >= c.cut_u_min && c.cut_pixels < c.pixels;
   const int32_t cols = pieces ? c.cut_u_max - c.cut_u_min + 1 : c.u_max - c.u_min + 1;
   const float box = float(cols) * float(c.v_max - c.v_min + 1);
-  if (float((pieces ? c.cut_pixels : c.pixels) + c.occluded) <= cfg.cut_max_fill * box) return true;
+  const float filled = float((pieces ? c.cut_pixels : c.pixels) + c.occluded);
+  if (filled <= cfg.cut_max_fill * box) return true;
   // The hull only where nothing in front cuts the silhouette: an object seen partly behind legs
   // takes their outline (header, cut_solidity_max_hidden).
-  return c.hull > 0 && float(c.hull_filled) <= cfg.cut_max_solidity * float(c.hull) &&
-         float(c.occluded) <= cfg.cut_solidity_max_hidden * float(c.pixels);
+  if (c.hull > 0 && float(c.hull_filled) <= cfg.cut_max_solidity * float(c.hull) &&
+      float(c.occluded) <= cfg.cut_solidity_max_hidden * float(c.pixels))
+    return true;
+  // Two legs apart in enough rows (header, cut_gap_min_share).
+  return cfg.cut_gap_min_share > 0.0f && float(c.gap_rows) >= cfg.cut_gap_min_share * float(c.v_max - c.v_min + 1) &&
+         filled <= cfg.cut_gap_max_fill * box;
 }
 
 void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
@@ -885,6 +907,7 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     c.hidden_edge += x.hidden_edge;
     c.hull += x.hull;          // each piece's own hull: the union's hull is at least as large,
     c.hull_filled += x.hull_filled;  // so its solidity comes out higher (more box-like), not lower
+    c.gap_rows += x.gap_rows;  // each piece's own rows with a gap between two legs
     // The columns of the pieces cut by the top border, widened by a piece that shares columns with
     // them (below them: a shin, the body under raised arms), not by one beside them.
     const bool xc = x.cut_u_max >= x.cut_u_min, yc = y.cut_u_max >= y.cut_u_min;

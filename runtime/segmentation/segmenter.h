@@ -262,6 +262,25 @@ struct SegmenterConfig {
   float association_distance_m = 0.6f;    // > 0
   float association_growth_m = 0.08f;     // ≥ 0
   int32_t track_keep_frames = 30;         // frames a lost user keeps its id, 0..65535
+
+  // Legs together, cut by the top border (a component that touches the top border, stands on the
+  // floor and has a person's area and width, as for cut_max_fill): two legs close together, or
+  // the thighs over them, fill more than cut_max_fill of the image box and more than
+  // cut_max_solidity of the hull, but the floor or the wall shows between them. Such a component
+  // also passes when at least cut_gap_min_share of its image rows (a share of the rows, 0..1) have
+  // a gap of at least 2 pixels between two runs of its pixels, seen through (readings not nearer
+  // than its nearest point less join_mm; pixels without a reading allowed, at least one with a
+  // reading) and not hidden by something in front, and it fills at most cut_gap_max_fill of its
+  // image box (counted as for cut_max_fill), whatever share of the box is hidden (a gap hidden by
+  // something nearer does not count). Boxes and cylinders show few such rows (a box is seen whole
+  // or hidden by something nearer): at most 4.7 % on tuning seeds 11-14/40-49, 3.6 % of those
+  // filling at most 0.8 of their box; the legs found 5-49 %. On tuning seeds
+  // 11-14/40-49, 0.05 finds 13 more people (all with at least 0.05 m² in view) and adds no false
+  // user; 0.03 adds two (boxes with 3.4-3.6 % of their rows showing such a gap), and a box with
+  // 5.3 % such rows and a fill of 0.90 is kept out by cut_gap_max_fill (the legs found fill
+  // 0.60-0.73). 0 = off (as before; docs/segmentation.md, eleventh pass).
+  float cut_gap_min_share = 0.05f;        // 0..1 of the rows
+  float cut_gap_max_fill = 0.8f;          // 0..1 of the image box
 };
 
 // Live sources (static camera, frames in sequence): everything on. Independent frames (datasets
@@ -364,6 +383,8 @@ class Segmenter {
     int32_t cut_pixels;    // pixels of the pieces touching the top border and of merged pieces
                            // sharing their columns (cut_fill_border_columns)
     int16_t cut_u_min, cut_u_max;  // those pieces' image columns; none: cut_u_max < cut_u_min
+    int32_t gap_rows;      // image rows with a seen-through gap between two runs of its pixels
+                           // (top-border components; cut_gap_min_share)
     int16_t u_min, v_min, u_max, v_max;
     int32_t user;          // id or 0
     int32_t owner;         // candidate this one was merged into (itself when not merged)

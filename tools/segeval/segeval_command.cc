@@ -49,7 +49,9 @@ static const char* const kUsage =
     "                         cut_fill_border_columns,\n"
     "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, hidden_legs_radius_m,\n"
     "                         hidden_legs_max_gap_m, hidden_legs_max_ratio, cut_floor_contact_m,\n"
-    "                         cut_bottom_area_fraction, cut_top_area_fraction, low_max_lid_share, low_min_height_m, fragment_min_share, absorb_radius_m, head_radius_m, legs_radius_m, box_split_height_m,\n"
+    "                         cut_bottom_area_fraction, cut_top_area_fraction, cut_gap_min_share, cut_gap_max_fill,\n"
+    "                         low_max_lid_share, low_min_height_m,\n"
+    "                         fragment_min_share, absorb_radius_m, head_radius_m, legs_radius_m, box_split_height_m,\n"
     "                         box_split_min_share, box_split_cell_m, box_split_min_dist_m,\n"
     "                         box_reject_min_share,\n"
     "                         floor_margin_per_m2_mm, floor_min_inlier_fraction, floor_min_extent_m, floor_samples,\n"
@@ -158,6 +160,8 @@ int run_segeval(int argc, char** argv) {
       else if (k == "cut_top_area_fraction") cfg.cut_top_area_fraction = float(v);
       else if (k == "low_max_lid_share") cfg.low_max_lid_share = float(v);
       else if (k == "low_min_height_m") cfg.low_min_height_m = float(v);
+      else if (k == "cut_gap_min_share") cfg.cut_gap_min_share = float(v);
+      else if (k == "cut_gap_max_fill") cfg.cut_gap_max_fill = float(v);
       else if (k == "floor_margin_per_m2_mm") cfg.floor_margin_per_m2_mm = float(v);
       else if (k == "floor_min_inlier_fraction") cfg.floor_min_inlier_fraction = float(v);
       else if (k == "floor_min_extent_m") cfg.floor_min_extent_m = float(v);
