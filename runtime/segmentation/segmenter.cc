@@ -212,6 +212,43 @@ inline void add_stats(Stats& dst, const Stats& src, bool use_floor) {
   if (src.v_max > dst.v_max) dst.v_max = src.v_max;
 }
 
+// A component's pixels on the floor (split_box, low_person): a kCells × kCells grid of square
+// cells of side cell_m centred on the component's mean point, along the floor's in-plane axes
+// a (camera x without its part along the normal) and b = n × a, and each pixel's height above it.
+struct FloorGrid {
+  static constexpr int32_t kCells = 48;
+  float ax, ay, az, bx, by, bz;
+  // False when the floor normal is (nearly) camera x: no axis a.
+  bool init(const FloorPlane& floor, const CameraIntrinsics& in, float mx, float my, float mz, float cell_m) {
+    nx = floor.nx; ny = floor.ny; nz = floor.nz; d = floor.d;
+    ax = 1.0f - nx * nx; ay = -nx * ny; az = -nx * nz;
+    const float len = sqrtf(ax * ax + ay * ay + az * az);
+    if (len < 1e-3f) return false;
+    ax /= len; ay /= len; az /= len;
+    bx = ny * az - nz * ay; by = nz * ax - nx * az; bz = nx * ay - ny * ax;
+    inv_cell = 1.0f / cell_m;
+    a0 = mx * ax + my * ay + mz * az;
+    b0 = mx * bx + my * by + mz * bz;
+    cx = in.cx; cy = in.cy;
+    inv_fx = 1.0f / in.fx; inv_fy = 1.0f / in.fy;
+    return true;
+  }
+  // The cell of pixel (u, v) at depth_mm, or −1 off the grid; *up = its height above the floor.
+  int32_t cell_of(int32_t u, int32_t v, uint16_t depth_mm, float* up) const {
+    const float z = float(depth_mm) * 0.001f;
+    const float x = (float(u) - cx) * z * inv_fx;
+    const float y = -(float(v) - cy) * z * inv_fy;
+    *up = nx * x + ny * y + nz * z + d;
+    const int32_t ia = int32_t(floorf((x * ax + y * ay + z * az - a0) * inv_cell)) + kCells / 2;
+    const int32_t ib = int32_t(floorf((x * bx + y * by + z * bz - b0) * inv_cell)) + kCells / 2;
+    if (ia < 0 || ia >= kCells || ib < 0 || ib >= kCells) return -1;
+    return ia * kCells + ib;
+  }
+
+ private:
+  float nx, ny, nz, d, inv_cell, a0, b0, cx, cy, inv_fx, inv_fy;
+};
+
 }  // namespace
 
 const char* segmentation_stage_name(int32_t stage) {
@@ -1122,32 +1159,16 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
   // and look like a lid in the cells below the border.
   if (c.pixels == 0 || c.top < cfg.box_split_height_m || c.v_min == 0) return 0;
   if (c.bottom > cfg.cut_floor_contact_m) return 0;  // nothing of it stands on the floor
-  constexpr int32_t kSplitCells = 48;
+  constexpr int32_t kSplitCells = FloorGrid::kCells;
   float cell_top[kSplitCells * kSplitCells];
   for (int32_t i = 0; i < kSplitCells * kSplitCells; ++i) cell_top[i] = -1e30f;
-  // Floor axes: a = camera x without its vertical part, b = n × a.
-  const float nx = floor_->nx, ny = floor_->ny, nz = floor_->nz;
-  float ax = 1.0f - nx * nx, ay = -nx * ny, az = -nx * nz;
-  const float len = sqrtf(ax * ax + ay * ay + az * az);
-  if (len < 1e-3f) return 0;
-  ax /= len; ay /= len; az /= len;
-  const float bx = ny * az - nz * ay, by = nz * ax - nx * az, bz = nx * ay - ny * ax;
-  const float mx = float(c.sx / c.pixels), my = float(c.sy / c.pixels), mz = float(c.sz / c.pixels);
-  const float inv_cell = 1.0f / cfg.box_split_cell_m;
-  const float a0 = mx * ax + my * ay + mz * az, b0 = mx * bx + my * by + mz * bz;
+  FloorGrid grid;
+  if (!grid.init(*floor_, f.intrinsics, float(c.sx / c.pixels), float(c.sy / c.pixels), float(c.sz / c.pixels),
+                 cfg.box_split_cell_m))
+    return 0;
+  const float ax = grid.ax, ay = grid.ay, az = grid.az, bx = grid.bx, by = grid.by, bz = grid.bz;
   const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
   const int32_t w = f.width;
-  // The cell of pixel (u, v) with depth z, or −1 outside the grid; its height above the floor.
-  auto cell_of = [&](int32_t u, int32_t v, uint16_t depth, float* up) {
-    const float z = float(depth) * 0.001f;
-    const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
-    const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
-    *up = nx * x + ny * y + nz * z + floor_->d;
-    const int32_t ia = int32_t(floorf((x * ax + y * ay + z * az - a0) * inv_cell)) + kSplitCells / 2;
-    const int32_t ib = int32_t(floorf((x * bx + y * by + z * bz - b0) * inv_cell)) + kSplitCells / 2;
-    if (ia < 0 || ia >= kSplitCells || ib < 0 || ib >= kSplitCells) return int32_t(-1);
-    return ia * kSplitCells + ib;
-  };
   auto own = [&](int32_t i) {
     const int32_t p = parent_[i];
     return p >= 0 && aux_[p] >= 0 && candidates_[aux_[p]].owner == k;
@@ -1161,7 +1182,7 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
         const int32_t i = v * w + u;
         if (!own(i)) continue;
         float up;
-        const int32_t cell = cell_of(u, v, row[u], &up);
+        const int32_t cell = grid.cell_of(u, v, row[u], &up);
         visit(u, v, i, row[u], cell, up);
       }
     }
@@ -1244,21 +1265,14 @@ bool Segmenter::low_person(const DepthFrame& f, int32_t k) const {
   if (c.x_max - c.x_min > cfg.max_person_width_m) return false;
   const float z = float(c.sz / c.pixels);
   if (float(c.pixels) < cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (z * z)) return false;
-  constexpr int32_t kLowCells = 48;
+  constexpr int32_t kLowCells = FloorGrid::kCells;
   constexpr int32_t kLowBins = 64;
   float cell_top[kLowCells * kLowCells];
   for (int32_t i = 0; i < kLowCells * kLowCells; ++i) cell_top[i] = -1e30f;
-  // Floor axes: a = camera x without its vertical part, b = n × a.
-  const float nx = floor_->nx, ny = floor_->ny, nz = floor_->nz;
-  float ax = 1.0f - nx * nx, ay = -nx * ny, az = -nx * nz;
-  const float len = sqrtf(ax * ax + ay * ay + az * az);
-  if (len < 1e-3f) return false;
-  ax /= len; ay /= len; az /= len;
-  const float bx = ny * az - nz * ay, by = nz * ax - nx * az, bz = nx * ay - ny * ax;
-  const float mx = float(c.sx / c.pixels), my = float(c.sy / c.pixels), mz = float(c.sz / c.pixels);
-  const float inv_cell = 1.0f / cfg.box_split_cell_m;
-  const float a0 = mx * ax + my * ay + mz * az, b0 = mx * bx + my * by + mz * bz;
-  const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
+  FloorGrid grid;
+  if (!grid.init(*floor_, f.intrinsics, float(c.sx / c.pixels), float(c.sy / c.pixels), float(c.sz / c.pixels),
+                 cfg.box_split_cell_m))
+    return false;
   const int32_t w = f.width;
   // pass 0: each cell's top; pass 1: pixel-weighted histogram of the cells' tops.
   int32_t hist[kLowBins] = {};
@@ -1269,15 +1283,11 @@ bool Segmenter::low_person(const DepthFrame& f, int32_t k) const {
       for (int32_t u = c.u_min; u <= c.u_max; ++u) {
         const int32_t p = parent_[v * w + u];
         if (p < 0 || aux_[p] < 0 || candidates_[aux_[p]].owner != k) continue;
-        const float pz = float(row[u]) * 0.001f;
-        const float px = (float(u) - f.intrinsics.cx) * pz * inv_fx;
-        const float py = -(float(v) - f.intrinsics.cy) * pz * inv_fy;
-        const int32_t ia = int32_t(floorf((px * ax + py * ay + pz * az - a0) * inv_cell)) + kLowCells / 2;
-        const int32_t ib = int32_t(floorf((px * bx + py * by + pz * bz - b0) * inv_cell)) + kLowCells / 2;
-        if (ia < 0 || ia >= kLowCells || ib < 0 || ib >= kLowCells) continue;
-        float& top = cell_top[ia * kLowCells + ib];
+        float up;
+        const int32_t cell = grid.cell_of(u, v, row[u], &up);
+        if (cell < 0) continue;
+        float& top = cell_top[cell];
         if (pass == 0) {
-          const float up = nx * px + ny * py + nz * pz + floor_->d;
           if (up > top) top = up;
         } else if (top >= 0.0f) {
           const int32_t bin = int32_t(top * bin_scale);
