@@ -1113,3 +1113,76 @@ TEST(SegmentationCut, TheSameOutlineWithoutAGapCutByTheTopBorderStaysNoUser) {
   ASSERT_EQ(c.run(tools::render_scene(g)), Status::kOk);
   EXPECT_EQ(c.result.user_count, 0);
 }
+
+// Twelfth pass (cut_hidden_floor_contact_m): legs cut by the top border whose feet a nearer box
+// hides stand higher than cut_floor_contact_m above the floor; their downward edges are hidden.
+namespace {
+
+// Two legs apart joined by the hips; the top border (about 0.79 m up at 1.6 m) shows the shins,
+// the knees and a thin band of the hips.
+void add_shins(tools::Scene* s, float x, float z, uint8_t truth) {
+  s->cylinders.push_back({x - 0.22f, z, 0.07f, 0.0f, 0.9f, truth});
+  s->cylinders.push_back({x + 0.22f, z, 0.07f, 0.0f, 0.9f, truth});
+  s->boxes.push_back({x - 0.29f, x + 0.29f, 0.74f, 1.0f, z - 0.07f, z + 0.07f, truth});
+}
+
+}  // namespace
+
+TEST(SegmentationCut, LegsCutByTheTopBorderWithTheirFeetHiddenByABoxAreAUser) {
+  tools::Scene s = low_camera();
+  add_shins(&s, -0.45f, 1.6f, 1);
+  s.boxes.push_back({-0.95f, 0.05f, 0.0f, 0.55f, 0.9f, 1.1f, 0});  // a low box in front, hiding the feet
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool top = false;
+  float fill = 0.0f;
+  truth_box(f, 1, &top, &fill);
+  const SegmenterConfig on = default_segmenter_config(false);
+  ASSERT_GT(on.cut_hidden_floor_contact_m, on.cut_floor_contact_m);
+  ASSERT_TRUE(top) << "the scene should cut the shins at the top border";
+  ASSERT_LT(fill, on.cut_max_fill);
+  SegmenterHarness h(on);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.9 * truth_pixels(f, 1)));
+  EXPECT_EQ(labelled_truth(h.labels, f, 0), 0) << "the box in front is no part of the user";
+  // With the rule off the floor-contact test refuses them: their lowest point is over 0.3 m up.
+  SegmenterConfig off = on;
+  off.cut_hidden_floor_contact_m = 0.0f;
+  SegmenterHarness n(off);
+  ASSERT_EQ(n.run(f), Status::kOk);
+  EXPECT_EQ(n.result.user_count, 0);
+  // Without the box the feet show and they are a user with the rule off too.
+  tools::Scene open = low_camera();
+  add_shins(&open, -0.45f, 1.6f, 1);
+  SegmenterHarness o(off);
+  ASSERT_EQ(o.run(tools::render_scene(open)), Status::kOk);
+  EXPECT_EQ(o.result.user_count, 1);
+}
+
+TEST(SegmentationCut, ABoxCutByTheTopBorderWithItsBottomHiddenStaysNoUser) {
+  // A cupboard cut by the top border behind a low box that hides its bottom: off the floor by the
+  // same amount, its solid outline still fails the silhouette tests with the rule on.
+  tools::Scene s = low_camera();
+  s.boxes.push_back({-0.75f, -0.15f, 0.0f, 0.8f, 1.5f, 1.9f, 1});
+  s.boxes.push_back({-0.95f, 0.05f, 0.0f, 0.55f, 0.9f, 1.1f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  bool top = false;
+  float fill = 0.0f;
+  truth_box(f, 1, &top, &fill);
+  ASSERT_TRUE(top) << "the scene should cut the cupboard at the top border";
+  const SegmenterConfig on = default_segmenter_config(false);
+  ASSERT_GT(on.cut_hidden_floor_contact_m, 0.0f);
+  SegmenterHarness h(on);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  EXPECT_GT(h.result.component_count, 0);
+  EXPECT_EQ(h.result.user_count, 0);
+  // The same outline with a gap between two legs would pass (the test above): what keeps the
+  // cupboard out is its fill, not the floor contact.
+  SegmenterConfig loose = on;
+  loose.cut_max_fill = 1.0f;
+  SegmenterHarness l(loose);
+  ASSERT_EQ(l.run(f), Status::kOk);
+  EXPECT_EQ(l.result.user_count, 1) << "with its hidden bottom waived and no fill test it passes";
+}

@@ -278,7 +278,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
          c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f && (c.cut_fill_border_columns == 0 || c.cut_fill_border_columns == 1) &&
-         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_hidden_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -681,6 +681,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
     aux_[c.root] = k;
     clear_stats(c);
     c.hidden_edge = 0;
+    c.hidden_below = 0;
     c.user = 0;
     c.owner = k;
   }
@@ -722,6 +723,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
             const uint16_t zn = f.depth_mm[size_t(vv) * f.stride_px + uu];
             if (zn == 0) continue;
             c.hidden_edge += int32_t(zn) < zi;
+            if (dir == 3) c.hidden_below += int32_t(zn) < zi;
             break;
           }
         }
@@ -867,7 +869,12 @@ bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool
     return false;
   if (area && c.top >= cfg.min_person_height_m) return true;
   // Cut by the top border: the height is out of view (header, cut_max_fill).
-  if (!cut || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0 || c.bottom > cfg.cut_floor_contact_m) return false;
+  if (!cut || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0) return false;
+  // Off the floor only when something nearer hides the lower part (header, cut_hidden_floor_contact_m).
+  if (c.bottom > cfg.cut_floor_contact_m &&
+      !(cfg.cut_hidden_floor_contact_m > 0.0f && c.bottom <= cfg.cut_hidden_floor_contact_m &&
+        c.hidden_below >= cfg.hidden_min_edge))
+    return false;
   // A union: over the columns of its pieces cut by the border only (header, cut_fill_border_columns).
   const bool pieces = cfg.cut_fill_border_columns != 0 && c.cut_u_max >= c.cut_u_min && c.cut_pixels < c.pixels;
   const int32_t cols = pieces ? c.cut_u_max - c.cut_u_min + 1 : c.u_max - c.u_min + 1;
@@ -942,6 +949,7 @@ void Segmenter::merge_fragments(const DepthFrame& f, int32_t n) {
     add_stats(c, x, use_floor);
     c.occluded += x.occluded;  // each counted in its own box: a lower bound for the union's
     c.hidden_edge += x.hidden_edge;
+    c.hidden_below += x.hidden_below;
     c.hull += x.hull;          // each piece's own hull: the union's hull is at least as large,
     c.hull_filled += x.hull_filled;  // so its solidity comes out higher (more box-like), not lower
     c.gap_rows += x.gap_rows;  // each piece's own rows with a gap between two legs
