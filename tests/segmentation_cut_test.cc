@@ -84,9 +84,7 @@ TEST(SegmentationCut, LegsCutByTheTopBorderAreAUserAndABoxCutThereIsNot) {
   // Without the relaxation the legs are dropped like the box.
   SegmenterConfig off = default_segmenter_config(false);
   off.cut_max_fill = 0.0f;
-  SegmenterHarness n(off);
-  ASSERT_EQ(n.run(f), Status::kOk);
-  EXPECT_EQ(n.result.user_count, 0);
+  EXPECT_EQ(users_found(off, f), 0);
 }
 
 TEST(SegmentationCut, ACutComponentMustStandOnTheFloor) {
@@ -108,9 +106,7 @@ TEST(SegmentationCut, ACutComponentMustStandOnTheFloor) {
   EXPECT_GT(h.result.component_count, 0) << h.result.candidate_pixels << " candidate pixels";
   SegmenterConfig low = default_segmenter_config(false);
   low.cut_floor_contact_m = 0.5f;
-  SegmenterHarness l(low);
-  ASSERT_EQ(l.run(f), Status::kOk);
-  EXPECT_EQ(l.result.user_count, 1);
+  EXPECT_EQ(users_found(low, f), 1);
 }
 
 TEST(SegmentationCut, APersonCutInTwoBySomeoneInFrontIsOneUser) {
@@ -292,15 +288,11 @@ TEST(SegmentationCut, LegsApartCutByTheTopBorderAreAUserByTheirHull) {
   SegmenterConfig off = default_segmenter_config(false);
   off.cut_max_solidity = 0.0f;
   off.cut_gap_min_share = 0.0f;
-  SegmenterHarness n(off);
-  ASSERT_EQ(n.run(f), Status::kOk);
-  EXPECT_EQ(n.result.user_count, 0);
+  EXPECT_EQ(users_found(off, f), 0);
   // The gap rule alone takes them too.
   SegmenterConfig gap_only = default_segmenter_config(false);
   gap_only.cut_max_solidity = 0.0f;
-  SegmenterHarness g(gap_only);
-  ASSERT_EQ(g.run(f), Status::kOk);
-  EXPECT_EQ(g.result.user_count, 1);
+  EXPECT_EQ(users_found(gap_only, f), 1);
 }
 
 namespace {
@@ -382,9 +374,7 @@ TEST(SegmentationCut, TheTwoSidesOfSomeoneHiddenBehindSomeoneElseAreOneUser) {
   // Joined only by fragment_radius_m, the two strips are two users.
   SegmenterConfig near = cfg;
   near.hidden_pair_radius_m = 0.0f;
-  SegmenterHarness n(near);
-  ASSERT_EQ(n.run(f), Status::kOk);
-  EXPECT_EQ(n.result.user_count, 3);
+  EXPECT_EQ(users_found(near, f), 3);
 }
 
 TEST(SegmentationCut, ALegOfSomeoneHiddenBehindSomeoneElseJoinsThem) {
@@ -878,9 +868,7 @@ TEST(SegmentationCut, ShinsCutByTheTopBorderWithLessThanThePersonAreaAreAUser) {
   // With the rule off they are too small.
   SegmenterConfig off = on;
   off.cut_top_area_fraction = 0.0f;
-  SegmenterHarness n(off);
-  ASSERT_EQ(n.run(f), Status::kOk);
-  EXPECT_EQ(n.result.user_count, 0);
+  EXPECT_EQ(users_found(off, f), 0);
 }
 
 TEST(SegmentationCut, ASmallBoxCutByTheTopBorderStaysNoUser) {
@@ -942,9 +930,7 @@ TEST(SegmentationCut, ASmallPieceCutByTheTopBorderNearAUserCutThereJoinsIt) {
   // Without the join the smaller piece is a second user.
   SegmenterConfig no_join = on;
   no_join.legs_radius_m = 0.0f;
-  SegmenterHarness j(no_join);
-  ASSERT_EQ(j.run(f), Status::kOk);
-  EXPECT_EQ(j.result.user_count, 2);
+  EXPECT_EQ(users_found(no_join, f), 2);
   // With the rule off the smaller piece is left out.
   SegmenterConfig off = on;
   off.cut_top_area_fraction = 0.0f;
@@ -1081,9 +1067,7 @@ TEST(SegmentationCut, LegsTogetherCutByTheTopBorderAreAUserByTheGapBetweenThem) 
   // With the rule off the fill and hull tests refuse them.
   SegmenterConfig off = on;
   off.cut_gap_min_share = 0.0f;
-  SegmenterHarness n(off);
-  ASSERT_EQ(n.run(f), Status::kOk);
-  EXPECT_EQ(n.result.user_count, 0);
+  EXPECT_EQ(users_found(off, f), 0);
 }
 
 TEST(SegmentationCut, TheSameOutlineWithoutAGapCutByTheTopBorderStaysNoUser) {
@@ -1109,9 +1093,7 @@ TEST(SegmentationCut, TheSameOutlineWithoutAGapCutByTheTopBorderStaysNoUser) {
   add_legs_together(&g, -0.1f, 1.5f, true, 1);
   SegmenterConfig capped = on;
   capped.cut_gap_max_fill = on.cut_max_fill;
-  SegmenterHarness c(capped);
-  ASSERT_EQ(c.run(tools::render_scene(g)), Status::kOk);
-  EXPECT_EQ(c.result.user_count, 0);
+  EXPECT_EQ(users_found(capped, tools::render_scene(g)), 0);
 }
 
 // Twelfth pass (cut_hidden_floor_contact_m): legs cut by the top border whose feet a nearer box
@@ -1149,15 +1131,11 @@ TEST(SegmentationCut, LegsCutByTheTopBorderWithTheirFeetHiddenByABoxAreAUser) {
   // With the rule off the floor-contact test refuses them: their lowest point is over 0.3 m up.
   SegmenterConfig off = on;
   off.cut_hidden_floor_contact_m = 0.0f;
-  SegmenterHarness n(off);
-  ASSERT_EQ(n.run(f), Status::kOk);
-  EXPECT_EQ(n.result.user_count, 0);
+  EXPECT_EQ(users_found(off, f), 0);
   // Without the box the feet show and they are a user with the rule off too.
   tools::Scene open = low_camera();
   add_shins(&open, -0.45f, 1.6f, 1);
-  SegmenterHarness o(off);
-  ASSERT_EQ(o.run(tools::render_scene(open)), Status::kOk);
-  EXPECT_EQ(o.result.user_count, 1);
+  EXPECT_EQ(users_found(off, tools::render_scene(open)), 1);
 }
 
 TEST(SegmentationCut, ABoxCutByTheTopBorderWithItsBottomHiddenStaysNoUser) {

@@ -36,6 +36,13 @@ struct SegmenterHarness {
   }
 };
 
+// Users a fresh segmenter with `config` finds in `scene` (the run must succeed).
+inline int users_found(const SegmenterConfig& config, const tools::RenderedScene& scene) {
+  SegmenterHarness h(config);
+  EXPECT_EQ(h.run(scene), Status::kOk);
+  return h.result.user_count;
+}
+
 // A standing person as a cylinder (radius 0.2 m, 1.7 m tall) at world (x, z).
 inline tools::SceneCylinder person_at(float x, float z, uint8_t truth, float height = 1.7f) {
   return tools::SceneCylinder{x, z, 0.2f, 0.0f, height, truth};
