@@ -11,6 +11,7 @@ using dp::testing_seg::SegmenterHarness;
 using dp::testing_seg::count_pixels;
 using dp::testing_seg::person_at;
 using dp::testing_seg::truth_pixels;
+using dp::testing_seg::users_found;
 
 namespace {
 
