@@ -278,7 +278,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
          c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f && (c.cut_fill_border_columns == 0 || c.cut_fill_border_columns == 1) &&
-         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_hidden_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_hidden_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_max_solidity >= 0.0f && c.low_max_solidity <= 1.0f && c.low_outline_box_split >= 0 && c.low_outline_box_split <= 1 && c.low_outline_max_lid_share >= 0.0f && c.low_outline_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -764,7 +764,7 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
 // the readings in the spans nearer than its nearest point less join_mm (hidden by something in
 // front: unknown, counted as filled). A solid box or cylinder fills its hull whatever the camera's
 // roll; two legs leave the gap between them. Work: 3 passes over the candidate's image box.
-void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand) {
+void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand, int32_t owner) {
   Candidate& c = *cand;
   const int32_t w = f.width;
   const int32_t rows = c.v_max - c.v_min + 1;
@@ -786,7 +786,7 @@ void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand) {
     bool through = true, two_runs = false;
     for (int32_t u = c.u_min; u <= c.u_max; ++u) {
       const int32_t p = parent[u];
-      if (p < 0 || aux_[p] < 0 || &candidates_[aux_[p]] != cand) {
+      if (!owned(p, cand, owner)) {
         ++gap;
         seen += row[u] != 0;
         through = through && (row[u] == 0 || int32_t(row[u]) >= front);
@@ -842,7 +842,7 @@ void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand) {
     for (int32_t u = u0; u <= u1; ++u) {
       ++c.hull;
       const int32_t p = parent[u];
-      const bool own = p >= 0 && aux_[p] >= 0 && &candidates_[aux_[p]] == cand;
+      const bool own = owned(p, cand, owner);
       c.hull_filled += own || (row[u] != 0 && int32_t(row[u]) < front);
     }
   }
@@ -1159,13 +1159,13 @@ int32_t Segmenter::absorbing_user(const DepthFrame& f, int32_t n, int32_t k, con
 // occlusion and hull counts are kept). Returns 1 then; 2 when the lid is not dropped but holds at
 // least box_reject_min_share of the component (no user); else 0. Work: at most four passes over
 // the candidate's image box.
-int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
+int32_t Segmenter::split_box(const DepthFrame& f, int32_t k, bool low_outline) {
   const SegmenterConfig& cfg = *config_;
   if (cfg.box_split_height_m <= 0.0f || floor_->valid == 0) return 0;
   Candidate& c = candidates_[k];
   // Not for components cut by the top border: the legs of someone seen from close show no top
   // and look like a lid in the cells below the border.
-  if (c.pixels == 0 || c.top < cfg.box_split_height_m || c.v_min == 0) return 0;
+  if (c.pixels == 0 || (c.top < cfg.box_split_height_m && !low_outline) || c.v_min == 0) return 0;
   if (c.bottom > cfg.cut_floor_contact_m) return 0;  // nothing of it stands on the floor
   constexpr int32_t kSplitCells = FloorGrid::kCells;
   float cell_top[kSplitCells * kSplitCells];
@@ -1244,6 +1244,9 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
   const float dz = float((c.sz - rest.sz) / dropped - rest.sz / rest.pixels);
   const float da = dx * ax + dy * ay + dz * az, db = dx * bx + dy * by + dz * bz;
   const bool apart = da * da + db * db >= cfg.box_split_min_dist_m * cfg.box_split_min_dist_m;
+  // A low component that passed only by its outline (header, low_max_solidity) holding a box's lid
+  // apart from the rest: the outline is that of a box and something beside it, not a body's.
+  if (low_outline && !rest_passes && apart && float(dropped) >= cfg.box_split_min_share * float(c.pixels)) return 2;
   if (!rest_passes || !apart || float(dropped) < cfg.box_split_min_share * float(c.pixels)) {
     // Not a box beside a person: a lid holding box_reject_min_share of the component is a box with
     // a hand or arm over it (header).
@@ -1263,16 +1266,20 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k) {
 // its centroid; pixels outside the grid count as outside the lid) reach many heights: at most
 // low_max_lid_share of its pixels lie in cells whose tops fall within the height band (kLowBins
 // bins below min_person_height_m, as wide as the depth noise at its mean depth) holding the most
-// pixels. A box or cylinder reaches its top in every cell. Work: two passes over the candidate's
-// image box, 48 × 48 cells (9 KB) and 64 bins on the stack.
-bool Segmenter::low_person(const DepthFrame& f, int32_t k) const {
+// pixels. A box or cylinder reaches its top in every cell. Returns 1 then. Returns 2 (thirteenth
+// pass, low_max_solidity) when at most low_outline_max_lid_share of its pixels lie there and its
+// silhouette fills at most low_max_solidity of its row-wise hull (measure_hull over its merged
+// pieces): no solid's outline. Else 0. Work: two passes over the candidate's image box (three
+// more for the hull), 48 × 48 cells (9 KB) and 64 bins on the stack.
+int32_t Segmenter::low_person(const DepthFrame& f, int32_t k) {
   const SegmenterConfig& cfg = *config_;
   const Candidate& c = candidates_[k];
-  if (cfg.low_max_lid_share <= 0.0f || floor_->valid == 0 || c.pixels == 0 || c.v_min == 0) return false;
-  if (c.top >= cfg.min_person_height_m || c.top < cfg.low_min_height_m || c.bottom > cfg.cut_floor_contact_m) return false;
-  if (c.x_max - c.x_min > cfg.max_person_width_m) return false;
+  if ((cfg.low_max_lid_share <= 0.0f && cfg.low_max_solidity <= 0.0f) || floor_->valid == 0 || c.pixels == 0 || c.v_min == 0)
+    return 0;
+  if (c.top >= cfg.min_person_height_m || c.top < cfg.low_min_height_m || c.bottom > cfg.cut_floor_contact_m) return 0;
+  if (c.x_max - c.x_min > cfg.max_person_width_m) return 0;
   const float z = float(c.sz / c.pixels);
-  if (float(c.pixels) < cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (z * z)) return false;
+  if (float(c.pixels) < cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (z * z)) return 0;
   constexpr int32_t kLowCells = FloorGrid::kCells;
   constexpr int32_t kLowBins = 64;
   float cell_top[kLowCells * kLowCells];
@@ -1280,7 +1287,7 @@ bool Segmenter::low_person(const DepthFrame& f, int32_t k) const {
   FloorGrid grid;
   if (!grid.init(*floor_, f.intrinsics, float(c.sx / c.pixels), float(c.sy / c.pixels), float(c.sz / c.pixels),
                  cfg.box_split_cell_m))
-    return false;
+    return 0;
   const int32_t w = f.width;
   // pass 0: each cell's top; pass 1: pixel-weighted histogram of the cells' tops.
   int32_t hist[kLowBins] = {};
@@ -1315,13 +1322,22 @@ bool Segmenter::low_person(const DepthFrame& f, int32_t k) const {
     run += hist[b] - (b >= band ? hist[b - band] : 0);
     if (run > lid) lid = run;
   }
-  return float(lid) <= cfg.low_max_lid_share * float(c.pixels);
+  if (cfg.low_max_lid_share > 0.0f && float(lid) <= cfg.low_max_lid_share * float(c.pixels)) return 1;
+  // A lid over most cells, but an outline no solid has (header, low_max_solidity): the image of a
+  // box or cylinder is convex and fills its row-wise hull. Readings nearer than the component (less
+  // join_mm) count as filled, since what they hide is unknown. Three passes over the image box.
+  if (cfg.low_max_solidity <= 0.0f || float(lid) > cfg.low_outline_max_lid_share * float(c.pixels)) return 0;
+  Candidate outline = c;
+  measure_hull(f, &outline, k);
+  const bool hollow = outline.hull > 0 && float(outline.hull_filled) <= cfg.low_max_solidity * float(outline.hull);
+  return hollow ? 2 : 0;
 }
 
 void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult* r) {
   const SegmenterConfig& cfg = *config_;
   merge_fragments(f, n);
   bool strict[kMaxCandidates], relaxed[kMaxCandidates];
+  bool outline[kMaxCandidates] = {};  // passes only as low by its outline (low_max_solidity)
   float cx[kMaxCandidates], cy[kMaxCandidates], cz[kMaxCandidates];
   const float focal2 = f.intrinsics.fx * f.intrinsics.fy;
   for (int32_t k = 0; k < n; ++k) {
@@ -1335,7 +1351,10 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
     cy[k] = float(c.sy / c.pixels);
     cz[k] = float(c.sz / c.pixels);
     const float need = cfg.min_person_area_m2 * focal2 / (cz[k] * cz[k]);
-    strict[k] = passes_person_test(f, c, true, true) || low_person(f, k);
+    strict[k] = passes_person_test(f, c, true, true);
+    const int32_t low = strict[k] ? 0 : low_person(f, k);
+    strict[k] = strict[k] || low > 0;
+    outline[k] = low == 2;
     relaxed[k] = c.x_max - c.x_min <= cfg.max_person_width_m && float(c.pixels) >= cfg.tracked_area_fraction * need;
   }
   // Greedy nearest-centroid association: repeatedly the closest (track, component) pair.
@@ -1374,7 +1393,7 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
       strict[best_k] = false;
       continue;
     }
-    const int32_t split = split_box(f, best_k);
+    const int32_t split = split_box(f, best_k, outline[best_k] && cfg.low_outline_box_split != 0);
     if (split == 2) {  // a box with a hand or arm over it (header, box_reject_min_share)
       strict[best_k] = false;
       continue;

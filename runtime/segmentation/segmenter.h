@@ -214,6 +214,24 @@ struct SegmenterConfig {
   // off (as before).
   float low_max_lid_share = 0.4f;         // 0..1 (share of the component's pixels)
   float low_min_height_m = 0.7f;          // ≥ 0, metres above the floor
+  // Someone low over the floor whose cells do reach one height band (a back bent over; someone
+  // lying or crouching 3-4 m away, whose cells the wide band merges: lid shares 0.41-0.84 among
+  // the people this finds) but whose outline is no solid's (thirteenth pass): the same component
+  // (person area and width, on the floor, top in view, low_min_height_m up to
+  // min_person_height_m) also passes when at most low_outline_max_lid_share of its pixels lie in
+  // the lid band and its silhouette fills at most low_max_solidity of its row-wise convex hull
+  // (as for cut_max_solidity: readings in the hull nearer than its nearest point less join_mm
+  // count as filled). The image of a box or cylinder is convex and fills its hull (the clutter
+  // with lid shares up to 0.9 filled at least 0.69 on tuning seeds 11-18/40-59; the people found
+  // 0.49-0.65). Far boxes that the depth noise scatters fill 0.55-0.7 of their hull but keep their
+  // lid (shares 0.95-1.0): hence the cap on the lid share. A component passing only this way
+  // that holds a box's lid apart from the rest (box_split_min_share of its pixels, centroids
+  // box_split_min_dist_m apart, as in the box split) is a body beside a box, no user
+  // (low_outline_box_split = 1; one false user on seed 49 without it). Needs a floor.
+  // low_max_solidity = 0 turns this off (as before; docs/segmentation.md, thirteenth pass).
+  float low_max_solidity = 0.65f;         // 0..1 of the row-wise hull
+  float low_outline_max_lid_share = 0.9f; // 0..1 (share of the component's pixels)
+  int32_t low_outline_box_split = 1;      // 0 or 1
   // People cut by the bottom border (the head and shoulders of someone close to a high camera)
   // keep their height above the floor but lose area: a component touching the bottom border with
   // a floor known and its top at least min_person_height_m high needs only this fraction of the
@@ -432,7 +450,13 @@ class Segmenter {
   int16_t* hull_rows_ = nullptr;     // [4 · max_height]: row extents and hull chains of one component
   Candidate* candidates_ = nullptr;  // [kMaxCandidates]
 
-  void measure_hull(const DepthFrame& frame, Candidate* candidate);
+  // owner < 0: the pixels of `candidate`'s own component; else those of every component merged
+  // into candidate `owner` (Candidate::owner).
+  void measure_hull(const DepthFrame& frame, Candidate* candidate, int32_t owner = -1);
+  bool owned(int32_t root, const Candidate* candidate, int32_t owner) const {
+    return root >= 0 && aux_[root] >= 0 &&
+           (owner < 0 ? &candidates_[aux_[root]] == candidate : candidates_[aux_[root]].owner == owner);
+  }
   void fit_floor(const DepthFrame& frame, SegmentationResult* result);
   int32_t classify_pixels(const DepthFrame& frame);
   int32_t label_components(const DepthFrame& frame, SegmentationResult* result);
@@ -445,8 +469,12 @@ class Segmenter {
                           const bool* passes) const;
   int32_t absorbing_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* cx, const float* cy,
                          const float* cz) const;
-  bool low_person(const DepthFrame& frame, int32_t k) const;  // low_max_lid_share (header)
-  int32_t split_box(const DepthFrame& frame, int32_t k);  // 0 = kept, 1 = box dropped, 2 = no user
+  // 0 = not low or not a person; 1 = by its lid share (low_max_lid_share); 2 = by its outline only
+  // (low_max_solidity). Non-const: the outline uses the hull scratch rows.
+  int32_t low_person(const DepthFrame& frame, int32_t k);  // low_max_lid_share (header)
+  // 0 = kept, 1 = box dropped, 2 = no user. low_outline: the component passed only as low by its
+  // outline (low_max_solidity): judged although low, and a lid apart from the rest makes it no user.
+  int32_t split_box(const DepthFrame& frame, int32_t k, bool low_outline = false);
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
   void update_background(const DepthFrame& frame, const uint8_t* labels, const SegmentationResult* result);
 };

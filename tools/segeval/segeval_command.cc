@@ -51,7 +51,7 @@ static const char* const kUsage =
     "                         hidden_legs_max_gap_m, hidden_legs_max_ratio, cut_floor_contact_m,\n"
     "                         cut_bottom_area_fraction, cut_top_area_fraction, cut_gap_min_share, cut_gap_max_fill,\n"
     "                         cut_hidden_floor_contact_m,\n"
-    "                         low_max_lid_share, low_min_height_m,\n"
+    "                         low_max_lid_share, low_min_height_m, low_max_solidity, low_outline_max_lid_share, low_outline_box_split,\n"
     "                         fragment_min_share, absorb_radius_m, head_radius_m, legs_radius_m, box_split_height_m,\n"
     "                         box_split_min_share, box_split_cell_m, box_split_min_dist_m,\n"
     "                         box_reject_min_share,\n"
@@ -161,6 +161,9 @@ int run_segeval(int argc, char** argv) {
       else if (k == "cut_top_area_fraction") cfg.cut_top_area_fraction = float(v);
       else if (k == "low_max_lid_share") cfg.low_max_lid_share = float(v);
       else if (k == "low_min_height_m") cfg.low_min_height_m = float(v);
+      else if (k == "low_outline_max_lid_share") cfg.low_outline_max_lid_share = float(v);
+      else if (k == "low_max_solidity") cfg.low_max_solidity = float(v);
+      else if (k == "low_outline_box_split") cfg.low_outline_box_split = int32_t(v);
       else if (k == "cut_gap_min_share") cfg.cut_gap_min_share = float(v);
       else if (k == "cut_gap_max_fill") cfg.cut_gap_max_fill = float(v);
       else if (k == "cut_hidden_floor_contact_m") cfg.cut_hidden_floor_contact_m = float(v);
