@@ -1165,3 +1165,75 @@ TEST(SegmentationCut, ABoxCutByTheTopBorderWithItsBottomHiddenStaysNoUser) {
   ASSERT_EQ(l.run(f), Status::kOk);
   EXPECT_EQ(l.result.user_count, 1) << "with its hidden bottom waived and no fill test it passes";
 }
+
+namespace {
+
+// Thirteenth pass (low_max_solidity). Someone kneeling bent over, seen from the side 2.5 m away by
+// the camera of low_body(): the back a flat slab 0.6-0.78 m high over arms and thighs, the head
+// hanging lower in front of the shoulders, the shins flat on the floor behind the knees. Most of
+// its cells reach the back's height (a lid share over low_max_lid_share), but the floor shows
+// between arms and thighs under the back: its outline fills little of its hull.
+tools::Scene bent_over_body(uint8_t truth) {
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 10.0f;
+  s.boxes.push_back({-0.35f, 0.25f, 0.6f, 0.78f, 2.4f, 2.6f, truth});   // back
+  s.cylinders.push_back({-0.3f, 2.5f, 0.05f, 0.0f, 0.6f, truth});        // arms
+  s.cylinders.push_back({0.2f, 2.5f, 0.07f, 0.0f, 0.6f, truth});         // thighs
+  s.boxes.push_back({-0.6f, -0.36f, 0.35f, 0.6f, 2.42f, 2.58f, truth});  // head
+  s.boxes.push_back({0.25f, 0.65f, 0.0f, 0.14f, 2.43f, 2.57f, truth});   // shins
+  return s;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, SomeoneBentOverWhoseBackIsALidIsAUserByTheOutline) {
+  const tools::RenderedScene f = tools::render_scene(bent_over_body(1));
+  ASSERT_GT(truth_pixels(f, 1), 0);
+  SegmenterConfig off = default_segmenter_config(false);
+  off.low_max_solidity = 0.0f;
+  EXPECT_EQ(users_found(off, f), 0) << "the lid share alone keeps it out (the scene tests the outline)";
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_GT(h.segmenter.config().low_max_solidity, 0.0f);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_LT(h.result.users[0].top_height_m, h.segmenter.config().min_person_height_m);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.95 * truth_pixels(f, 1)));
+}
+
+TEST(SegmentationCut, ATableAsLowAsSomeoneBentOverStaysNoUser) {
+  // A table of the same footprint and height: a top 0.72-0.78 m high on four legs. Its outline
+  // leaves the floor between the legs, like the body above, but every cell reaches the top.
+  tools::Scene s = bent_over_body(1);
+  s.boxes.clear();
+  s.cylinders.clear();
+  s.boxes.push_back({-0.6f, 0.65f, 0.72f, 0.78f, 2.4f, 2.6f, 0});
+  for (float x : {-0.55f, 0.6f})
+    for (float z : {2.45f, 2.55f}) s.cylinders.push_back({x, z, 0.03f, 0.0f, 0.72f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  ASSERT_GT(truth_pixels(f, 0), 0);
+  SegmenterConfig cfg = default_segmenter_config(false);
+  ASSERT_GT(cfg.low_max_solidity, 0.0f);
+  EXPECT_EQ(users_found(cfg, f), 0);
+  // Its outline alone would pass (the scene tests the cap on the lid share).
+  SegmenterConfig any = cfg;
+  any.low_outline_max_lid_share = 1.0f;
+  EXPECT_EQ(users_found(any, f), 1);
+}
+
+TEST(SegmentationCut, SomeoneBentOverBesideABoxIsNoUserByTheOutline) {
+  // The same body with a box 0.4 m wide and 0.5 m high beside it, touching the shins: one
+  // component, too low for the height test. Its outline passes, but the box's lid holds a large
+  // share of it and lies apart from the rest (low_outline_box_split): no user, where without that
+  // test it is one (a body and a box as one user).
+  tools::Scene s = bent_over_body(1);
+  s.boxes.push_back({0.65f, 1.05f, 0.0f, 0.5f, 2.4f, 2.6f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterConfig cfg = default_segmenter_config(false);
+  ASSERT_NE(cfg.low_outline_box_split, 0);
+  EXPECT_EQ(users_found(cfg, f), 0);
+  SegmenterConfig no_split = cfg;
+  no_split.low_outline_box_split = 0;
+  EXPECT_EQ(users_found(no_split, f), 1);
+}

@@ -1245,8 +1245,11 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k, bool low_outline) {
   const float da = dx * ax + dy * ay + dz * az, db = dx * bx + dy * by + dz * bz;
   const bool apart = da * da + db * db >= cfg.box_split_min_dist_m * cfg.box_split_min_dist_m;
   // A low component that passed only by its outline (header, low_max_solidity) holding a box's lid
-  // apart from the rest: the outline is that of a box and something beside it, not a body's.
-  if (low_outline && !rest_passes && apart && float(dropped) >= cfg.box_split_min_share * float(c.pixels)) return 2;
+  // apart from the rest: the outline is that of a box and something beside it, not a body's. A lid
+  // under the rest is its own back (someone bent over), which the reject below would take for a
+  // box's: not for these.
+  const bool lid_apart = apart && float(dropped) >= cfg.box_split_min_share * float(c.pixels);
+  if (low_outline && !(rest_passes && lid_apart)) return lid_apart ? 2 : 0;
   if (!rest_passes || !apart || float(dropped) < cfg.box_split_min_share * float(c.pixels)) {
     // Not a box beside a person: a lid holding box_reject_min_share of the component is a box with
     // a hand or arm over it (header).
