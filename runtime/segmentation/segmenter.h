@@ -229,7 +229,7 @@ struct SegmenterConfig {
   // box_split_min_dist_m apart, as in the box split) is a body beside a box, no user
   // (low_outline_box_split = 1; one false user on seed 49 without it). Needs a floor.
   // low_max_solidity = 0 turns this off (as before; docs/segmentation.md, thirteenth pass).
-  float low_max_solidity = 0.65f;         // 0..1 of the row-wise hull
+  float low_max_solidity = 0.6f;          // 0..1 of the row-wise hull
   float low_outline_max_lid_share = 0.9f; // 0..1 (share of the component's pixels)
   int32_t low_outline_box_split = 1;      // 0 or 1
   // People cut by the bottom border (the head and shoulders of someone close to a high camera)
