@@ -215,19 +215,20 @@ struct SegmenterConfig {
   float low_max_lid_share = 0.4f;         // 0..1 (share of the component's pixels)
   float low_min_height_m = 0.7f;          // ≥ 0, metres above the floor
   // Someone low over the floor whose cells do reach one height band (a back bent over; someone
-  // lying or crouching 3-4 m away, whose cells the wide band merges: lid shares 0.41-0.84 among
+  // lying or crouching 3-4 m away, whose cells the wide band merges: lid shares 0.41-0.82 among
   // the people this finds) but whose outline is no solid's (thirteenth pass): the same component
   // (person area and width, on the floor, top in view, low_min_height_m up to
   // min_person_height_m) also passes when at most low_outline_max_lid_share of its pixels lie in
   // the lid band and its silhouette fills at most low_max_solidity of its row-wise convex hull
   // (as for cut_max_solidity: readings in the hull nearer than its nearest point less join_mm
   // count as filled). The image of a box or cylinder is convex and fills its hull (the clutter
-  // with lid shares up to 0.9 filled at least 0.69 on tuning seeds 11-18/40-59; the people found
-  // 0.49-0.65). Far boxes that the depth noise scatters fill 0.55-0.7 of their hull but keep their
-  // lid (shares 0.95-1.0): hence the cap on the lid share. A component passing only this way
+  // with lid shares up to 0.9 filled at least 0.69 on tuning seeds 11-18/40-59; the 15 people 0.6
+  // finds 0.49-0.59; 0.55-0.65 add no false user there, 0.7 adds four). Far boxes that the depth
+  // noise scatters fill 0.55-0.72 of their hull but keep their lid (shares 0.95-1.0): hence the
+  // cap on the lid share (1 adds 11 false users at 0.65). A component passing only this way
   // that holds a box's lid apart from the rest (box_split_min_share of its pixels, centroids
   // box_split_min_dist_m apart, as in the box split) is a body beside a box, no user
-  // (low_outline_box_split = 1; one false user on seed 49 without it). Needs a floor.
+  // (low_outline_box_split = 1; at 0.65 one false user on seed 49 without it). Needs a floor.
   // low_max_solidity = 0 turns this off (as before; docs/segmentation.md, thirteenth pass).
   float low_max_solidity = 0.6f;          // 0..1 of the row-wise hull
   float low_outline_max_lid_share = 0.9f; // 0..1 (share of the component's pixels)
