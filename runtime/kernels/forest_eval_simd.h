@@ -42,14 +42,15 @@ inline int32_t scale_q13_of(int32_t focal_factor, int32_t z_mm) {  // = dp::scal
 }
 
 // Where a kernel reads node n (policies; the level loops are templates over them): its four offsets
-// as 4 int16 lanes of 64 bits (`bits`), its threshold (`threshold`, unless kThresholdInLanes: then
-// the low nibbles of the lanes carry it, kernels::pack_node's layout, and `bits` holds δ·16), and
-// the prefetch of its line(s).
+// as 4 int16 lanes of 64 bits (`bits`: δ, or 4·δ when kOffsetsTimesFour), its threshold (`threshold`,
+// unless kThresholdInLanes: then the low nibbles of the lanes carry it, kernels::pack_node's layout,
+// and `bits` holds δ·16), and the prefetch of its line(s).
 // An array of node structs with fields du1, dv1, du2, dv2, threshold_mm (offsets first: the 8-byte
 // load is unaligned for the blob's 10-byte nodes), taken from ForestKernelArgs::*kNodes.
 template <class Node, const Node* ForestKernelArgs::*kNodes>
 struct ArrayNodes {
   static constexpr bool kThresholdInLanes = false;
+  static constexpr bool kOffsetsTimesFour = false;
   const Node* nodes;
   explicit ArrayNodes(const ForestKernelArgs& a) : nodes(a.*kNodes) {}
   long long bits(uint32_t n) const {
@@ -62,16 +63,18 @@ struct ArrayNodes {
 };
 using BlobNodes = ArrayNodes<blob::TreeNode, &ForestKernelArgs::nodes>;  // the blob's 10-byte nodes
 using WideNodes = ArrayNodes<WideNode, &ForestKernelArgs::study_nodes>;  // layout study: 16-byte nodes
-struct PackedNodes {  // what the pipeline evaluates
+struct PackedNodes {  // layout study: 8-byte nodes
   static constexpr bool kThresholdInLanes = true;
+  static constexpr bool kOffsetsTimesFour = false;
   const PackedNode* nodes;
   explicit PackedNodes(const ForestKernelArgs& a) : nodes(a.packed_nodes) {}
   long long bits(uint32_t n) const { return static_cast<long long>(nodes[n].bits); }
   int32_t threshold(uint32_t) const { return 0; }
   void prefetch(uint32_t n) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + n), _MM_HINT_T0); }
 };
-struct SplitNodes {  // what the pipeline evaluates: offsets and thresholds in two arrays
+struct SplitNodes {  // what the pipeline evaluates: offsets (4·δ) and thresholds in two arrays
   static constexpr bool kThresholdInLanes = false;
+  static constexpr bool kOffsetsTimesFour = true;
   const uint64_t* offsets;
   const int16_t* thresholds;
   explicit SplitNodes(const ForestKernelArgs& a) : offsets(a.split->offsets), thresholds(a.split->thresholds_mm) {}

@@ -59,15 +59,17 @@ inline PackedNode pack_node(const blob::TreeNode& n) {
 // read the blob's kBlob10 nodes in place); kPacked8 and kWide16 are kept for the study.
 enum class NodeLayout : int32_t { kBlob10, kPacked8, kWide16, kSplit };
 // kSplit: one tree's offsets and thresholds in two arrays, node n at [n] (heap order): offsets[n] holds
-// du1, dv1, du2, dv2 as 4 little-endian int16 (what one 8-byte load puts in a vector's lanes), and
-// the threshold is one scalar load. Fewest ops per visit of the layouts measured.
+// 4·du1, 4·dv1, 4·du2, 4·dv2 as 4 little-endian int16 (what one 8-byte load puts in a vector's lanes,
+// already scaled for the kernels' pmulhrsw: |4δ| ≤ 4·blob::kMaxProbeOffsetPxm = 16384 fits), and the
+// threshold is one scalar load. Fewest ops per visit of the layouts measured.
 struct SplitTree {
   const uint64_t* offsets;
   const int16_t* thresholds_mm;
 };
 inline uint64_t split_offsets_of(const blob::TreeNode& n) {
-  return uint64_t(uint16_t(n.du1)) | uint64_t(uint16_t(n.dv1)) << 16 | uint64_t(uint16_t(n.du2)) << 32 |
-         uint64_t(uint16_t(n.dv2)) << 48;
+  static_assert(4 * blob::kMaxProbeOffsetPxm <= 32767, "4δ fits int16");
+  return uint64_t(uint16_t(4 * n.du1)) | uint64_t(uint16_t(4 * n.dv1)) << 16 | uint64_t(uint16_t(4 * n.du2)) << 32 |
+         uint64_t(uint16_t(4 * n.dv2)) << 48;
 }
 struct WideNode {  // kWide16: the blob node, aligned and padded to 16 bytes
   int16_t du1, dv1, du2, dv2;

@@ -210,7 +210,7 @@ struct SegmenterConfig {
   // far box's cell tops). A box or cylinder reaches its top in every cell (lid share near 1); a
   // body's cells reach many heights. Needs a floor. On tuning seeds 11-18/40-59, 0.4 with 0.7 m
   // finds 10 more people and adds one false user (the second piece of someone lying); 0.45 with
-  // 0.7 m finds 17 and adds 7 (docs/segmentation.md, tenth pass). low_max_lid_share = 0 turns this
+  // 0.7 m finds 17 and adds 7 (docs/segmentation_passes.md, tenth pass). low_max_lid_share = 0 turns this
   // off (as before).
   float low_max_lid_share = 0.4f;         // 0..1 (share of the component's pixels)
   float low_min_height_m = 0.7f;          // ≥ 0, metres above the floor
@@ -229,7 +229,7 @@ struct SegmenterConfig {
   // that holds a box's lid apart from the rest (box_split_min_share of its pixels, centroids
   // box_split_min_dist_m apart, as in the box split) is a body beside a box, no user
   // (low_outline_box_split = 1; at 0.65 one false user on seed 49 without it). Needs a floor.
-  // low_max_solidity = 0 turns this off (as before; docs/segmentation.md, thirteenth pass).
+  // low_max_solidity = 0 turns this off (as before; docs/segmentation_passes.md, thirteenth pass).
   float low_max_solidity = 0.6f;          // 0..1 of the row-wise hull
   float low_outline_max_lid_share = 0.9f; // 0..1 (share of the component's pixels)
   int32_t low_outline_box_split = 1;      // 0 or 1
@@ -297,7 +297,7 @@ struct SegmenterConfig {
   // 11-14/40-49, 0.05 finds 13 more people (all with at least 0.05 m² in view) and adds no false
   // user; 0.03 adds two (boxes with 3.4-3.6 % of their rows showing such a gap), and a box with
   // 5.3 % such rows and a fill of 0.90 is kept out by cut_gap_max_fill (the legs found fill
-  // 0.60-0.73). 0 = off (as before; docs/segmentation.md, eleventh pass).
+  // 0.60-0.73). 0 = off (as before; docs/segmentation_passes.md, eleventh pass).
   float cut_gap_min_share = 0.05f;        // 0..1 of the rows
   float cut_gap_max_fill = 0.8f;          // 0..1 of the image box
 
@@ -312,7 +312,7 @@ struct SegmenterConfig {
   // only then). On tuning seeds 11-18/40-59, 0.6 finds 20 more people (all with at least 0.05 m²
   // in view, the missed top-border people's lowest points were 0.32-0.56 m up) and adds no false
   // user; 0.45 finds 17, 0.8-1.5 find 21, none adds a false user. 0 = off (as before;
-  // docs/segmentation.md, twelfth pass).
+  // docs/segmentation_passes.md, twelfth pass).
   float cut_hidden_floor_contact_m = 0.6f;  // metres above the floor, ≥ 0; 0 = off (matters above cut_floor_contact_m)
 };
 

@@ -20,9 +20,10 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
   for (int32_t i = 0; i < padded; i += 4) {
     const __m256i raw = _mm256_set_epi64x(nodes.bits(node[i + 3]), nodes.bits(node[i + 2]),
                                           nodes.bits(node[i + 1]), nodes.bits(node[i]));
-    // 4·δ per lane: packed lanes hold δ·16 above a threshold nibble; blob lanes hold δ.
+    // 4·δ per lane: packed lanes hold δ·16 above a threshold nibble, split lanes 4·δ, blob lanes δ.
     const __m256i offsets4 =
-        kPacked ? _mm256_srai_epi16(_mm256_and_si256(raw, lane_mask), 2) : _mm256_slli_epi16(raw, 2);
+        kPacked ? _mm256_srai_epi16(_mm256_and_si256(raw, lane_mask), 2)
+                : Nodes::kOffsetsTimesFour ? raw : _mm256_slli_epi16(raw, 2);
     __m256i xy = _mm256_mulhrs_epi16(offsets4, _mm256_load_si256(reinterpret_cast<const __m256i*>(setup.scale_q13[i])));
     xy = _mm256_add_epi16(xy, _mm256_load_si256(reinterpret_cast<const __m256i*>(setup.origin[i])));
     xy = _mm256_min_epu16(xy, high);

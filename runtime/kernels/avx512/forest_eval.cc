@@ -34,9 +34,10 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
         nodes.bits(node[i + 7]), nodes.bits(node[i + 6]), nodes.bits(node[i + 5]),
         nodes.bits(node[i + 4]), nodes.bits(node[i + 3]), nodes.bits(node[i + 2]),
         nodes.bits(node[i + 1]), nodes.bits(node[i]));
-    // 4·δ per lane: packed lanes hold δ·16 above a threshold nibble; blob lanes hold δ.
+    // 4·δ per lane: packed lanes hold δ·16 above a threshold nibble, split lanes 4·δ, blob lanes δ.
     const __m512i offsets4 =
-        kPacked ? _mm512_srai_epi16(_mm512_and_si512(raw, lane_mask), 2) : _mm512_slli_epi16(raw, 2);
+        kPacked ? _mm512_srai_epi16(_mm512_and_si512(raw, lane_mask), 2)
+                : Nodes::kOffsetsTimesFour ? raw : _mm512_slli_epi16(raw, 2);
     __m512i xy = _mm512_mulhrs_epi16(offsets4, _mm512_load_si512(setup.scale_q13[i]));
     xy = _mm512_add_epi16(xy, _mm512_load_si512(setup.origin[i]));
     xy = _mm512_min_epu16(xy, high);
