@@ -1333,7 +1333,9 @@ int32_t Segmenter::split_pair(const DepthFrame& f, int32_t n, int32_t k) {
   const SegmenterConfig& cfg = *config_;
   if (cfg.pair_bridge_max_m <= 0.0f || floor_->valid == 0 || n >= kMaxCandidates) return -1;
   Candidate& c = candidates_[k];
-  if (c.pixels == 0 || c.v_min == 0 || c.bottom > cfg.cut_floor_contact_m || c.top < cfg.min_person_height_m) return -1;
+  // Also when cut by the top border (someone's head out of view): the height shown there is a lower
+  // bound, so the standing bins and the person test of each side only get stricter.
+  if (c.pixels == 0 || c.bottom > cfg.cut_floor_contact_m || c.top < cfg.min_person_height_m) return -1;
   FloorGrid grid;
   if (!grid.init(*floor_, f.intrinsics, float(c.sx / c.pixels), float(c.sy / c.pixels), float(c.sz / c.pixels),
                  cfg.box_split_cell_m))
@@ -1396,7 +1398,7 @@ int32_t Segmenter::split_pair(const DepthFrame& f, int32_t n, int32_t k) {
     right_ok[b] = seen;
     seen = seen || standing(b);
   }
-  int32_t cut = -1;  // first bin of the moved side
+  int32_t cut = -1;  // first bin beyond the cut
   for (int32_t b = 1; b + 1 < bins && cut < 0;) {
     if (!thin(b)) { ++b; continue; }
     int32_t e = b;
