@@ -310,9 +310,10 @@ struct SegmenterConfig {
   // area, height, width; no border relaxations) and stands on the floor: two users. A single body's
   // thin slices are lower (between the legs, a knee, a leg held out), and an arm held out has no
   // standing bin beyond it. On tuning seeds 11-18/40-59, 0.4 finds 9 more people and adds no false
-  // user (0.3-0.8 the same); without the height condition on bridge bins and with a side only
-  // needing to reach the floor and the height somewhere, 11 bodies were cut in two (12 false
-  // users). Needs a floor. 0 = off (as before; docs/segmentation_passes.md, fourteenth pass).
+  // user (0.5 and 0.6 the same; 0.3 one person fewer; 0.8 one false user more); without the height
+  // condition on bridge bins and with a side only needing to reach the floor and the height
+  // somewhere, 11 bodies were cut in two (12 false users). Needs a floor. 0 = off (as before;
+  // docs/segmentation_passes.md, fourteenth pass).
   float pair_bridge_max_m = 0.4f;         // metres, ≥ 0; 0 = off
 };
 
