@@ -1237,3 +1237,103 @@ TEST(SegmentationCut, SomeoneBentOverBesideABoxIsNoUserByTheOutline) {
   no_split.low_outline_box_split = 0;
   EXPECT_EQ(users_found(no_split, f), 1);
 }
+
+// Fourteenth pass (pair_bridge_max_m): two people joined by an arm.
+namespace {
+
+// Two people 0.9 m apart, 3 m from a camera 1.3 m high; person 1 holds an arm out at shoulder
+// height (1.25-1.35 m) to person 2's side, touching them: one component 1.3 m wide.
+tools::Scene two_people_joined_by_an_arm() {
+  tools::Scene s;
+  s.camera.height_m = 1.3f;
+  s.camera.pitch_deg = 12.0f;
+  s.cylinders.push_back(person_at(-0.45f, 3.0f, 1));
+  s.cylinders.push_back(person_at(0.45f, 3.0f, 2));
+  s.boxes.push_back({-0.3f, 0.3f, 1.25f, 1.35f, 2.88f, 2.98f, 1});
+  return s;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, TwoPeopleJoinedByAnArmAreTwoUsers) {
+  const tools::RenderedScene f = tools::render_scene(two_people_joined_by_an_arm());
+  const SegmenterConfig on = default_segmenter_config(false);
+  ASSERT_GT(on.pair_bridge_max_m, 0.0f);
+  SegmenterHarness h(on);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 2);
+  // Each user is one person (the arm is cut in its middle: person 1 keeps its body and half the arm).
+  for (uint8_t truth = 1; truth <= 2; ++truth) {
+    int best = 0;
+    for (int i = 0; i < h.result.user_count; ++i) {
+      const int mine = count_pixels(h.labels, f, uint8_t(h.result.users[i].id), truth);
+      if (mine > best) best = mine;
+      const int other = count_pixels(h.labels, f, uint8_t(h.result.users[i].id), uint8_t(3 - truth));
+      if (mine > other) {
+        EXPECT_LT(other, h.result.users[i].pixel_count / 10) << "a user holds both people";
+      }
+    }
+    EXPECT_GE(best, int(0.9 * truth_pixels(f, truth))) << "person " << int(truth);
+  }
+  // With the rule off both are one component that passes the person test: one user.
+  SegmenterConfig off = on;
+  off.pair_bridge_max_m = 0.0f;
+  EXPECT_EQ(users_found(off, f), 1);
+  // Apart (no arm), they are two users either way.
+  tools::Scene apart = two_people_joined_by_an_arm();
+  apart.boxes.clear();
+  EXPECT_EQ(users_found(off, tools::render_scene(apart)), 2);
+}
+
+TEST(SegmentationCut, APersonWithLegsApartAndAnArmHeldOutStaysOneUser) {
+  // One body: legs 0.44 m apart under a torso (0.8-1.45 m), a head, and an arm held out 0.55 m to
+  // the side at shoulder height. The slices between the legs are not thin (torso above, lowest
+  // point 0.8 m) and beyond the arm nothing stands on the floor: no cut, even with a loose bridge.
+  tools::Scene s;
+  s.camera.height_m = 1.3f;
+  s.camera.pitch_deg = 12.0f;
+  s.cylinders.push_back({-0.22f, 3.0f, 0.08f, 0.0f, 0.85f, 1});
+  s.cylinders.push_back({0.22f, 3.0f, 0.08f, 0.0f, 0.85f, 1});
+  s.boxes.push_back({-0.2f, 0.2f, 0.8f, 1.45f, 2.9f, 3.1f, 1});
+  s.cylinders.push_back({0.0f, 3.0f, 0.1f, 1.45f, 1.7f, 1});
+  s.boxes.push_back({0.2f, 0.75f, 1.3f, 1.38f, 2.95f, 3.03f, 1});
+  const tools::RenderedScene f = tools::render_scene(s);
+  for (const float bridge : {0.4f, 1.0f}) {
+    SegmenterConfig cfg = default_segmenter_config(false);
+    cfg.pair_bridge_max_m = bridge;
+    SegmenterHarness h(cfg);
+    ASSERT_EQ(h.run(f), Status::kOk);
+    ASSERT_EQ(h.result.user_count, 1) << "pair_bridge_max_m " << bridge;
+    EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.97 * truth_pixels(f, 1)));
+  }
+}
+
+TEST(SegmentationCut, APersonWithAnArmOnABoxLeavesTheBoxNoUser) {
+  // Someone rests a forearm on a 0.8 m box beside them: one component, and the box with the arm on
+  // it reaches from the floor to 0.9 m like a standing slice. The arm over the gap lies lower than
+  // min_person_height_m, so it is no bridge: the box does not become a user of its own, and the
+  // rule labels no more of it than without it (the box split of the fifth pass leaves the pixels of
+  // the cells under the arm with the person either way).
+  tools::Scene s;
+  s.camera.height_m = 1.3f;
+  s.camera.pitch_deg = 12.0f;
+  s.cylinders.push_back(person_at(-0.45f, 3.0f, 1));
+  s.boxes.push_back({0.1f, 0.8f, 0.0f, 0.8f, 2.8f, 3.2f, 0});
+  s.boxes.push_back({-0.3f, 0.3f, 0.8f, 0.9f, 2.86f, 2.96f, 1});
+  const tools::RenderedScene f = tools::render_scene(s);
+  int box_labelled_off = -1;
+  for (const float bridge : {0.0f, 0.4f, 1.0f}) {
+    SegmenterConfig cfg = default_segmenter_config(false);
+    cfg.pair_bridge_max_m = bridge;
+    SegmenterHarness h(cfg);
+    ASSERT_EQ(h.run(f), Status::kOk);
+    ASSERT_TRUE(h.result.floor.valid);
+    ASSERT_EQ(h.result.user_count, 1) << "pair_bridge_max_m " << bridge;
+    EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.97 * truth_pixels(f, 1)));
+    const int box_labelled = labelled_truth(h.labels, f, 0);
+    if (box_labelled_off < 0) box_labelled_off = box_labelled;
+    EXPECT_EQ(box_labelled, box_labelled_off) << "pair_bridge_max_m " << bridge;
+    EXPECT_LT(box_labelled, truth_pixels(f, 1) / 10);
+  }
+}

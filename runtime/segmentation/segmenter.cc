@@ -278,7 +278,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
          c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f && (c.cut_fill_border_columns == 0 || c.cut_fill_border_columns == 1) &&
-         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_hidden_floor_contact_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_max_solidity >= 0.0f && c.low_max_solidity <= 1.0f && c.low_outline_box_split >= 0 && c.low_outline_box_split <= 1 && c.low_outline_max_lid_share >= 0.0f && c.low_outline_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_hidden_floor_contact_m >= 0.0f && c.pair_bridge_max_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_max_solidity >= 0.0f && c.low_max_solidity <= 1.0f && c.low_outline_box_split >= 0 && c.low_outline_box_split <= 1 && c.low_outline_max_lid_share >= 0.0f && c.low_outline_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -1336,7 +1336,128 @@ int32_t Segmenter::low_person(const DepthFrame& f, int32_t k) {
   return hollow ? 2 : 0;
 }
 
-void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult* r) {
+// Two people joined by an arm (header, pair_bridge_max_m): the component's pixels profiled along the
+// floor's horizontal axis (FloorGrid's a, the axis of its width) in at most kPairBins bins of at
+// least kPairBinM, each with its highest and lowest point. The first run of bridge bins (not empty,
+// thin and at least min_person_height_m up) with a standing bin (floor to min_person_height_m) on
+// each side is cut in its middle when each side alone passes the person test (no border
+// relaxations) and stands on the floor. The pixels beyond the cut (the higher bins) move to a new
+// candidate (index n): its root is one of them that is no component's root, and every pixel of
+// that side points to it (labels and the later tests read one hop, parent_ → aux_); candidate k
+// keeps the rest, its statistics re-measured (its hidden-edge, occlusion and hull counts kept; the
+// new one has none). Returns n, or −1 when k is kept whole. Work: three passes over the
+// candidate's image box, 64 bins on the stack.
+int32_t Segmenter::split_pair(const DepthFrame& f, int32_t n, int32_t k) {
+  const SegmenterConfig& cfg = *config_;
+  if (cfg.pair_bridge_max_m <= 0.0f || floor_->valid == 0 || n >= kMaxCandidates) return -1;
+  Candidate& c = candidates_[k];
+  // Also when cut by the top border (someone's head out of view): the height shown there is a lower
+  // bound, so the standing bins and the person test of each side only get stricter.
+  if (c.pixels == 0 || c.bottom > cfg.cut_floor_contact_m || c.top < cfg.min_person_height_m) return -1;
+  FloorGrid grid;
+  if (!grid.init(*floor_, f.intrinsics, float(c.sx / c.pixels), float(c.sy / c.pixels), float(c.sz / c.pixels),
+                 cfg.box_split_cell_m))
+    return -1;
+  const float ax = grid.ax, ay = grid.ay, az = grid.az;
+  const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
+  const int32_t w = f.width;
+  constexpr int32_t kPairBins = 64;
+  constexpr float kPairBinM = 0.05f;
+  // x_min/x_max run along the same axis (label_components, merges): the bins cover the extent.
+  const float a_lo = c.x_min, extent = c.x_max - c.x_min;
+  float bin_m = extent / float(kPairBins - 1);
+  if (bin_m < kPairBinM) bin_m = kPairBinM;
+  const int32_t bins = int32_t(extent / bin_m) + 1;
+  if (bins < 3) return -1;
+  auto own = [&](int32_t i) {
+    const int32_t p = parent_[i];
+    return p >= 0 && aux_[p] >= 0 && candidates_[aux_[p]].owner == k;
+  };
+  // visit(u, v, pixel index, x, y, z, height above the floor, bin) for every pixel of the union.
+  auto for_each_pixel = [&](auto&& visit) {
+    for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+      const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+      for (int32_t u = c.u_min; u <= c.u_max; ++u) {
+        const int32_t i = v * w + u;
+        if (!own(i)) continue;
+        const float z = float(row[u]) * 0.001f;
+        const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
+        const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
+        const float up = floor_->nx * x + floor_->ny * y + floor_->nz * z + floor_->d;
+        int32_t b = int32_t((x * ax + y * ay + z * az - a_lo) / bin_m);
+        b = b < 0 ? 0 : b >= bins ? bins - 1 : b;
+        visit(u, v, i, x, y, z, up, b);
+      }
+    }
+  };
+  float top[kPairBins], low[kPairBins];
+  for (int32_t b = 0; b < bins; ++b) { top[b] = -1e30f; low[b] = 1e30f; }
+  for_each_pixel([&](int32_t, int32_t, int32_t, float, float, float, float up, int32_t b) {
+    if (up > top[b]) top[b] = up;
+    if (up < low[b]) low[b] = up;
+  });
+  // A bridge bin: an arm held out, at least min_person_height_m up and thin. A single body's thin
+  // slices (between the legs, a knee, a leg held out) are lower. Not an empty bin: the pieces of a
+  // body that merge_fragments joined across someone in front leave empty bins between them.
+  auto thin = [&](int32_t b) {
+    return top[b] >= low[b] && low[b] >= cfg.min_person_height_m && top[b] - low[b] <= cfg.pair_bridge_max_m;
+  };
+  // A standing bin: from the floor to min_person_height_m in one slice (legs under a body).
+  auto standing = [&](int32_t b) { return low[b] <= cfg.cut_floor_contact_m && top[b] >= cfg.min_person_height_m; };
+  // Per bin: is there a standing bin before it (after it)?
+  bool left_ok[kPairBins], right_ok[kPairBins];
+  bool seen = false;
+  for (int32_t b = 0; b < bins; ++b) {
+    left_ok[b] = seen;
+    seen = seen || standing(b);
+  }
+  seen = false;
+  for (int32_t b = bins - 1; b >= 0; --b) {
+    right_ok[b] = seen;
+    seen = seen || standing(b);
+  }
+  int32_t cut = -1;  // first bin beyond the cut
+  for (int32_t b = 1; b + 1 < bins && cut < 0;) {
+    if (!thin(b)) { ++b; continue; }
+    int32_t e = b;
+    while (e + 1 < bins && thin(e + 1)) ++e;
+    if (e + 1 < bins && left_ok[b] && right_ok[e]) cut = (b + e + 1) / 2;
+    b = e + 1;
+  }
+  if (cut < 0) return -1;
+  // Both sides alone.
+  Candidate keep = c, moved = c;
+  clear_stats(keep);
+  clear_stats(moved);
+  int32_t root = -1;
+  for_each_pixel([&](int32_t u, int32_t v, int32_t i, float x, float y, float z, float up, int32_t b) {
+    Candidate& side = b < cut ? keep : moved;
+    add_point(side, u, v, x, y, z, x * ax + y * ay + z * az);
+    add_height(side, up);
+    if (b >= cut && root < 0 && parent_[i] != i) root = i;
+  });
+  if (root < 0 || keep.pixels == 0 || moved.pixels == 0) return -1;
+  if (keep.bottom > cfg.cut_floor_contact_m || moved.bottom > cfg.cut_floor_contact_m) return -1;
+  if (!passes_person_test(f, keep, false) || !passes_person_test(f, moved, false)) return -1;
+  for_each_pixel([&](int32_t, int32_t, int32_t i, float, float, float, float, int32_t b) {
+    if (b >= cut) parent_[i] = root;
+  });
+  parent_[root] = root;
+  aux_[root] = n;
+  moved.root = root;
+  moved.occluded = moved.hidden_edge = moved.hidden_below = moved.hull = moved.hull_filled = moved.gap_rows = 0;
+  moved.cut_pixels = 0;
+  moved.cut_u_min = int16_t(32767);
+  moved.cut_u_max = int16_t(-1);
+  moved.user = 0;
+  moved.owner = n;
+  candidates_[n] = moved;
+  c = keep;
+  return n;
+}
+
+void Segmenter::assign_users(const DepthFrame& f, int32_t candidate_count, SegmentationResult* r) {
+  int32_t n = candidate_count;  // grows when a component is cut in two (split_pair)
   const SegmenterConfig& cfg = *config_;
   merge_fragments(f, n);
   bool strict[kMaxCandidates], relaxed[kMaxCandidates];
@@ -1406,6 +1527,19 @@ void Segmenter::assign_users(const DepthFrame& f, int32_t n, SegmentationResult*
       cx[best_k] = float(c.sx / c.pixels);
       cy[best_k] = float(c.sy / c.pixels);
       cz[best_k] = float(c.sz / c.pixels);
+    }
+    const int32_t pair = split_pair(f, n, best_k);
+    if (pair >= 0) {  // two people joined by an arm (header, pair_bridge_max_m): the other one waits its round
+      ++n;
+      for (int32_t side = 0; side < 2; ++side) {
+        const int32_t j = side == 0 ? best_k : pair;
+        const Candidate& c = candidates_[j];
+        cx[j] = float(c.sx / c.pixels);
+        cy[j] = float(c.sy / c.pixels);
+        cz[j] = float(c.sz / c.pixels);
+      }
+      strict[pair] = true;
+      relaxed[pair] = false;
     }
     const int32_t into = absorbing_user(f, n, best_k, cx, cy, cz);
     if (into >= 0) {  // a piece of that user's body behind a depth jump (header, absorb_radius_m, head_radius_m)

@@ -50,7 +50,7 @@ static const char* const kUsage =
     "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, hidden_legs_radius_m,\n"
     "                         hidden_legs_max_gap_m, hidden_legs_max_ratio, cut_floor_contact_m,\n"
     "                         cut_bottom_area_fraction, cut_top_area_fraction, cut_gap_min_share, cut_gap_max_fill,\n"
-    "                         cut_hidden_floor_contact_m,\n"
+    "                         cut_hidden_floor_contact_m, pair_bridge_max_m,\n"
     "                         low_max_lid_share, low_min_height_m, low_max_solidity, low_outline_max_lid_share, low_outline_box_split,\n"
     "                         fragment_min_share, absorb_radius_m, head_radius_m, legs_radius_m, box_split_height_m,\n"
     "                         box_split_min_share, box_split_cell_m, box_split_min_dist_m,\n"
@@ -167,6 +167,7 @@ int run_segeval(int argc, char** argv) {
       else if (k == "cut_gap_min_share") cfg.cut_gap_min_share = float(v);
       else if (k == "cut_gap_max_fill") cfg.cut_gap_max_fill = float(v);
       else if (k == "cut_hidden_floor_contact_m") cfg.cut_hidden_floor_contact_m = float(v);
+      else if (k == "pair_bridge_max_m") cfg.pair_bridge_max_m = float(v);
       else if (k == "floor_margin_per_m2_mm") cfg.floor_margin_per_m2_mm = float(v);
       else if (k == "floor_min_inlier_fraction") cfg.floor_min_inlier_fraction = float(v);
       else if (k == "floor_min_extent_m") cfg.floor_min_extent_m = float(v);
