@@ -1337,3 +1337,99 @@ TEST(SegmentationCut, APersonWithAnArmOnABoxLeavesTheBoxNoUser) {
     EXPECT_LT(box_labelled, truth_pixels(f, 1) / 10);
   }
 }
+
+// Fifteenth pass (cut_bottom_low_max_lid_share): someone low over the floor cut by the bottom border.
+namespace {
+
+// A camera 1.2 m high looking 10° down and someone kneeling 1.1-1.6 m in front of it, the body
+// rising in steps away from the camera: the folded legs up to 0.5 m, the torso up to 0.68 m, the
+// head up to 0.8 m, the arms hanging beside the legs. The bottom image border cuts the legs above
+// cut_floor_contact_m, so the floor under them is out of view; the cells reach several heights.
+tools::Scene crouching_close(uint8_t truth) {
+  tools::Scene s;
+  s.camera.height_m = 1.2f;
+  s.camera.pitch_deg = 10.0f;
+  s.boxes.push_back({-0.2f, 0.2f, 0.0f, 0.5f, 1.1f, 1.25f, truth});    // folded legs
+  s.boxes.push_back({-0.2f, 0.2f, 0.3f, 0.68f, 1.25f, 1.45f, truth});  // torso
+  s.boxes.push_back({-0.1f, 0.1f, 0.5f, 0.8f, 1.45f, 1.6f, truth});    // head
+  s.cylinders.push_back({-0.25f, 1.2f, 0.05f, 0.0f, 0.55f, truth});    // arms
+  s.cylinders.push_back({0.25f, 1.2f, 0.05f, 0.0f, 0.55f, truth});
+  return s;
+}
+
+// The lowest height above the floor of truth `truth` in the bottom image row (−1: none there).
+float bottom_row_height(const tools::RenderedScene& f, const tools::Scene& s, uint8_t truth) {
+  float n[3], d;
+  tools::floor_plane_in_camera(s.camera, n, &d);
+  float low = -1.0f;
+  const int v = f.height - 1;
+  for (int u = 0; u < f.width; ++u) {
+    const size_t i = size_t(v) * f.width + u;
+    if (f.truth[i] != truth || f.depth_mm[i] == 0) continue;
+    const float z = f.depth_mm[i] * 0.001f;
+    const float x = (u - f.intrinsics.cx) * z / f.intrinsics.fx, y = -(v - f.intrinsics.cy) * z / f.intrinsics.fy;
+    const float up = n[0] * x + n[1] * y + n[2] * z + d;
+    if (low < 0.0f || up < low) low = up;
+  }
+  return low;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, SomeoneCrouchingCutByTheBottomBorderAboveTheFloorIsAUser) {
+  const tools::Scene s = crouching_close(1);
+  const tools::RenderedScene f = tools::render_scene(s);
+  ASSERT_GT(truth_pixels(f, 1), 0);
+  const SegmenterConfig on = default_segmenter_config(false);
+  ASSERT_GT(on.cut_bottom_low_max_lid_share, 0.0f);
+  // The scene: cut by the bottom border above cut_floor_contact_m, top below the height test.
+  ASSERT_GT(bottom_row_height(f, s, 1), on.cut_floor_contact_m);
+  SegmenterHarness h(on);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_EQ(h.result.users[0].v_max, f.height - 1);
+  EXPECT_LT(h.result.users[0].top_height_m, on.min_person_height_m);
+  EXPECT_GE(h.result.users[0].top_height_m, on.low_min_height_m);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.95 * truth_pixels(f, 1)));
+  SegmenterConfig off = on;
+  off.cut_bottom_low_max_lid_share = 0.0f;
+  EXPECT_EQ(users_found(off, f), 0) << "without the rule nothing judges a low component off the floor";
+}
+
+TEST(SegmentationCut, ABoxCutByTheBottomBorderAboveTheFloorStaysNoUser) {
+  // A box of the same footprint and nearly the same height (0.78 m, as tall as the clutter gets) at
+  // the same place: cut by the bottom border above the floor too, but every cell reaches its lid.
+  tools::Scene s = crouching_close(1);
+  s.boxes.clear();
+  s.cylinders.clear();
+  s.boxes.push_back({-0.3f, 0.3f, 0.0f, 0.78f, 1.15f, 1.6f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  ASSERT_GT(truth_pixels(f, 0), 0);
+  const SegmenterConfig on = default_segmenter_config(false);
+  EXPECT_EQ(users_found(on, f), 0);
+  SegmenterConfig off = on;
+  off.cut_bottom_low_max_lid_share = 0.0f;
+  EXPECT_EQ(users_found(off, f), 0);
+  // Its area, width, height and position would pass (the scene tests the lid share).
+  SegmenterConfig any = on;
+  any.cut_bottom_low_max_lid_share = 1.0f;
+  EXPECT_EQ(users_found(any, f), 1);
+}
+
+TEST(SegmentationCut, ABoxCutByTheBottomBorderPartlyHiddenStaysNoUser) {
+  // The same box behind a post that hides part of it: what the post hides may be the rest of the lid,
+  // so the lid share is not trusted (cut_solidity_max_hidden), whatever its cap.
+  tools::Scene s = crouching_close(1);
+  s.boxes.clear();
+  s.cylinders.clear();
+  s.boxes.push_back({-0.3f, 0.3f, 0.0f, 0.78f, 1.15f, 1.6f, 0});
+  s.cylinders.push_back({0.0f, 0.9f, 0.06f, 0.0f, 0.8f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  SegmenterConfig any = default_segmenter_config(false);
+  any.cut_bottom_low_max_lid_share = 1.0f;
+  EXPECT_EQ(users_found(any, f), 0);
+  // With the hidden part allowed the box passes (the scene tests the occlusion condition).
+  any.cut_solidity_max_hidden = 1.0f;
+  EXPECT_EQ(users_found(any, f), 1);
+}

@@ -278,7 +278,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
          c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f && (c.cut_fill_border_columns == 0 || c.cut_fill_border_columns == 1) &&
-         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_hidden_floor_contact_m >= 0.0f && c.pair_bridge_max_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_max_solidity >= 0.0f && c.low_max_solidity <= 1.0f && c.low_outline_box_split >= 0 && c.low_outline_box_split <= 1 && c.low_outline_max_lid_share >= 0.0f && c.low_outline_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_hidden_floor_contact_m >= 0.0f && c.pair_bridge_max_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.cut_bottom_low_max_lid_share >= 0.0f && c.cut_bottom_low_max_lid_share <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_max_solidity >= 0.0f && c.low_max_solidity <= 1.0f && c.low_outline_box_split >= 0 && c.low_outline_box_split <= 1 && c.low_outline_max_lid_share >= 0.0f && c.low_outline_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -1272,14 +1272,24 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k, bool low_outline) {
 // pixels. A box or cylinder reaches its top in every cell. Returns 1 then. Returns 2 (thirteenth
 // pass, low_max_solidity) when at most low_outline_max_lid_share of its pixels lie there and its
 // silhouette fills at most low_max_solidity of its row-wise hull (measure_hull over its merged
-// pieces): no solid's outline. Else 0. Work: two passes over the candidate's image box (three
-// more for the hull), 48 × 48 cells (9 KB) and 64 bins on the stack.
+// pieces): no solid's outline. Returns 3 (fifteenth pass, cut_bottom_low_max_lid_share) for a
+// component cut by the bottom border whose lowest point is above cut_floor_contact_m (its feet and
+// the floor under them out of view) when at most cut_bottom_low_max_lid_share of its pixels lie in
+// that band and at most cut_solidity_max_hidden of its image box is hidden by something nearer; such
+// a component gets no other test. Else 0. Work: two passes over the candidate's image box (three
+// more for the hull, one for the hidden pixels), 48 × 48 cells (9 KB) and 64 bins on the stack.
 int32_t Segmenter::low_person(const DepthFrame& f, int32_t k) {
   const SegmenterConfig& cfg = *config_;
   const Candidate& c = candidates_[k];
-  if ((cfg.low_max_lid_share <= 0.0f && cfg.low_max_solidity <= 0.0f) || floor_->valid == 0 || c.pixels == 0 || c.v_min == 0)
+  if ((cfg.low_max_lid_share <= 0.0f && cfg.low_max_solidity <= 0.0f && cfg.cut_bottom_low_max_lid_share <= 0.0f) ||
+      floor_->valid == 0 || c.pixels == 0 || c.v_min == 0)
     return 0;
-  if (c.top >= cfg.min_person_height_m || c.top < cfg.low_min_height_m || c.bottom > cfg.cut_floor_contact_m) return 0;
+  // Cut by the bottom border above the floor (header, cut_bottom_low_max_lid_share): the feet and
+  // the floor under them are below the image; only the lid share judges it, with its own cap.
+  const bool feet_below = cfg.cut_bottom_low_max_lid_share > 0.0f && c.v_max == f.height - 1 &&
+                          c.bottom > cfg.cut_floor_contact_m;
+  if (c.top >= cfg.min_person_height_m || c.top < cfg.low_min_height_m || (c.bottom > cfg.cut_floor_contact_m && !feet_below))
+    return 0;
   if (c.x_max - c.x_min > cfg.max_person_width_m) return 0;
   const float z = float(c.sz / c.pixels);
   if (float(c.pixels) < cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (z * z)) return 0;
@@ -1324,6 +1334,19 @@ int32_t Segmenter::low_person(const DepthFrame& f, int32_t k) {
   for (int32_t b = 0; b < kLowBins; ++b) {
     run += hist[b] - (b >= band ? hist[b - band] : 0);
     if (run > lid) lid = run;
+  }
+  if (feet_below) {
+    if (float(lid) > cfg.cut_bottom_low_max_lid_share * float(c.pixels)) return 0;
+    // Not when something nearer hides part of its image box (more than cut_solidity_max_hidden of
+    // its pixel count): what is hidden may be the rest of a lid (a box behind someone showed 0.62).
+    // One pass over the image box.
+    int32_t occluded = 0;
+    const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(cfg.join_mm);
+    for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+      const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+      for (int32_t u = c.u_min; u <= c.u_max; ++u) occluded += row[u] != 0 && int32_t(row[u]) < front;
+    }
+    return float(occluded) <= cfg.cut_solidity_max_hidden * float(c.pixels) ? 3 : 0;
   }
   if (cfg.low_max_lid_share > 0.0f && float(lid) <= cfg.low_max_lid_share * float(c.pixels)) return 1;
   // A lid over most cells, but an outline no solid has (header, low_max_solidity): the image of a

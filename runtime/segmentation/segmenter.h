@@ -238,6 +238,22 @@ struct SegmenterConfig {
   // a floor known and its top at least min_person_height_m high needs only this fraction of the
   // person area. 0 turns this off.
   float cut_bottom_area_fraction = 0.3f;  // 0..1
+  // Someone low over the floor cut by the bottom border (fifteenth pass: crouching, kneeling or bent
+  // over close to the camera, the feet below the image): the component touches the bottom border
+  // and its lowest point in view is higher than cut_floor_contact_m (the floor under it is out of
+  // view too), so the low test (low_max_lid_share) never judged it, and its visible part (back,
+  // shoulders, head, arms, without the legs and feet, whose cells reach other heights) reaches one
+  // height band in more cells than a whole body does. Such a component with the person area and
+  // width, its top in view and at least low_min_height_m but below min_person_height_m high passes
+  // when at most cut_bottom_low_max_lid_share of its pixels lie in the lid band of the low test and
+  // at most cut_solidity_max_hidden (of its pixel count) of its image box is hidden by something
+  // nearer (what is hidden may be the rest of a lid: a box cut by the bottom border behind someone,
+  // half hidden, showed 0.62). A box or cylinder cut by the bottom border above the floor shows its
+  // lid and the top of its faces, whose cells all reach the lid: lid shares 0.95-1.0 (754 such
+  // components on tuning seeds 11-18/40-59), the people 0.55-0.9. Needs a floor. On those seeds
+  // 0.8 finds 4 more people and adds no false user (docs/segmentation_passes.md, fifteenth pass).
+  // 0 = off (as before).
+  float cut_bottom_low_max_lid_share = 0.8f;  // 0..1 (share of the component's pixels)
 
   // People mostly hidden behind someone (or something) nearer show pieces: a head, a shoulder, an
   // arm. A component with at least hidden_min_edge pixel edges to readings nearer by more than
@@ -491,7 +507,8 @@ class Segmenter {
   int32_t absorbing_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* cx, const float* cy,
                          const float* cz) const;
   // 0 = not low or not a person; 1 = by its lid share (low_max_lid_share); 2 = by its outline only
-  // (low_max_solidity). Non-const: the outline uses the hull scratch rows.
+  // (low_max_solidity); 3 = cut by the bottom border above the floor, by its lid share
+  // (cut_bottom_low_max_lid_share). Non-const: the outline uses the hull scratch rows.
   int32_t low_person(const DepthFrame& frame, int32_t k);  // low_max_lid_share (header)
   // 0 = kept, 1 = box dropped, 2 = no user. low_outline: the component passed only as low by its
   // outline (low_max_solidity): judged although low, and a lid apart from the rest makes it no user.
