@@ -243,10 +243,10 @@ struct SegmenterConfig {
   // by the bottom border: a component touching the left or right image border but not the top one
   // (whose top would be the border's, not the body's), with a floor known and its top at least
   // min_person_height_m high, needs only this fraction of the person area. The footing is not
-  // asked: of the four side-cut people this finds on the tuning seeds, three show their lowest point
-  // 0.5-0.9 m up (legs hidden or out of view). Furniture is lower than min_person_height_m (the
+  // asked: of the four side-cut people this finds on the tuning seeds, the three looked at show
+  // their lowest point 0.48-0.93 m up (legs hidden or out of view). Furniture is lower than min_person_height_m (the
   // synthetic clutter is 0.3-0.8 m). 0.5-0.7 find the same people with no false user on the tuning
-  // seeds; 0.4 adds 3 false users, 0.3 adds 6.
+  // seeds; 0.4 adds 3 false users (pieces of bodies at the border, 1.4-1.55 m high), 0.3 adds 6.
   // 0 turns this off (docs/segmentation_passes.md, sixteenth pass).
   float cut_side_area_fraction = 0.6f;    // 0..1
 
