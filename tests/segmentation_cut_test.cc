@@ -1433,3 +1433,58 @@ TEST(SegmentationCut, ABoxCutByTheBottomBorderPartlyHiddenStaysNoUser) {
   any.cut_solidity_max_hidden = 1.0f;
   EXPECT_EQ(users_found(any, f), 1);
 }
+
+namespace {
+
+// A thin slab standing on the floor 2.5 m away whose inner `shown_m` lies inside the right
+// image border (the rest beyond it), `height_m` tall: someone at the edge of the view, or clutter.
+tools::Scene side_scene(float shown_m, float height_m, float* need_px) {
+  tools::Scene s;
+  s.camera.height_m = 1.0f;
+  s.camera.pitch_deg = 0.0f;
+  const DepthFrame probe = tools::render_scene(s).view();
+  const CameraIntrinsics& k = probe.intrinsics;
+  const float z0 = 2.5f, z1 = 2.52f;  // thin: its left face, seen obliquely, adds little
+  const float edge = (float(probe.width) - 0.5f - k.cx) * z0 / k.fx;  // the right border at z0
+  s.boxes.push_back({edge - shown_m, edge + 0.4f, 0.0f, height_m, z0, z1, 1});
+  *need_px = default_segmenter_config(false).min_person_area_m2 * k.fx * k.fy / (z0 * z0);
+  return s;
+}
+
+}  // namespace
+
+TEST(SegmentationCut, APersonCutByTheSideBorderIsAUser) {
+  // Someone at the right edge of the view: a strip 1.7 m high shows, thinner than the person area
+  // asks; the height and the footing are in view (cut_side_area_fraction).
+  float need = 0.0f;
+  const tools::RenderedScene f = tools::render_scene(side_scene(0.015f, 1.7f, &need));
+  const int shown = truth_pixels(f, 1);
+  ASSERT_LT(float(shown), need) << "the strip should be short of the person area";
+  ASSERT_GE(float(shown), 0.65f * need) << "the strip should hold more than cut_side_area_fraction of the person area";
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  ASSERT_EQ(h.result.user_count, 1);
+  EXPECT_EQ(h.result.users[0].u_max, f.width - 1);
+  EXPECT_GE(count_pixels(h.labels, f, uint8_t(h.result.users[0].id), 1), int(0.95 * shown));
+  SegmenterConfig off = default_segmenter_config(false);
+  off.cut_side_area_fraction = 0.0f;
+  EXPECT_EQ(users_found(off, f), 0) << "with the rule off the strip should be no user";
+}
+
+TEST(SegmentationCut, ClutterCutByTheSideBorderIsNotAUser) {
+  // A box 0.8 m tall (the synthetic clutter is 0.3-0.8 m) cut the same way, with the same share of
+  // the person area: too low for a person, with the rule on or off.
+  float need = 0.0f;
+  const tools::RenderedScene f = tools::render_scene(side_scene(0.05f, 0.8f, &need));
+  const int shown = truth_pixels(f, 1);
+  ASSERT_LT(float(shown), need);
+  ASSERT_GE(float(shown), 0.65f * need) << "the box should hold more than cut_side_area_fraction of the person area";
+  SegmenterHarness h(default_segmenter_config(false));
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_TRUE(h.result.floor.valid);
+  EXPECT_EQ(h.result.user_count, 0);
+  SegmenterConfig low = default_segmenter_config(false);
+  low.cut_side_area_fraction = 0.1f;
+  EXPECT_EQ(users_found(low, f), 0);
+}

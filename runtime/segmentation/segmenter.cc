@@ -278,7 +278,7 @@ static bool config_valid(const SegmenterConfig& c) {
          c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
          c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
          c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f && (c.cut_fill_border_columns == 0 || c.cut_fill_border_columns == 1) &&
-         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_hidden_floor_contact_m >= 0.0f && c.pair_bridge_max_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.cut_bottom_low_max_lid_share >= 0.0f && c.cut_bottom_low_max_lid_share <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_max_solidity >= 0.0f && c.low_max_solidity <= 1.0f && c.low_outline_box_split >= 0 && c.low_outline_box_split <= 1 && c.low_outline_max_lid_share >= 0.0f && c.low_outline_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
+         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_hidden_floor_contact_m >= 0.0f && c.pair_bridge_max_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.cut_side_area_fraction >= 0.0f && c.cut_side_area_fraction <= 1.0f && c.cut_bottom_low_max_lid_share >= 0.0f && c.cut_bottom_low_max_lid_share <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_max_solidity >= 0.0f && c.low_max_solidity <= 1.0f && c.low_outline_box_split >= 0 && c.low_outline_box_split <= 1 && c.low_outline_max_lid_share >= 0.0f && c.low_outline_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
          c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
 }
 
@@ -848,6 +848,16 @@ void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand, int32_t owner
   }
 }
 
+// Cut by the left or right border (header, cut_side_area_fraction): touches either side but not
+// the top border (whose height would be out of view), a floor is known, as high as a person and
+// holds the given fraction of the person area `need`. The width test is the caller's.
+bool Segmenter::cut_by_side(const DepthFrame& f, const Candidate& c, float need) const {
+  const SegmenterConfig& cfg = *config_;
+  return cfg.cut_side_area_fraction > 0.0f && floor_->valid != 0 && (c.u_min == 0 || c.u_max == f.width - 1) &&
+         c.v_min > 0 && c.top >= cfg.min_person_height_m &&
+         float(c.pixels) >= cfg.cut_side_area_fraction * need;
+}
+
 bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool cut, bool short_top) const {
   const SegmenterConfig& cfg = *config_;
   const float z = float(c.sz / c.pixels);
@@ -858,6 +868,9 @@ bool Segmenter::passes_person_test(const DepthFrame& f, const Candidate& c, bool
   if (cut && cfg.cut_bottom_area_fraction > 0.0f && c.v_max == f.height - 1 && floor_->valid != 0 &&
       c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.cut_bottom_area_fraction * need)
     return true;
+  // Cut by the left or right border: part of the area is out of view, the height is not (header,
+  // cut_side_area_fraction).
+  if (cut && cut_by_side(f, c, need)) return true;
   // Mostly hidden behind something nearer: the height shows, the area does not (header,
   // hidden_area_fraction).
   if (cut && cfg.hidden_area_fraction > 0.0f && c.hidden_edge >= cfg.hidden_min_edge &&
@@ -1092,6 +1105,8 @@ bool Segmenter::in_front_of_a_user(const DepthFrame& f, int32_t n, int32_t k, co
   if (cfg.cut_bottom_area_fraction > 0.0f && c.v_max == f.height - 1 && floor_->valid != 0 &&
       c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.cut_bottom_area_fraction * need)
     return false;
+  // So is passing as cut by the left or right border (someone walking out of view).
+  if (cut_by_side(f, c, need)) return false;
   for (int32_t m = 0; m < n; ++m) {
     const Candidate& u = candidates_[m];
     if (m == k || (u.user == 0 && !strict[m]) || u.pixels == 0 || cz[m] <= cz[k]) continue;

@@ -254,6 +254,17 @@ struct SegmenterConfig {
   // 0.8 finds 4 more people and adds no false user (docs/segmentation_passes.md, fifteenth pass).
   // 0 = off (as before).
   float cut_bottom_low_max_lid_share = 0.8f;  // 0..1 (share of the component's pixels)
+  // People cut by the left or right border (sixteenth pass: someone at the edge of the view, a
+  // strip of their body inside it) keep their height above the floor but lose area, like those cut
+  // by the bottom border: a component touching the left or right image border but not the top one
+  // (whose top would be the border's, not the body's), with a floor known and its top at least
+  // min_person_height_m high, needs only this fraction of the person area. The footing is not
+  // asked: of the four side-cut people this finds on the tuning seeds, the three looked at show
+  // their lowest point 0.48-0.93 m up (legs hidden or out of view). Furniture is lower than min_person_height_m (the
+  // synthetic clutter is 0.3-0.8 m). 0.5-0.7 find the same people with no false user on the tuning
+  // seeds; 0.4 adds 3 false users (pieces of bodies at the border, 1.4-1.55 m high), 0.3 adds 6.
+  // 0 turns this off (docs/segmentation_passes.md, sixteenth pass).
+  float cut_side_area_fraction = 0.6f;    // 0..1
 
   // People mostly hidden behind someone (or something) nearer show pieces: a head, a shoulder, an
   // arm. A component with at least hidden_min_edge pixel edges to readings nearer by more than
@@ -501,6 +512,9 @@ class Segmenter {
   // short_top: a component cut by the top border may have only cut_top_area_fraction of the area
   // (only for new users: merging judges pieces as before).
   bool passes_person_test(const DepthFrame& frame, const Candidate& candidate, bool cut = true, bool short_top = false) const;
+  // cut_side_area_fraction's relaxation (touches the left or right border, not the top one, a floor
+  // known, min_person_height_m high, that fraction of `need` pixels); no width test. O(1).
+  bool cut_by_side(const DepthFrame& frame, const Candidate& candidate, float need) const;
   void merge_fragments(const DepthFrame& frame, int32_t candidate_count);
   bool in_front_of_a_user(const DepthFrame& frame, int32_t candidate_count, int32_t k, const float* mean_z,
                           const bool* passes) const;

@@ -49,7 +49,7 @@ static const char* const kUsage =
     "                         cut_fill_border_columns,\n"
     "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, hidden_legs_radius_m,\n"
     "                         hidden_legs_max_gap_m, hidden_legs_max_ratio, cut_floor_contact_m,\n"
-    "                         cut_bottom_area_fraction, cut_bottom_low_max_lid_share, cut_top_area_fraction, cut_gap_min_share, cut_gap_max_fill,\n"
+    "                         cut_bottom_area_fraction, cut_bottom_low_max_lid_share, cut_side_area_fraction, cut_top_area_fraction, cut_gap_min_share, cut_gap_max_fill,\n"
     "                         cut_hidden_floor_contact_m, pair_bridge_max_m,\n"
     "                         low_max_lid_share, low_min_height_m, low_max_solidity, low_outline_max_lid_share, low_outline_box_split,\n"
     "                         fragment_min_share, absorb_radius_m, head_radius_m, legs_radius_m, box_split_height_m,\n"
@@ -158,6 +158,7 @@ int run_segeval(int argc, char** argv) {
       else if (k == "box_reject_min_share") cfg.box_reject_min_share = float(v);
       else if (k == "cut_bottom_area_fraction") cfg.cut_bottom_area_fraction = float(v);
       else if (k == "cut_bottom_low_max_lid_share") cfg.cut_bottom_low_max_lid_share = float(v);
+      else if (k == "cut_side_area_fraction") cfg.cut_side_area_fraction = float(v);
       else if (k == "cut_floor_contact_m") cfg.cut_floor_contact_m = float(v);
       else if (k == "cut_top_area_fraction") cfg.cut_top_area_fraction = float(v);
       else if (k == "low_max_lid_share") cfg.low_max_lid_share = float(v);
