@@ -764,6 +764,17 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
 // the readings in the spans nearer than its nearest point less join_mm (hidden by something in
 // front: unknown, counted as filled). A solid box or cylinder fills its hull whatever the camera's
 // roll; two legs leave the gap between them. Work: 3 passes over the candidate's image box.
+template <class Visit>
+void Segmenter::for_each_pixel_of(const DepthFrame& f, int32_t owner, Visit&& visit) const {
+  const Candidate& c = candidates_[owner];
+  for (int32_t v = c.v_min; v <= c.v_max; ++v) {
+    const int32_t* parent = parent_ + size_t(v) * f.width;
+    const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
+    for (int32_t u = c.u_min; u <= c.u_max; ++u)
+      if (owned(parent[u], nullptr, owner)) visit(u, v, v * f.width + u, row[u]);
+  }
+}
+
 void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand, int32_t owner) {
   Candidate& c = *cand;
   const int32_t w = f.width;
@@ -1191,24 +1202,14 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k, bool low_outline) {
     return 0;
   const float ax = grid.ax, ay = grid.ay, az = grid.az, bx = grid.bx, by = grid.by, bz = grid.bz;
   const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
-  const int32_t w = f.width;
-  auto own = [&](int32_t i) {
-    const int32_t p = parent_[i];
-    return p >= 0 && aux_[p] >= 0 && candidates_[aux_[p]].owner == k;
-  };
   // visit(u, v, pixel index, depth mm, cell or -1, height above the floor) for every pixel of the
   // component, in raster order within its image box.
   auto for_each_pixel = [&](auto&& visit) {
-    for (int32_t v = c.v_min; v <= c.v_max; ++v) {
-      const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
-      for (int32_t u = c.u_min; u <= c.u_max; ++u) {
-        const int32_t i = v * w + u;
-        if (!own(i)) continue;
-        float up;
-        const int32_t cell = grid.cell_of(u, v, row[u], &up);
-        visit(u, v, i, row[u], cell, up);
-      }
-    }
+    for_each_pixel_of(f, k, [&](int32_t u, int32_t v, int32_t i, uint16_t z_mm) {
+      float up;
+      const int32_t cell = grid.cell_of(u, v, z_mm, &up);
+      visit(u, v, i, z_mm, cell, up);
+    });
   };
   for_each_pixel([&](int32_t, int32_t v, int32_t, uint16_t, int32_t cell, float up) {
     // A cell reaching the top image row has its top out of view (legs cut by the border reach
@@ -1316,28 +1317,22 @@ int32_t Segmenter::low_person(const DepthFrame& f, int32_t k) {
   if (!grid.init(*floor_, f.intrinsics, float(c.sx / c.pixels), float(c.sy / c.pixels), float(c.sz / c.pixels),
                  cfg.box_split_cell_m))
     return 0;
-  const int32_t w = f.width;
   // pass 0: each cell's top; pass 1: pixel-weighted histogram of the cells' tops.
   int32_t hist[kLowBins] = {};
   const float bin_scale = float(kLowBins) / cfg.min_person_height_m;
   for (int32_t pass = 0; pass < 2; ++pass)
-    for (int32_t v = c.v_min; v <= c.v_max; ++v) {
-      const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
-      for (int32_t u = c.u_min; u <= c.u_max; ++u) {
-        const int32_t p = parent_[v * w + u];
-        if (p < 0 || aux_[p] < 0 || candidates_[aux_[p]].owner != k) continue;
-        float up;
-        const int32_t cell = grid.cell_of(u, v, row[u], &up);
-        if (cell < 0) continue;
-        float& top = cell_top[cell];
-        if (pass == 0) {
-          if (up > top) top = up;
-        } else if (top >= 0.0f) {
-          const int32_t bin = int32_t(top * bin_scale);
-          ++hist[bin < kLowBins ? bin : kLowBins - 1];
-        }
+    for_each_pixel_of(f, k, [&](int32_t u, int32_t v, int32_t, uint16_t z_mm) {
+      float up;
+      const int32_t cell = grid.cell_of(u, v, z_mm, &up);
+      if (cell < 0) return;
+      float& top = cell_top[cell];
+      if (pass == 0) {
+        if (up > top) top = up;
+      } else if (top >= 0.0f) {
+        const int32_t bin = int32_t(top * bin_scale);
+        ++hist[bin < kLowBins ? bin : kLowBins - 1];
       }
-    }
+    });
   // The band widens with the depth noise, which spreads a box's cell tops: 2·(3 cm + 4 mm/m²·z²)
   // (13 cm at 3 m, 22 cm at 4.5 m; with a fixed 5.3 cm band boxes beyond 3 m fell to lid shares of
   // 0.2-0.4, like the people).
@@ -1398,7 +1393,6 @@ int32_t Segmenter::split_pair(const DepthFrame& f, int32_t n, int32_t k) {
     return -1;
   const float ax = grid.ax, ay = grid.ay, az = grid.az;
   const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
-  const int32_t w = f.width;
   constexpr int32_t kPairBins = 64;
   constexpr float kPairBinM = 0.05f;
   // x_min/x_max run along the same axis (label_components, merges): the bins cover the extent.
@@ -1407,26 +1401,17 @@ int32_t Segmenter::split_pair(const DepthFrame& f, int32_t n, int32_t k) {
   if (bin_m < kPairBinM) bin_m = kPairBinM;
   const int32_t bins = int32_t(extent / bin_m) + 1;
   if (bins < 3) return -1;
-  auto own = [&](int32_t i) {
-    const int32_t p = parent_[i];
-    return p >= 0 && aux_[p] >= 0 && candidates_[aux_[p]].owner == k;
-  };
   // visit(u, v, pixel index, x, y, z, height above the floor, bin) for every pixel of the union.
   auto for_each_pixel = [&](auto&& visit) {
-    for (int32_t v = c.v_min; v <= c.v_max; ++v) {
-      const uint16_t* row = f.depth_mm + size_t(v) * f.stride_px;
-      for (int32_t u = c.u_min; u <= c.u_max; ++u) {
-        const int32_t i = v * w + u;
-        if (!own(i)) continue;
-        const float z = float(row[u]) * 0.001f;
-        const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
-        const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
-        const float up = floor_->nx * x + floor_->ny * y + floor_->nz * z + floor_->d;
-        int32_t b = int32_t((x * ax + y * ay + z * az - a_lo) / bin_m);
-        b = b < 0 ? 0 : b >= bins ? bins - 1 : b;
-        visit(u, v, i, x, y, z, up, b);
-      }
-    }
+    for_each_pixel_of(f, k, [&](int32_t u, int32_t v, int32_t i, uint16_t z_mm) {
+      const float z = float(z_mm) * 0.001f;
+      const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
+      const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
+      const float up = floor_->nx * x + floor_->ny * y + floor_->nz * z + floor_->d;
+      int32_t b = int32_t((x * ax + y * ay + z * az - a_lo) / bin_m);
+      b = b < 0 ? 0 : b >= bins ? bins - 1 : b;
+      visit(u, v, i, x, y, z, up, b);
+    });
   };
   float top[kPairBins], low[kPairBins];
   for (int32_t b = 0; b < bins; ++b) { top[b] = -1e30f; low[b] = 1e30f; }

@@ -505,6 +505,10 @@ class Segmenter {
     return root >= 0 && aux_[root] >= 0 &&
            (owner < 0 ? &candidates_[aux_[root]] == candidate : candidates_[aux_[root]].owner == owner);
   }
+  // visit(u, v, pixel index, depth mm) for every pixel of the components merged into candidate
+  // `owner` (owned(·, ·, owner)), in raster order within candidates_[owner]'s image box.
+  template <class Visit>
+  void for_each_pixel_of(const DepthFrame& frame, int32_t owner, Visit&& visit) const;
   void fit_floor(const DepthFrame& frame, SegmentationResult* result);
   int32_t classify_pixels(const DepthFrame& frame);
   int32_t label_components(const DepthFrame& frame, SegmentationResult* result);
