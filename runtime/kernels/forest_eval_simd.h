@@ -92,7 +92,10 @@ struct SplitNodes {  // what the pipeline evaluates: offsets (4·δ) and thresho
 template <bool kPrefetchChildren, class Nodes>
 inline void finish_visit(const ForestKernelArgs& a, const Nodes& nodes, uint32_t* node, int32_t i, int32_t threshold,
                          uint64_t addresses) {
-  const int32_t d = threshold + int32_t(a.probe_image[addresses >> 32]) - int32_t(a.probe_image[uint32_t(addresses)]);
+  uint64_t probe1 = addresses, probe2 = addresses;
+  // Two ops (mov r32 zero-extends; shr): GCC otherwise spends three on separating the pair.
+  asm("movl %k1, %k0\n\tshrq $32, %1" : "=r"(probe1), "+r"(probe2));
+  const int32_t d = threshold + int32_t(a.probe_image[probe2]) - int32_t(a.probe_image[probe1]);
   const uint32_t child = 2 * node[i] + 1 + (uint32_t(d) >> 31);
   node[i] = child;
   if constexpr (kPrefetchChildren) nodes.prefetch(child);
