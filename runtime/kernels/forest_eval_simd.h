@@ -42,9 +42,10 @@ inline int32_t scale_q13_of(int32_t focal_factor, int32_t z_mm) {  // = dp::scal
 }
 
 // Where a kernel reads node n (policies; the level loops are templates over them): its four offsets
-// as 4 int16 lanes of 64 bits (`bits`: δ, or 4·δ when kOffsetsTimesFour), its threshold (`threshold`,
-// unless kThresholdInLanes: then the low nibbles of the lanes carry it, kernels::pack_node's layout,
-// and `bits` holds δ·16), and the prefetch of its line(s).
+// as 4 int16 lanes of 64 bits (`bits`: δ, or 4·δ when kOffsetsTimesFour), its threshold (`threshold`;
+// when kThresholdInLanes, the low nibbles of the lanes carry it, kernels::pack_node's layout, `bits`
+// holds δ·16 above them, and a kernel may decode the threshold in lanes instead), and the prefetch
+// of its line(s).
 // An array of node structs with fields du1, dv1, du2, dv2, threshold_mm (offsets first: the 8-byte
 // load is unaligned for the blob's 10-byte nodes), taken from ForestKernelArgs::*kNodes.
 template <class Node, const Node* ForestKernelArgs::*kNodes>
@@ -69,7 +70,8 @@ struct PackedNodes {  // layout study: 8-byte nodes
   const PackedNode* nodes;
   explicit PackedNodes(const ForestKernelArgs& a) : nodes(a.packed_nodes) {}
   long long bits(uint32_t n) const { return static_cast<long long>(nodes[n].bits); }
-  int32_t threshold(uint32_t) const { return 0; }
+  // The lanes' low nibbles joined (kernels::pack_node); the AVX-512 kernel decodes them in lanes instead.
+  int32_t threshold(uint32_t n) const { return int16_t(_pext_u64(nodes[n].bits, 0x000F000F000F000Full)); }
   void prefetch(uint32_t n) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + n), _MM_HINT_T0); }
 };
 struct SplitNodes {  // what the pipeline evaluates: offsets (4·δ) and thresholds in two arrays
