@@ -11,10 +11,10 @@
 //   address       (v + 1)·stride + (u + 1) by pmaddwd, stride ≤ 4098.
 //   child         f > t  ⇔  (t + p2) − p1 < 0: the sign bit is the child bit (|t + p2 − p1| < 2^17).
 // Speed (docs/runtime_speed.md): pixels are evaluated breadth-first, one tree level at a time over
-// a chunk of pixels, so the visits of a level are independent and overlap in the core; from
-// kPrefetchFromLevel on, a pixel's next node is prefetched as soon as the visit has chosen it, a
-// whole pass over the chunk before it is read (one instruction per visit; reading the index of a
-// pixel some positions ahead and prefetching its node cost two, and measured 5–7 % slower).
+// a chunk of pixels, so the visits of a level are independent and overlap in the core; on the deep
+// levels (prefetch_from_level), a pixel's next node is prefetched as soon as the visit has chosen
+// it, a whole pass over the chunk before it is read (one instruction per visit; reading the index
+// of a pixel some positions ahead and prefetching its node cost two, and measured 5–7 % slower).
 #pragma once
 #include <immintrin.h>
 #include <stdint.h>
@@ -26,7 +26,17 @@ namespace dp::kernels {
 namespace {
 
 constexpr int32_t kChunkPixels = 2048;
-constexpr int32_t kPrefetchFromLevel = 6;  // levels above fit in L1/L2: no prefetch
+// Children are prefetched only on the levels whose nodes do not stay in L2 from one frame (or tree
+// pass) to the next: from the first level at which the nodes of all trees down to that level exceed
+// kCachedNodeBytes (half the L2 of the Intel host, all of Zen 4's). Above it a prefetch is an op
+// per visit for a line that is already cached: prefetching from level 6 instead measured 4–6 %
+// slower on the PCL trees (level 14 by this rule; levels 12–15 all measured alike).
+constexpr size_t kCachedNodeBytes = size_t(512) << 10;
+inline int32_t prefetch_from_level(int32_t tree_count, int32_t node_bytes) {
+  int32_t level = 0;
+  while (level < 30 && size_t(tree_count) * size_t(node_bytes) * ((size_t(2) << level) - 1) <= kCachedNodeBytes) ++level;
+  return level;
+}
 
 // Per pixel of a chunk, in two arrays so that consecutive pixels' setups are one vector load:
 // scale_q13 (s in 4 int16 lanes) and origin (u + 1, v + 1, u + 1, v + 1, padded coordinates).
@@ -52,6 +62,7 @@ template <class Node, const Node* ForestKernelArgs::*kNodes>
 struct ArrayNodes {
   static constexpr bool kThresholdInLanes = false;
   static constexpr bool kOffsetsTimesFour = false;
+  static constexpr int32_t kBytes = sizeof(Node);
   const Node* nodes;
   explicit ArrayNodes(const ForestKernelArgs& a) : nodes(a.*kNodes) {}
   long long bits(uint32_t n) const {
@@ -67,6 +78,7 @@ using WideNodes = ArrayNodes<WideNode, &ForestKernelArgs::study_nodes>;  // layo
 struct PackedNodes {  // layout study: 8-byte nodes
   static constexpr bool kThresholdInLanes = true;
   static constexpr bool kOffsetsTimesFour = false;
+  static constexpr int32_t kBytes = sizeof(PackedNode);
   const PackedNode* nodes;
   explicit PackedNodes(const ForestKernelArgs& a) : nodes(a.packed_nodes) {}
   long long bits(uint32_t n) const { return static_cast<long long>(nodes[n].bits); }
@@ -77,6 +89,7 @@ struct PackedNodes {  // layout study: 8-byte nodes
 struct SplitNodes {  // what the pipeline evaluates: offsets (4·δ) and thresholds in two arrays
   static constexpr bool kThresholdInLanes = false;
   static constexpr bool kOffsetsTimesFour = true;
+  static constexpr int32_t kBytes = sizeof(uint64_t) + sizeof(int16_t);
   const uint64_t* offsets;
   const int16_t* thresholds;
   explicit SplitNodes(const ForestKernelArgs& a) : offsets(a.split->offsets), thresholds(a.split->thresholds_mm) {}
@@ -107,13 +120,15 @@ inline void finish_visit(const ForestKernelArgs& a, const Nodes& nodes, uint32_t
 // pixel's node index and becomes its child's; when kPrefetchChildren, each child's node is prefetched.
 using LevelFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t padded);
 
-// All levels of one tree over a chunk; writes the first `count` leaf-record indices to a.leaf_out + base.
-template <LevelFn kLevel, LevelFn kLevelPrefetchingChildren>
+// All levels of one tree (of a forest of tree_count trees whose nodes take kNodeBytes) over a
+// chunk; writes the first `count` leaf-record indices to a.leaf_out + base.
+template <LevelFn kLevel, LevelFn kLevelPrefetchingChildren, int32_t kNodeBytes>
 void evaluate_chunk_by_levels(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,
-                              int32_t count, int32_t padded) {
+                              int32_t count, int32_t padded, int32_t tree_count) {
+  const int32_t prefetch_from = prefetch_from_level(tree_count, kNodeBytes);
   for (int32_t i = 0; i < padded; ++i) node[i] = 0;
   for (int32_t level = 0; level < a.depth; ++level) {
-    if (level + 1 >= kPrefetchFromLevel && level + 1 < a.depth)
+    if (level + 1 >= prefetch_from && level + 1 < a.depth)
       kLevelPrefetchingChildren(a, setup, node, padded);
     else
       kLevel(a, setup, node, padded);
@@ -123,7 +138,7 @@ void evaluate_chunk_by_levels(const ForestKernelArgs& a, const ChunkSetup& setup
 }
 
 using ChunkFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,
-                         int32_t count, int32_t padded);
+                         int32_t count, int32_t padded, int32_t tree_count);
 
 // Every tree over the same pixels, chunk by chunk: a chunk's per-pixel setup (a division per pixel)
 // is made once for all trees, then each tree runs its levels over it (kSplitChunk when the tree has
@@ -150,11 +165,11 @@ inline void evaluate_trees_simd(const ForestKernelArgs* per_tree, int32_t tree_c
     }
     for (int32_t t = 0; t < tree_count; ++t) {
       if (per_tree[t].split)
-        kSplitChunk(per_tree[t], setup, node, base, count, padded);
+        kSplitChunk(per_tree[t], setup, node, base, count, padded, tree_count);
       else if (per_tree[t].packed_nodes)
-        kPackedChunk(per_tree[t], setup, node, base, count, padded);
+        kPackedChunk(per_tree[t], setup, node, base, count, padded, tree_count);
       else
-        kBlobChunk(per_tree[t], setup, node, base, count, padded);
+        kBlobChunk(per_tree[t], setup, node, base, count, padded, tree_count);
     }
   }
 }

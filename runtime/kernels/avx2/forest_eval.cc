@@ -14,6 +14,7 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
   const __m128i lane_mask = _mm_set1_epi16(int16_t(0xFFF0));
   const __m128i high = _mm_set1_epi32(int32_t(uint32_t(a.width + 1) | (uint32_t(a.height + 1) << 16)));
   const __m128i row_madd = _mm_set1_epi32(int32_t(1u | (uint32_t(a.probe_stride) << 16)));
+#pragma GCC unroll 2
   for (int32_t i = 0; i < padded; i += 2) {
     // The two nodes by a load and a broadcast joined by a blend (one cycle; vpinsrq takes longer).
     const __m128i raw =
@@ -34,7 +35,7 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
 
 template <class Nodes>
 struct Chunk {
-  static constexpr ChunkFn kFn = &evaluate_chunk_by_levels<&level_of_chunk<false, Nodes>, &level_of_chunk<true, Nodes>>;
+  static constexpr ChunkFn kFn = &evaluate_chunk_by_levels<&level_of_chunk<false, Nodes>, &level_of_chunk<true, Nodes>, Nodes::kBytes>;
 };
 
 }  // namespace

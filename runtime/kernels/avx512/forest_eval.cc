@@ -67,7 +67,7 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
 
 template <class Nodes>
 struct Chunk {
-  static constexpr ChunkFn kFn = &evaluate_chunk_by_levels<&level_of_chunk<false, Nodes>, &level_of_chunk<true, Nodes>>;
+  static constexpr ChunkFn kFn = &evaluate_chunk_by_levels<&level_of_chunk<false, Nodes>, &level_of_chunk<true, Nodes>, Nodes::kBytes>;
 };
 
 }  // namespace
