@@ -233,6 +233,11 @@ struct FloorGrid {
     inv_fx = 1.0f / in.fx; inv_fy = 1.0f / in.fy;
     return true;
   }
+  // init() centred on a candidate component's mean point (sums sx, sy, sz over `pixels`, > 0).
+  template <class Component>
+  bool init_at(const FloorPlane& floor, const CameraIntrinsics& in, const Component& c, float cell_m) {
+    return init(floor, in, float(c.sx / c.pixels), float(c.sy / c.pixels), float(c.sz / c.pixels), cell_m);
+  }
   // The cell of pixel (u, v) at depth_mm, or −1 off the grid; *up = its height above the floor.
   int32_t cell_of(int32_t u, int32_t v, uint16_t depth_mm, float* up) const {
     const float z = float(depth_mm) * 0.001f;
@@ -1197,8 +1202,7 @@ int32_t Segmenter::split_box(const DepthFrame& f, int32_t k, bool low_outline) {
   float cell_top[kSplitCells * kSplitCells];
   for (int32_t i = 0; i < kSplitCells * kSplitCells; ++i) cell_top[i] = -1e30f;
   FloorGrid grid;
-  if (!grid.init(*floor_, f.intrinsics, float(c.sx / c.pixels), float(c.sy / c.pixels), float(c.sz / c.pixels),
-                 cfg.box_split_cell_m))
+  if (!grid.init_at(*floor_, f.intrinsics, c, cfg.box_split_cell_m))
     return 0;
   const float ax = grid.ax, ay = grid.ay, az = grid.az, bx = grid.bx, by = grid.by, bz = grid.bz;
   const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
@@ -1314,8 +1318,7 @@ int32_t Segmenter::low_person(const DepthFrame& f, int32_t k) {
   float cell_top[kLowCells * kLowCells];
   for (int32_t i = 0; i < kLowCells * kLowCells; ++i) cell_top[i] = -1e30f;
   FloorGrid grid;
-  if (!grid.init(*floor_, f.intrinsics, float(c.sx / c.pixels), float(c.sy / c.pixels), float(c.sz / c.pixels),
-                 cfg.box_split_cell_m))
+  if (!grid.init_at(*floor_, f.intrinsics, c, cfg.box_split_cell_m))
     return 0;
   // pass 0: each cell's top; pass 1: pixel-weighted histogram of the cells' tops.
   int32_t hist[kLowBins] = {};
@@ -1388,8 +1391,7 @@ int32_t Segmenter::split_pair(const DepthFrame& f, int32_t n, int32_t k) {
   // bound, so the standing bins and the person test of each side only get stricter.
   if (c.pixels == 0 || c.bottom > cfg.cut_floor_contact_m || c.top < cfg.min_person_height_m) return -1;
   FloorGrid grid;
-  if (!grid.init(*floor_, f.intrinsics, float(c.sx / c.pixels), float(c.sy / c.pixels), float(c.sz / c.pixels),
-                 cfg.box_split_cell_m))
+  if (!grid.init_at(*floor_, f.intrinsics, c, cfg.box_split_cell_m))
     return -1;
   const float ax = grid.ax, ay = grid.ay, az = grid.az;
   const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
