@@ -302,6 +302,7 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   const int32_t pixel_cap = int32_t(cfg.max_evaluated_pixels) < max_pixels_ ? int32_t(cfg.max_evaluated_pixels) : max_pixels_;
   int32_t fg = 0, listed = 0;
   const __m128i zero = _mm_setzero_si128(), bg = _mm_set1_epi16(int16_t(kBackgroundDepthMm));
+  const __m128i bias = _mm_set1_epi16(int16_t(kernels::kProbeBias));  // kernels::probe_element
   const __m128i below_bg = _mm_set1_epi16(int16_t(kBackgroundDepthMm - 1));
   const __m128i near = _mm_set1_epi16(int16_t(cfg.near_mm)), far = _mm_set1_epi16(int16_t(cfg.far_mm));
   for (int32_t v = 0; v < h; ++v) {
@@ -322,7 +323,7 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
         in = _mm_and_si128(in, _mm_and_si128(_mm_cmpeq_epi16(_mm_max_epu16(z, near), z),
                                              _mm_cmpeq_epi16(_mm_min_epu16(z, far), z)));
       }
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(out + u), _mm_blendv_epi8(bg, z, in));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(out + u), _mm_or_si128(_mm_blendv_epi8(bg, z, in), bias));
       row_count = _mm_sub_epi16(row_count, in);
       uint32_t bits = uint32_t(_mm_movemask_epi8(_mm_packs_epi16(in, zero)));
       for (; bits && listed < pixel_cap; bits &= bits - 1) {
@@ -337,7 +338,7 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
       const uint16_t z = row[u];
       const bool is_fg = z != 0 && z < kBackgroundDepthMm &&
                          (mrow ? mrow[u] != 0 : (z >= cfg.near_mm && z <= cfg.far_mm));
-      out[u] = is_fg ? z : kBackgroundDepthMm;
+      out[u] = kernels::probe_element(is_fg ? z : kBackgroundDepthMm);
       fg += is_fg;
       if (is_fg && listed < pixel_cap) pixels_[listed++] = EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0};
     }
@@ -358,10 +359,11 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
     for (int32_t v = 0; v < h && n < budget; ++v) {
       const uint16_t* row = probe_image_ + size_t(v + 1) * probe_stride + 1;
       for (int32_t u = 0; u < w; ++u) {
-        if (row[u] == kBackgroundDepthMm) continue;
+        const int32_t z = kernels::probe_depth_of(row[u]);
+        if (z == kBackgroundDepthMm) continue;
         if (seen++ % stride != 0) continue;
         if (n >= budget) break;
-        pixels_[n++] = EvaluatedPixel{uint16_t(u), uint16_t(v), row[u], 0};
+        pixels_[n++] = EvaluatedPixel{uint16_t(u), uint16_t(v), uint16_t(z), 0};
       }
     }
   }

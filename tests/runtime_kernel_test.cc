@@ -188,7 +188,7 @@ static void kernel_input(const SyntheticFrame& f, std::vector<uint16_t>* probe, 
   for (int v = 0; v < f.height; ++v)
     for (int u = 0; u < f.width; ++u) {
       const uint16_t z = f.depth_mm[size_t(v) * f.width + u];
-      (*probe)[size_t(v + 1) * (f.width + 2) + u + 1] = z ? z : kBackgroundDepthMm;
+      (*probe)[size_t(v + 1) * (f.width + 2) + u + 1] = kernels::probe_element(z);
       if (z) pixels->push_back(EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0});
     }
 }

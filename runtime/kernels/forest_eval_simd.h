@@ -9,7 +9,10 @@
 //                 the rule gives any off-image probe, on whichever side it left the image;
 //                 |u + 1 + offset| ≤ 4096 + 16384 keeps every coordinate inside int16.
 //   address       (v + 1)·stride + (u + 1) by pmaddwd, stride ≤ 4098.
-//   child         f > t  ⇔  (t + p2) − p1 < 0: the sign bit is the child bit (|t + p2 − p1| < 2^17).
+//   child         f > t  ⇔  t + p2 < p1 ⇔  t + e2 <u e1 for the biased elements e = p + kProbeBias
+//                 (forest_kernel.h): t ≥ −32768 keeps t + e2 ≥ 0, so the unsigned compare is exact and
+//                 its carry is the child bit. Node indices are 1-based in the kernels (root 1, children
+//                 of m at 2m and 2m + 1; node m is array element m − 1), so child = 2m + carry is one adc.
 // Speed (docs/runtime_speed.md): pixels are evaluated breadth-first, one tree level at a time over
 // a chunk of pixels, so the visits of a level are independent and overlap in the core; on the deep
 // levels (prefetch_from_level), a pixel's next node is prefetched as soon as the visit has chosen
@@ -65,13 +68,13 @@ struct ArrayNodes {
   static constexpr int32_t kBytes = sizeof(Node);
   const Node* nodes;
   explicit ArrayNodes(const ForestKernelArgs& a) : nodes(a.*kNodes) {}
-  long long bits(uint32_t n) const {
+  long long bits(uint32_t m) const {
     long long b;
-    memcpy(&b, nodes + n, sizeof b);
+    memcpy(&b, nodes + (size_t(m) - 1), sizeof b);
     return b;
   }
-  int32_t threshold(uint32_t n) const { return nodes[n].threshold_mm; }
-  void prefetch(uint32_t n) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + n), _MM_HINT_T0); }
+  int32_t threshold(uint32_t m) const { return nodes[size_t(m) - 1].threshold_mm; }
+  void prefetch(uint32_t m) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + (size_t(m) - 1)), _MM_HINT_T0); }
 };
 using BlobNodes = ArrayNodes<blob::TreeNode, &ForestKernelArgs::nodes>;  // the blob's 10-byte nodes
 using WideNodes = ArrayNodes<WideNode, &ForestKernelArgs::study_nodes>;  // layout study: 16-byte nodes
@@ -81,10 +84,10 @@ struct PackedNodes {  // layout study: 8-byte nodes
   static constexpr int32_t kBytes = sizeof(PackedNode);
   const PackedNode* nodes;
   explicit PackedNodes(const ForestKernelArgs& a) : nodes(a.packed_nodes) {}
-  long long bits(uint32_t n) const { return static_cast<long long>(nodes[n].bits); }
+  long long bits(uint32_t m) const { return static_cast<long long>(nodes[size_t(m) - 1].bits); }
   // The lanes' low nibbles joined (kernels::pack_node); the AVX-512 kernel decodes them in lanes instead.
-  int32_t threshold(uint32_t n) const { return int16_t(_pext_u64(nodes[n].bits, 0x000F000F000F000Full)); }
-  void prefetch(uint32_t n) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + n), _MM_HINT_T0); }
+  int32_t threshold(uint32_t m) const { return int16_t(_pext_u64(nodes[size_t(m) - 1].bits, 0x000F000F000F000Full)); }
+  void prefetch(uint32_t m) const { _mm_prefetch(reinterpret_cast<const char*>(nodes + (size_t(m) - 1)), _MM_HINT_T0); }
 };
 struct SplitNodes {  // what the pipeline evaluates: offsets (4·δ) and thresholds in two arrays
   static constexpr bool kThresholdInLanes = false;
@@ -93,31 +96,33 @@ struct SplitNodes {  // what the pipeline evaluates: offsets (4·δ) and thresho
   const uint64_t* offsets;
   const int16_t* thresholds;
   explicit SplitNodes(const ForestKernelArgs& a) : offsets(a.split->offsets), thresholds(a.split->thresholds_mm) {}
-  long long bits(uint32_t n) const { return static_cast<long long>(offsets[n]); }
-  int32_t threshold(uint32_t n) const { return thresholds[n]; }
-  void prefetch(uint32_t n) const {
-    _mm_prefetch(reinterpret_cast<const char*>(offsets + n), _MM_HINT_T0);
-    _mm_prefetch(reinterpret_cast<const char*>(thresholds + n), _MM_HINT_T0);
+  long long bits(uint32_t m) const { return static_cast<long long>(offsets[size_t(m) - 1]); }
+  int32_t threshold(uint32_t m) const { return thresholds[size_t(m) - 1]; }
+  void prefetch(uint32_t m) const {
+    _mm_prefetch(reinterpret_cast<const char*>(offsets + (size_t(m) - 1)), _MM_HINT_T0);
+    _mm_prefetch(reinterpret_cast<const char*>(thresholds + (size_t(m) - 1)), _MM_HINT_T0);
   }
 };
 
 // The scalar end of a visit, after the vector step made its two probe addresses (`addresses`: probe 1
-// in the low 32 bits, probe 2 in the high): the two probe loads, the child bit (sign of t + p2 − p1)
-// and node[i]'s child, prefetched when asked.
+// in the low 32 bits, probe 2 in the high): the two probe loads, the child bit (the carry of
+// t + e2 <u e1, above) and node[i]'s child (1-based: 2m + bit), prefetched when asked.
 template <bool kPrefetchChildren, class Nodes>
 inline void finish_visit(const ForestKernelArgs& a, const Nodes& nodes, uint32_t* node, int32_t i, int32_t threshold,
                          uint64_t addresses) {
   uint64_t probe1 = addresses, probe2 = addresses;
   // Two ops (mov r32 zero-extends; shr): GCC otherwise spends three on separating the pair.
   asm("movl %k1, %k0\n\tshrq $32, %1" : "=r"(probe1), "+r"(probe2));
-  const int32_t d = threshold + int32_t(a.probe_image[probe2]) - int32_t(a.probe_image[probe1]);
-  const uint32_t child = 2 * node[i] + 1 + (uint32_t(d) >> 31);
+  const uint32_t lhs = uint32_t(threshold) + a.probe_image[probe2], rhs = a.probe_image[probe1];
+  uint32_t child = node[i];
+  // GCC makes the bit with setb and joins it with lea (three ops and a zeroing); adc does both in one.
+  asm("cmpl %2, %1\n\tadcl %0, %0" : "+r"(child) : "r"(lhs), "r"(rhs) : "cc");
   node[i] = child;
   if constexpr (kPrefetchChildren) nodes.prefetch(child);
 }
 
 // One level of one tree over a chunk whose setups are filled for `padded` pixels: node[i] holds each
-// pixel's node index and becomes its child's; when kPrefetchChildren, each child's node is prefetched.
+// pixel's node index (1-based) and becomes its child's; when kPrefetchChildren, each child's node is prefetched.
 using LevelFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t padded);
 
 // All levels of one tree (of a forest of tree_count trees whose nodes take kNodeBytes) over a
@@ -126,14 +131,14 @@ template <LevelFn kLevel, LevelFn kLevelPrefetchingChildren, int32_t kNodeBytes>
 void evaluate_chunk_by_levels(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,
                               int32_t count, int32_t padded, int32_t tree_count) {
   const int32_t prefetch_from = prefetch_from_level(tree_count, kNodeBytes);
-  for (int32_t i = 0; i < padded; ++i) node[i] = 0;
+  for (int32_t i = 0; i < padded; ++i) node[i] = 1;  // the root, 1-based
   for (int32_t level = 0; level < a.depth; ++level) {
     if (level + 1 >= prefetch_from && level + 1 < a.depth)
       kLevelPrefetchingChildren(a, setup, node, padded);
     else
       kLevel(a, setup, node, padded);
   }
-  const uint32_t first_leaf = (1u << a.depth) - 1;
+  const uint32_t first_leaf = 1u << a.depth;  // 1-based
   for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - first_leaf];
 }
 

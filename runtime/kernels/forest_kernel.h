@@ -14,21 +14,34 @@ namespace dp::kernels {
 
 // The probe image with a one-pixel border: (width + 2) × (height + 2) uint16, row stride
 // probe_stride = width + 2. Pixel (u, v) is at [(v + 1)·probe_stride + (u + 1)]; the border rows and
-// columns hold kBackgroundDepthMm, so a probe clamped to the border reads exactly what
+// columns hold the background, so a probe clamped to the border reads exactly what
 // runtime/fixed_point.h prescribes for any probe off the image.
+// Each element is a probe depth d (1 ≤ d ≤ kBackgroundDepthMm, the background itself included) plus
+// kProbeBias, i.e. d with bit 15 set: probe_element(d) to write, probe_depth_of(e) to read. Why biased:
+// the SIMD kernels take a visit's child bit (t + d2 − d1 < 0) as the carry of one unsigned compare of
+// t + (d2 + bias) with d1 + bias, both sides then ≥ 0 for every int16 threshold t (one cmp and one adc
+// instead of add, sub, shift and lea; docs/runtime_speed.md, eighth session).
+constexpr uint16_t kProbeBias = 0x8000;
+static_assert(kBackgroundDepthMm < kProbeBias, "probe depths fit below the bias bit");
+// The element for depth_mm: the background for 0 (no reading) and for depth_mm ≥ kBackgroundDepthMm.
+inline uint16_t probe_element(uint16_t depth_mm) {
+  return uint16_t((depth_mm == 0 || depth_mm >= kBackgroundDepthMm ? kBackgroundDepthMm : depth_mm) | kProbeBias);
+}
+inline int32_t probe_depth_of(uint16_t element) { return int32_t(element) - kProbeBias; }
 inline size_t padded_probe_elements(int32_t width, int32_t height) {
   return size_t(width + 2) * size_t(height + 2);
 }
-// Fills the border of a padded probe image (interior untouched).
+// Fills the border of a padded probe image with the background (interior untouched).
 inline void fill_probe_border(uint16_t* padded, int32_t width, int32_t height) {
   const int32_t stride = width + 2;
+  const uint16_t background = probe_element(kBackgroundDepthMm);
   for (int32_t u = 0; u < stride; ++u) {
-    padded[u] = kBackgroundDepthMm;
-    padded[size_t(height + 1) * stride + u] = kBackgroundDepthMm;
+    padded[u] = background;
+    padded[size_t(height + 1) * stride + u] = background;
   }
   for (int32_t v = 1; v <= height; ++v) {
-    padded[size_t(v) * stride] = kBackgroundDepthMm;
-    padded[size_t(v) * stride + width + 1] = kBackgroundDepthMm;
+    padded[size_t(v) * stride] = background;
+    padded[size_t(v) * stride + width + 1] = background;
   }
 }
 
@@ -79,7 +92,7 @@ struct WideNode {  // kWide16: the blob node, aligned and padded to 16 bytes
 static_assert(sizeof(WideNode) == 16, "WideNode is 16 bytes");
 
 struct ForestKernelArgs {
-  const uint16_t* probe_image;    // padded probe image (above): foreground depth or kBackgroundDepthMm
+  const uint16_t* probe_image;    // padded probe image (above): probe_element(foreground depth or background)
   int32_t probe_stride;           // width + 2
   int32_t width, height;
   int32_t focal_factor;           // runtime/fixed_point.h

@@ -136,12 +136,12 @@ KernelInput kernel_input(const Frame& f, float reference_focal) {
   k.width = f.width;
   k.height = f.height;
   k.focal = focal_factor_mm(f.intrinsics.fx, reference_focal);
-  k.probe.assign(kernels::padded_probe_elements(f.width, f.height), kBackgroundDepthMm);
+  k.probe.assign(kernels::padded_probe_elements(f.width, f.height), kernels::probe_element(kBackgroundDepthMm));
   for (int v = 0; v < f.height; ++v)
     for (int u = 0; u < f.width; ++u) {
       const uint16_t z = f.depth[size_t(v) * f.width + u];
       if (!z) continue;
-      k.probe[size_t(v + 1) * (f.width + 2) + u + 1] = z;
+      k.probe[size_t(v + 1) * (f.width + 2) + u + 1] = kernels::probe_element(z);
       k.pixels.push_back(EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0});
     }
   return k;

@@ -222,7 +222,7 @@ LeafCheck check_leaves(const train::TrainedForest& forest, const std::vector<uin
     for (int v = 0; v < height; ++v)
       for (int u = 0; u < width; ++u) {
         const uint16_t z = probe[size_t(v) * width + u];
-        padded[size_t(v + 1) * (width + 2) + u + 1] = z;
+        padded[size_t(v + 1) * (width + 2) + u + 1] = kernels::probe_element(z);
         if (z != kBackgroundDepthMm) pixels.push_back(EvaluatedPixel{uint16_t(u), uint16_t(v), z, 0});
       }
     if (pixels.empty()) continue;

@@ -10,7 +10,7 @@ inline int32_t probe(const ForestKernelArgs& a, int32_t u, int32_t v) {
   if (static_cast<uint32_t>(u) >= static_cast<uint32_t>(a.width) ||
       static_cast<uint32_t>(v) >= static_cast<uint32_t>(a.height))
     return kBackgroundDepthMm;
-  return a.probe_image[size_t(v + 1) * size_t(a.probe_stride) + size_t(u + 1)];
+  return probe_depth_of(a.probe_image[size_t(v + 1) * size_t(a.probe_stride) + size_t(u + 1)]);
 }
 }  // namespace
 
