@@ -107,18 +107,20 @@ struct SplitNodes {  // what the pipeline evaluates: offsets (4·δ) and thresho
 // The scalar end of a visit, after the vector step made its two probe addresses (`addresses`: probe 1
 // in the low 32 bits, probe 2 in the high): the two probe loads, the child bit (the carry of
 // t + e2 <u e1, above) and node[i]'s child (1-based: 2m + bit), prefetched when asked.
-template <bool kPrefetchChildren, class Nodes>
-inline void finish_visit(const ForestKernelArgs& a, const Nodes& nodes, uint32_t* node, int32_t i, int32_t threshold,
-                         uint64_t addresses) {
+// `m` is node[i] as the caller holds it: the AVX2 kernel passes it as uint32_t, the AVX-512 one as
+// the 64-bit index it addressed the node with (each measured faster for its own kernel).
+template <bool kPrefetchChildren, class Nodes, class Index>
+inline void finish_visit(const ForestKernelArgs& a, const Nodes& nodes, uint32_t* node, int32_t i, Index m,
+                         int32_t threshold, uint64_t addresses) {
   uint64_t probe1 = addresses, probe2 = addresses;
   // Two ops (mov r32 zero-extends; shr): GCC otherwise spends three on separating the pair.
   asm("movl %k1, %k0\n\tshrq $32, %1" : "=r"(probe1), "+r"(probe2));
   const uint32_t lhs = uint32_t(threshold) + a.probe_image[probe2], rhs = a.probe_image[probe1];
-  uint32_t child = node[i];
+  Index child = m;
   // GCC makes the bit with setb and joins it with lea (three ops and a zeroing); adc does both in one.
-  asm("cmpl %2, %1\n\tadcl %0, %0" : "+r"(child) : "r"(lhs), "r"(rhs) : "cc");
-  node[i] = child;
-  if constexpr (kPrefetchChildren) nodes.prefetch(child);
+  asm("cmpl %2, %1\n\tadcl %k0, %k0" : "+r"(child) : "r"(lhs), "r"(rhs) : "cc");
+  node[i] = uint32_t(child);
+  if constexpr (kPrefetchChildren) nodes.prefetch(uint32_t(child));
 }
 
 // One level of one tree over a chunk whose setups are filled for `padded` pixels: node[i] holds each

@@ -27,8 +27,9 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
     xy = _mm_add_epi16(xy, _mm_load_si128(reinterpret_cast<const __m128i*>(setup.origin[i])));
     xy = _mm_min_epu16(xy, high);
     const __m128i addresses = _mm_madd_epi16(xy, row_madd);  // pixel i: dwords 0 (probe 1), 1 (probe 2)
-    finish_visit<kPrefetchChildren>(a, nodes, node, i, nodes.threshold(node[i]), uint64_t(_mm_cvtsi128_si64(addresses)));
-    finish_visit<kPrefetchChildren>(a, nodes, node, i + 1, nodes.threshold(node[i + 1]),
+    finish_visit<kPrefetchChildren>(a, nodes, node, i, node[i], nodes.threshold(node[i]),
+                                    uint64_t(_mm_cvtsi128_si64(addresses)));
+    finish_visit<kPrefetchChildren>(a, nodes, node, i + 1, node[i + 1], nodes.threshold(node[i + 1]),
                                     uint64_t(_mm_extract_epi64(addresses, 1)));
   }
 }

@@ -59,7 +59,7 @@ void level_of_chunk(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t
       const int32_t t = kPacked ? threshold[j] : nodes.threshold(node[i + j]);
       const __m128i pair = address_pairs[j >> 1];
       const uint64_t q = (j & 1) ? uint64_t(_mm_extract_epi64(pair, 1)) : uint64_t(_mm_cvtsi128_si64(pair));
-      finish_visit<kPrefetchChildren>(a, nodes, node, i + j, t, q);
+      finish_visit<kPrefetchChildren>(a, nodes, node, i + j, uint64_t(node[i + j]), t, q);
     }
   }
 }
