@@ -5,29 +5,40 @@
 #include <vector>
 
 #include "forest_blob/blob_loader.h"
+#include "platform/arena_memory.h"
 #include "runtime/kernels/forest_kernel.h"
 
 namespace dp::testing_support {
 
 // The copies, and the kernel arguments for tree t in one layout (kBlob10 reads the blob in place).
+// The copies live in one platform::ArenaMemory, as the pipeline's split copy lives in its arena (2 MiB
+// pages advised), so the bench's kernel rows read nodes the way the pipeline does.
 struct TreeCopies {
   const blob::LoadedBlob& b;
-  std::vector<kernels::PackedNode> packed;
-  std::vector<kernels::WideNode> wide;
-  std::vector<uint64_t> offsets;
-  std::vector<int16_t> thresholds;
+  platform::ArenaMemory memory;
+  kernels::PackedNode* packed = nullptr;
+  kernels::WideNode* wide = nullptr;
+  uint64_t* offsets = nullptr;
+  int16_t* thresholds = nullptr;
   std::vector<kernels::SplitTree> split;
   explicit TreeCopies(const blob::LoadedBlob& blob) : b(blob) {
     const size_t per_tree = blob::nodes_per_tree(b.depth());
-    for (size_t i = 0; i < size_t(b.tree_count()) * per_tree; ++i) {
+    const size_t nodes = size_t(b.tree_count()) * per_tree;
+    const size_t bytes = nodes * (sizeof(kernels::WideNode) + sizeof(kernels::PackedNode) + sizeof(uint64_t) + sizeof(int16_t));
+    memory = platform::ArenaMemory(bytes);
+    wide = reinterpret_cast<kernels::WideNode*>(memory.data());                // 16-byte aligned first
+    packed = reinterpret_cast<kernels::PackedNode*>(wide + nodes);
+    offsets = reinterpret_cast<uint64_t*>(packed + nodes);
+    thresholds = reinterpret_cast<int16_t*>(offsets + nodes);
+    for (size_t i = 0; i < nodes; ++i) {
       const blob::TreeNode& n = b.nodes[i];
-      packed.push_back(kernels::pack_node(n));
-      wide.push_back(kernels::WideNode{n.du1, n.dv1, n.du2, n.dv2, n.threshold_mm, {7, 7, 7}});
-      offsets.push_back(kernels::split_offsets_of(n));
-      thresholds.push_back(n.threshold_mm);
+      packed[i] = kernels::pack_node(n);
+      wide[i] = kernels::WideNode{n.du1, n.dv1, n.du2, n.dv2, n.threshold_mm, {7, 7, 7}};
+      offsets[i] = kernels::split_offsets_of(n);
+      thresholds[i] = n.threshold_mm;
     }
     for (int t = 0; t < b.tree_count(); ++t)
-      split.push_back(kernels::SplitTree{offsets.data() + t * per_tree, thresholds.data() + t * per_tree});
+      split.push_back(kernels::SplitTree{offsets + t * per_tree, thresholds + t * per_tree});
   }
   kernels::ForestKernelArgs args(int t, kernels::NodeLayout layout, const uint16_t* probe, int32_t width,
                                  int32_t height, int32_t focal, const EvaluatedPixel* pixels, int32_t n,
@@ -35,9 +46,9 @@ struct TreeCopies {
     const size_t first = size_t(t) * blob::nodes_per_tree(b.depth());
     using L = kernels::NodeLayout;
     return kernels::ForestKernelArgs{probe, width + 2, width, height, focal, pixels, n, b.tree_nodes(t),
-                                     layout == L::kPacked8 ? packed.data() + first : nullptr, b.tree_leaf_index(t),
+                                     layout == L::kPacked8 ? packed + first : nullptr, b.tree_leaf_index(t),
                                      b.depth(), out, layout == L::kSplit ? &split[size_t(t)] : nullptr,
-                                     layout == L::kWide16 ? wide.data() + first : nullptr};
+                                     layout == L::kWide16 ? wide + first : nullptr};
   }
 };
 }  // namespace dp::testing_support

@@ -16,6 +16,7 @@
 
 #include "forest_blob/blob_loader.h"
 #include "forest_blob/blob_writer.h"
+#include "platform/arena_memory.h"
 #include "runtime/depthpose.h"
 #include "runtime/fixed_point.h"
 #include "runtime/kernels/forest_kernel.h"
@@ -234,14 +235,14 @@ std::vector<double> kernel_ns_per_visit(const Layouts& layouts, const std::vecto
 struct Runner {
   std::vector<uint8_t> bytes;
   blob::LoadedBlob view{};
-  std::unique_ptr<uint8_t, decltype(&std::free)> arena{nullptr, &std::free};
+  platform::ArenaMemory arena;  // as the CLI allocates it (2 MiB pages advised)
   size_t arena_bytes = 0;
   Pipeline pipeline;
   Runner(std::vector<uint8_t> b, int w, int h) : bytes(std::move(b)) {
     if (blob::load_blob(bytes.data(), bytes.size(), &view) != blob::BlobStatus::kOk) std::abort();
     arena_bytes = required_arena_bytes(view, w, h);
-    arena.reset(static_cast<uint8_t*>(std::aligned_alloc(64, (arena_bytes + 63) / 64 * 64)));
-    if (pipeline.init(view, w, h, arena.get(), arena_bytes) != Status::kOk) std::abort();
+    arena = platform::ArenaMemory(arena_bytes);
+    if (pipeline.init(view, w, h, arena.data(), arena_bytes) != Status::kOk) std::abort();
   }
 };
 

@@ -14,6 +14,7 @@
 
 #include "forest_blob/blob_loader.h"
 #include "forest_blob/blob_writer.h"
+#include "platform/arena_memory.h"
 #include "platform/hotplug_source.h"
 #include "platform/usb_devices.h"
 #include "runtime/segmentation/segmenter.h"
@@ -277,10 +278,6 @@ void combine_users(const SegmentationResult& seg, const FrameResult* users, Fram
   }
 }
 
-struct AlignedFree {
-  void operator()(uint8_t* p) const { std::free(p); }
-};
-
 }  // namespace
 
 
@@ -317,10 +314,9 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   const int w = source->width(), h = source->height();
   const size_t arena_bytes = required_arena_bytes(b, w, h);
   if (!arena_bytes) fail("blob " + options.blob_path + " cannot run on " + std::to_string(w) + "x" + std::to_string(h) + " frames");
-  std::unique_ptr<uint8_t, AlignedFree> arena(static_cast<uint8_t*>(std::aligned_alloc(64, (arena_bytes + 63) / 64 * 64)));
-  if (!arena) fail("cannot allocate the " + std::to_string(arena_bytes) + "-byte arena");
+  const platform::ArenaMemory arena(arena_bytes);
   Pipeline pipeline;
-  if (Status s = pipeline.init(b, w, h, arena.get(), arena_bytes); s != Status::kOk)
+  if (Status s = pipeline.init(b, w, h, arena.data(), arena_bytes); s != Status::kOk)
     fail(std::string("pipeline init: ") + status_message(s));
   if (Status s = pipeline.set_kernel(options.kernel); s != Status::kOk)
     fail(std::string("kernel ") + kernel_isa_name(options.kernel) + ": " + status_message(s));
@@ -344,16 +340,15 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   const bool sequential = source->live() || options.source_spec.rfind("oni:", 0) == 0;
   const bool segment = options.segment == SegmentMode::kOn || (options.segment == SegmentMode::kAuto && sequential);
   Segmenter segmenter;
-  std::unique_ptr<uint8_t, AlignedFree> seg_arena;
+  platform::ArenaMemory seg_arena;
   std::vector<uint8_t> labels, user_mask;
   std::vector<FrameResult> user_results;
   auto seg_result = std::make_unique<SegmentationResult>();
   if (segment) {
     const size_t seg_bytes = segmenter_required_bytes(w, h);
     if (!seg_bytes) fail("segmentation cannot run on " + std::to_string(w) + "x" + std::to_string(h) + " frames");
-    seg_arena.reset(static_cast<uint8_t*>(std::aligned_alloc(64, (seg_bytes + 63) / 64 * 64)));
-    if (!seg_arena) fail("cannot allocate the " + std::to_string(seg_bytes) + "-byte segmentation arena");
-    if (Status s = segmenter.init(default_segmenter_config(sequential), w, h, seg_arena.get(), seg_bytes);
+    seg_arena = platform::ArenaMemory(seg_bytes);
+    if (Status s = segmenter.init(default_segmenter_config(sequential), w, h, seg_arena.data(), seg_bytes);
         s != Status::kOk)
       fail(std::string("segmenter init: ") + status_message(s));
     labels.assign(size_t(w) * h, 0);
@@ -371,9 +366,10 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   TimeHistogram times;
   RunSummary summary;
 
-  std::fprintf(log, "run: %s on %s (%dx%d, fx %.1f fy %.1f cx %.1f cy %.1f), kernel %s (forest %s), arena %zu bytes\n",
+  std::fprintf(log, "run: %s on %s (%dx%d, fx %.1f fy %.1f cx %.1f cy %.1f), kernel %s (forest %s), arena %zu bytes%s\n",
                options.blob_path.c_str(), options.source_spec.c_str(), w, h, intrinsics.fx, intrinsics.fy, intrinsics.cx,
-               intrinsics.cy, kernel_isa_name(pipeline.kernel()), kernel_isa_name(pipeline.forest_kernel()), arena_bytes);
+               intrinsics.cy, kernel_isa_name(pipeline.kernel()), kernel_isa_name(pipeline.forest_kernel()), arena_bytes,
+               arena.huge_page_advice() ? " (2 MiB pages advised)" : "");
   if (segment)
     std::fprintf(log, "run: segmentation on (floor, %s, users), arena %zu bytes\n",
                  sequential ? "background model" : "no background model", segmenter.arena_used_bytes());

@@ -6,6 +6,7 @@
 
 #include "forest_blob/blob_loader.h"
 #include "forest_blob/blob_writer.h"
+#include "platform/arena_memory.h"
 #include "runtime/depthpose.h"
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
@@ -35,9 +36,9 @@ static int run_demo(int argc, char** argv) {
   blob::LoadedBlob b;
   if (blob::load_blob(bytes.data(), bytes.size(), &b) != blob::BlobStatus::kOk) fail("demo blob did not load");
   const size_t need = required_arena_bytes(b, 320, 240);
-  uint8_t* arena = static_cast<uint8_t*>(std::aligned_alloc(64, (need + 63) / 64 * 64));
+  const platform::ArenaMemory arena(need);
   Pipeline p;
-  if (Status s = p.init(b, 320, 240, arena, need); s != Status::kOk) fail(status_message(s));
+  if (Status s = p.init(b, 320, 240, arena.data(), need); s != Status::kOk) fail(status_message(s));
   SyntheticFrame f = make_disc_frame(320, 240, 200.0f, 100.0f, 10.0f, 2000);
   FrameResult r;
   if (Status s = p.process(f.view(), &r); s != Status::kOk) fail(status_message(s));
@@ -49,7 +50,6 @@ static int run_demo(int argc, char** argv) {
                   r.proposals[j][k].x_m, r.proposals[j][k].y_m, r.proposals[j][k].z_m, r.proposals[j][k].confidence);
   for (int s = 0; s < kStageCount; ++s)
     std::printf("  stage %-10s %10llu cycles\n", stage_name(s), (unsigned long long)r.stage_cycles[s]);
-  std::free(arena);
   return 0;
 }
 

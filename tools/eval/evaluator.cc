@@ -67,14 +67,6 @@ std::vector<std::string> renamed(const std::vector<std::string>& names, const Na
   return out;
 }
 
-struct AlignedArena {
-  static uint8_t* allocate(size_t bytes) {
-    void* p = std::aligned_alloc(64, (bytes + 63) / 64 * 64);
-    if (!p) fail("cannot allocate a runtime arena of " + std::to_string(bytes) + " bytes");
-    return static_cast<uint8_t*>(p);
-  }
-};
-
 int argmax_part(const Pipeline& p, int32_t pixel, int parts) {
   uint16_t prob[blob::kMaxParts];
   p.part_distribution(pixel, prob);
@@ -86,7 +78,6 @@ int argmax_part(const Pipeline& p, int32_t pixel, int parts) {
 
 }  // namespace
 
-void EvalSession::ArenaFree::operator()(uint8_t* p) const { std::free(p); }
 
 struct EvalSession::PreparedFrame {
   std::vector<uint16_t> depth;
@@ -145,8 +136,8 @@ EvalSession::EvalSession(std::vector<uint8_t> bytes, std::string blob_label, con
   if (arena_bytes_ == 0)
     fail("dataset " + dataset_dir + ": frame size " + std::to_string(w) + "x" + std::to_string(h) +
          " is outside what the runtime accepts");
-  arena_.reset(AlignedArena::allocate(arena_bytes_));
-  if (Status s = pipeline_.init(blob_, w, h, arena_.get(), arena_bytes_); s != Status::kOk)
+  arena_ = platform::ArenaMemory(arena_bytes_);
+  if (Status s = pipeline_.init(blob_, w, h, arena_.data(), arena_bytes_); s != Status::kOk)
     fail(blob_label_ + ": runtime init: " + status_message(s));
   if (Status s = pipeline_.set_kernel(options_.kernel); s != Status::kOk)
     fail(std::string("--kernel ") + kernel_isa_name(options_.kernel) + ": " + status_message(s));
@@ -372,13 +363,15 @@ std::vector<std::optional<double>> EvalSession::joint_ap_from_cache(const std::v
   std::vector<FrameResult> results(static_cast<size_t>(n));
   std::vector<Status> failure(static_cast<size_t>(threads), Status::kOk);
   auto work = [&](int t) {
-    uint8_t* arena = static_cast<uint8_t*>(std::aligned_alloc(64, (arena_bytes_ + 63) / 64 * 64));
-    if (!arena) {
+    platform::ArenaMemory arena;
+    try {
+      arena = platform::ArenaMemory(arena_bytes_);
+    } catch (const ToolError&) {
       failure[size_t(t)] = Status::kArenaTooSmall;
       return;
     }
     Pipeline p;
-    Status s = p.init(blob_, dataset_.meta.width, dataset_.meta.height, arena, arena_bytes_);
+    Status s = p.init(blob_, dataset_.meta.width, dataset_.meta.height, arena.data(), arena_bytes_);
     if (s == Status::kOk) s = p.set_config(config);
     for (long i = t; s == Status::kOk && i < n; i += threads) {
       const CachedFrame& c = cache[size_t(i)];
@@ -390,7 +383,6 @@ std::vector<std::optional<double>> EvalSession::joint_ap_from_cache(const std::v
                                   &results[size_t(i)]);
     }
     failure[size_t(t)] = s;
-    std::free(arena);
   };
   if (threads == 1) {
     work(0);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "forest_blob/blob_loader.h"
+#include "platform/arena_memory.h"
 #include "runtime/depthpose.h"
 #include "tools/common/budget_options.h"
 #include "tools/common/dataset.h"
@@ -126,10 +127,7 @@ class EvalSession {
   std::vector<int> eval_joints_;         // blob joint index per evaluated joint
   std::vector<int> dataset_joint_;       // dataset joint index per evaluated joint
   std::vector<int> blob_part_of_label_;  // dataset label → blob part (−1: not scored)
-  struct ArenaFree {
-    void operator()(uint8_t* p) const;
-  };
-  std::unique_ptr<uint8_t, ArenaFree> arena_;
+  platform::ArenaMemory arena_;
   size_t arena_bytes_ = 0;
   Pipeline pipeline_;
 };

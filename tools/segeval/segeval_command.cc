@@ -10,6 +10,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "platform/arena_memory.h"
 #include "runtime/segmentation/segmenter.h"
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
@@ -64,17 +65,6 @@ struct Person {
   int visible_joints = 0;
   double visible_area_m2 = 0;  // Σ (z/fx)·(z/fy) over the person's pixels: body surface in view
 };
-
-struct AlignedFree {
-  void operator()(uint8_t* p) const { std::free(p); }
-};
-using ArenaPtr = std::unique_ptr<uint8_t, AlignedFree>;
-
-ArenaPtr aligned_arena(size_t bytes) {
-  ArenaPtr p(static_cast<uint8_t*>(std::aligned_alloc(64, (bytes + 63) / 64 * 64)));
-  if (!p) fail("segeval: out of memory for a " + std::to_string(bytes) + "-byte arena");
-  return p;
-}
 
 std::vector<Person> people_of(const Dataset& ds, size_t i) {
   const FrameRecord& r = ds.frames[i];
@@ -185,22 +175,22 @@ int run_segeval(int argc, char** argv) {
   }
   Segmenter seg;
   const size_t seg_bytes = segmenter_required_bytes(w, h);
-  ArenaPtr seg_arena = aligned_arena(seg_bytes);
-  if (Status s = seg.init(cfg, w, h, seg_arena.get(), seg_bytes); s != Status::kOk)
+  const platform::ArenaMemory seg_arena(seg_bytes);
+  if (Status s = seg.init(cfg, w, h, seg_arena.data(), seg_bytes); s != Status::kOk)
     fail(std::string("segeval: segmenter init: ") + status_message(s));
 
   // Optional pipeline for joints.
   std::vector<uint8_t> blob_bytes;
   blob::LoadedBlob blob{};
   Pipeline pipeline;
-  ArenaPtr pipe_arena;
+  platform::ArenaMemory pipe_arena;
   std::vector<int> joint_blob, joint_data;  // evaluated joints: blob index, dataset index
   const bool joints = a.has("--blob");
   if (joints) {
     blob = load_blob_file_checked(a.get("--blob"), blob_bytes);
     const size_t n = required_arena_bytes(blob, w, h);
-    pipe_arena = aligned_arena(n);
-    if (Status s = pipeline.init(blob, w, h, pipe_arena.get(), n); s != Status::kOk)
+    pipe_arena = platform::ArenaMemory(n);
+    if (Status s = pipeline.init(blob, w, h, pipe_arena.data(), n); s != Status::kOk)
       fail(a.get("--blob") + ": pipeline init: " + status_message(s));
     for (int j = 0; j < blob.meta->joint_count; ++j) {
       const std::string name(blob.meta->joint_names[j], strnlen(blob.meta->joint_names[j], blob::kNameBytes));
