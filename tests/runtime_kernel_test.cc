@@ -265,6 +265,86 @@ TEST(KernelExactness, EveryPixelCountAndEveryImageEdge) {
   }
 }
 
+TEST(KernelProbeImage, ElementsCarryTheBiasAndTheBackground) {
+  // The SIMD kernels' child bit is exact only when every element has bit 15 set (forest_kernel.h).
+  EXPECT_EQ(kernels::probe_element(0), 0xFFFF);  // no reading: background
+  EXPECT_EQ(kernels::probe_element(kBackgroundDepthMm), 0xFFFF);
+  EXPECT_EQ(kernels::probe_element(40000), 0xFFFF);  // beyond the representable depths: background
+  EXPECT_EQ(kernels::probe_element(1), 0x8001);
+  for (uint16_t z = 1; z < kBackgroundDepthMm; z = uint16_t(z * 3 + 1)) {
+    EXPECT_EQ(kernels::probe_depth_of(kernels::probe_element(z)), z);
+    EXPECT_NE(kernels::probe_element(z) & kernels::kProbeBias, 0);
+  }
+  EXPECT_EQ(kernels::probe_depth_of(kernels::probe_element(32766)), 32766);
+  std::vector<uint16_t> padded(kernels::padded_probe_elements(3, 2), 0);
+  kernels::fill_probe_border(padded.data(), 3, 2);
+  for (size_t i = 0; i < padded.size(); ++i) {
+    const bool interior = i / 5 >= 1 && i / 5 <= 2 && i % 5 >= 1 && i % 5 <= 3;
+    EXPECT_EQ(padded[i], interior ? 0 : 0xFFFF) << "element " << i;
+  }
+}
+
+TEST(KernelExactness, ExtremeThresholdsAndDepths) {
+  // The unsigned compare t + e2 <u e1 relies on t ≥ −32768 and 1 ≤ depth ≤ 32767: thresholds at both
+  // int16 ends and depths from 1 mm to the largest foreground depth, the background and holes.
+  blob::BlobContents c = tools::random_bpc_forest(17, 2, 11, 8, 300, 400);
+  std::mt19937_64 rng(18);
+  const int16_t extremes[] = {-32768, -32767, -32766, -16384, -1, 0, 1, 16384, 32765, 32766, 32767};
+  std::uniform_int_distribution<int> pick(0, int(sizeof extremes / sizeof extremes[0]) - 1), any(-32768, 32767),
+      coin(0, 3);
+  for (auto& tree : c.tree_nodes)
+    for (blob::TreeNode& n : tree) n.threshold_mm = coin(rng) ? extremes[pick(rng)] : int16_t(any(rng));
+  const std::vector<uint8_t> bytes = blob::write_blob(c);
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+  SyntheticFrame f = noisy_frame(19, 80, 60);
+  const uint16_t depths[] = {0, 1, 2, 3, 150, 1000, 4000, 32765, 32766, kBackgroundDepthMm};
+  std::uniform_int_distribution<int> which(0, int(sizeof depths / sizeof depths[0]) - 1);
+  for (auto& d : f.depth_mm) d = depths[which(rng)];
+  std::vector<uint16_t> probe;
+  std::vector<EvaluatedPixel> listed, pixels;
+  kernel_input(f, &probe, &listed);
+  for (const EvaluatedPixel& p : listed)
+    if (p.z_mm < kBackgroundDepthMm) pixels.push_back(p);  // what the pipeline lists
+  ASSERT_GT(pixels.size(), 1000u);
+  const TreeCopies copies(b);
+  const int32_t n = int32_t(pixels.size());
+  auto run = [&](KernelIsa isa, kernels::NodeLayout layout) {
+    std::vector<std::vector<uint32_t>> out(2, std::vector<uint32_t>(pixels.size(), 0xFFFFFFFFu));
+    kernels::ForestKernelArgs a[2];
+    for (int t = 0; t < 2; ++t)
+      a[t] = copies.args(t, layout, probe.data(), f.width, f.height, focal_factor_mm(525.0f, 525.0f), pixels.data(), n,
+                         out[size_t(t)].data());
+    run_trees(isa, layout, a, 2);
+    return out;
+  };
+  const auto ref = run(KernelIsa::kScalar, kernels::NodeLayout::kBlob10);
+  // The reference itself against the feature rule written out (fixed_point.h), per pixel and tree.
+  for (int t = 0; t < 2; ++t)
+    for (int32_t i = 0; i < n; i += 97) {
+      const EvaluatedPixel p = pixels[size_t(i)];
+      const int32_t s = scale_q13(focal_factor_mm(525.0f, 525.0f), p.z_mm);
+      uint32_t node = 0;
+      for (int level = 0; level < b.depth(); ++level) {
+        const blob::TreeNode& nd = b.tree_nodes(t)[node];
+        auto depth_at = [&](int32_t u, int32_t v) -> int32_t {
+          if (u < 0 || v < 0 || u >= f.width || v >= f.height) return kBackgroundDepthMm;
+          const uint16_t z = f.depth_mm[size_t(v) * f.width + u];
+          return z == 0 || z >= kBackgroundDepthMm ? kBackgroundDepthMm : z;
+        };
+        const int32_t d1 = depth_at(p.u + probe_offset_px(nd.du1, s), p.v + probe_offset_px(nd.dv1, s));
+        const int32_t d2 = depth_at(p.u + probe_offset_px(nd.du2, s), p.v + probe_offset_px(nd.dv2, s));
+        node = 2 * node + 1 + (d1 - d2 > nd.threshold_mm ? 1u : 0u);
+      }
+      EXPECT_EQ(ref[size_t(t)][size_t(i)], b.tree_leaf_index(t)[node - ((1u << b.depth()) - 1)]) << "pixel " << i;
+    }
+  for (KernelIsa isa : kSimdIsas)
+    for (kernels::NodeLayout layout : kLayouts) {
+      if (!kernel_isa_supported(isa)) continue;
+      EXPECT_EQ(run(isa, layout), ref) << kernel_isa_name(isa) << " " << layout_name(layout);
+    }
+}
+
 TEST(KernelExactness, AllTreesInOneCallEqualOneCallPerTree) {
   // evaluate_trees shares each chunk's setup between trees; every tree's leaves must still equal the
   // reference's, whatever the layout of each tree and across chunk boundaries (> 2048 pixels).
