@@ -763,12 +763,6 @@ int32_t Segmenter::label_components(const DepthFrame& f, SegmentationResult* r) 
   return kept;
 }
 
-// The component's row-wise convex hull: per image row, the span between the convex chain of its
-// leftmost pixels and the concave chain of its rightmost ones (Andrew's monotone chain with the
-// row as abscissa). hull = pixels in those spans; hull_filled = the component's own pixels plus
-// the readings in the spans nearer than its nearest point less join_mm (hidden by something in
-// front: unknown, counted as filled). A solid box or cylinder fills its hull whatever the camera's
-// roll; two legs leave the gap between them. Work: 3 passes over the candidate's image box.
 template <class Visit>
 void Segmenter::for_each_pixel_of(const DepthFrame& f, int32_t owner, Visit&& visit) const {
   const Candidate& c = candidates_[owner];
@@ -780,6 +774,12 @@ void Segmenter::for_each_pixel_of(const DepthFrame& f, int32_t owner, Visit&& vi
   }
 }
 
+// The component's row-wise convex hull: per image row, the span between the convex chain of its
+// leftmost pixels and the concave chain of its rightmost ones (Andrew's monotone chain with the
+// row as abscissa). hull = pixels in those spans; hull_filled = the component's own pixels plus
+// the readings in the spans nearer than its nearest point less join_mm (hidden by something in
+// front: unknown, counted as filled). A solid box or cylinder fills its hull whatever the camera's
+// roll; two legs leave the gap between them. Work: 3 passes over the candidate's image box.
 void Segmenter::measure_hull(const DepthFrame& f, Candidate* cand, int32_t owner) {
   Candidate& c = *cand;
   const int32_t w = f.width;
