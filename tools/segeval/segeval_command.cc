@@ -20,6 +20,7 @@
 #include "tools/common/png_io.h"
 #include "tools/eval/metrics.h"
 #include "tools/info/info.h"
+#include "tools/segeval/segmentation_digest.h"
 
 namespace dp::tools {
 namespace {
@@ -42,6 +43,8 @@ static const char* const kUsage =
     "  --min-visible-area A  a third detection rate over people with >= A m^2 of body surface in view\n"
     "                         (default 0.05, about a head and neck; a person showing less is not expected)\n"
     "  --dump DIR             write DIR/NNNNNN.png per frame: depth in grey, users in colour, missed body red\n"
+    "  --digest OUT.txt       one line per frame: frame id and a 64-bit digest of everything the segmenter\n"
+    "                         output (labels, users, floor, counts, flags; not the cycles), to compare two builds\n"
     "  --per-frame OUT.jsonl  one line per frame: people (pixels, visible joints, box, border, matched user, IoU),\n"
     "                         users (pixels, body pixels, top, matched person), missed and extra pixels by height\n"
     "  --set K=V,...          override SegmenterConfig numbers: min_person_height_m, min_person_area_m2,\n"
@@ -92,7 +95,7 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
 }
 
 int run_segeval(int argc, char** argv) {
-  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame"}, {"--live", "--forest-once"});
+  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame", "--digest"}, {"--live", "--forest-once"});
   if (a.help_requested()) {
     std::printf("%s\n", a.usage().c_str());
     return 0;
@@ -214,6 +217,11 @@ int run_segeval(int argc, char** argv) {
     per_frame.open(a.get("--per-frame"));
     if (!per_frame) fail(a.get("--per-frame") + ": cannot write");
   }
+  std::ofstream digest_out;
+  if (a.has("--digest")) {
+    digest_out.open(a.get("--digest"));
+    if (!digest_out) fail(a.get("--digest") + ": cannot write");
+  }
   double inter_total = 0, union_total = 0, iou_sum = 0;
   long people_total = 0, people_found = 0, findable_total = 0, findable_found = 0, false_users = 0;
   long sizable_total = 0, sizable_found = 0;
@@ -257,6 +265,11 @@ int run_segeval(int argc, char** argv) {
     seg_wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     seg_cycles += double(r.total_cycles);
     for (int s = 0; s < kSegStageCount; ++s) stage_cycles[size_t(s)] += double(r.stage_cycles[s]);
+    if (digest_out.is_open()) {
+      char hex[17];
+      std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(segmentation_digest(r, w, h, w)));
+      digest_out << ds.frames[size_t(i)].id << " " << hex << "\n";
+    }
 
     if (a.has("--dump")) {
       ImageRgb img;
