@@ -267,26 +267,6 @@ SegmenterConfig default_segmenter_config(bool live_source) {
   return c;
 }
 
-static bool config_valid(const SegmenterConfig& c) {
-  return c.near_mm >= 1 && c.far_mm > c.near_mm && c.floor_sample_fraction > 0.0f && c.floor_sample_fraction <= 1.0f && c.floor_far_mm >= c.near_mm &&
-         c.floor_samples >= 16 && c.floor_samples <= kMaxFloorSamples && c.floor_iterations >= 1 &&
-         c.floor_iterations <= kMaxFloorIterations && c.floor_retry_iterations >= 0 && c.floor_retry_iterations <= kMaxFloorIterations && c.floor_tracked_iterations >= 0 &&
-         c.floor_tracked_iterations <= kMaxFloorIterations && c.floor_fit_mm > 0.0f && c.floor_margin_mm >= 0.0f &&
-         c.floor_margin_per_m2_mm >= 0.0f && c.floor_max_tilt_deg > 0.0f && c.floor_max_tilt_deg < 90.0f &&
-         c.floor_min_inlier_fraction > 0.0f && c.floor_min_inlier_fraction <= 1.0f && c.floor_min_extent_m >= 0.0f && c.floor_wide_inlier_fraction > 0.0f && c.floor_wide_inlier_fraction <= c.floor_min_inlier_fraction && c.floor_wide_extent_m >= c.floor_min_extent_m && c.camera_height_min_m > 0.0f &&
-         c.camera_height_max_m > c.camera_height_min_m && c.floor_keep_frames >= 0 &&
-         c.background_learn_frames >= 1 && c.background_learn_frames <= 65535 && c.background_tolerance_mm > 0.0f &&
-         c.background_tolerance_per_m2_mm >= 0.0f && c.background_update_shift >= 0 &&
-         c.background_update_shift <= 12 && c.background_reveal_frames >= 1 && c.background_reveal_frames <= 65535 &&
-         c.background_absorb_frames >= 0 && c.background_absorb_frames <= 65535 && c.join_mm > 0.0f &&
-         c.join_mm_per_m >= 0.0f && c.min_component_pixels >= 1 && c.min_person_area_m2 > 0.0f &&
-         c.min_person_height_m >= 0.0f && c.max_person_width_m > 0.0f && c.tracked_area_fraction > 0.0f &&
-         c.tracked_area_fraction <= 1.0f && c.fragment_join_mm >= 0.0f && c.fragment_radius_m >= 0.0f &&
-         c.fragment_pair_radius_m >= 0.0f && c.fragment_min_share >= 0.0f && c.fragment_min_share < 0.5f && c.absorb_radius_m >= 0.0f && c.head_radius_m >= 0.0f && c.legs_radius_m >= 0.0f && c.box_split_height_m >= 0.0f && c.box_split_min_share >= 0.0f && c.box_split_min_share <= 1.0f && c.box_split_cell_m > 0.0f && c.box_split_min_dist_m >= 0.0f && c.box_reject_min_share >= 0.0f && c.box_reject_min_share <= 1.0f && c.cut_max_fill >= 0.0f && c.cut_max_fill <= 1.0f && c.cut_max_solidity >= 0.0f && c.hidden_area_fraction >= 0.0f && c.hidden_area_fraction <= 1.0f && c.hidden_gap_mm > 0.0f && c.hidden_min_edge >= 1 && c.hidden_pair_radius_m >= 0.0f && c.hidden_legs_radius_m >= 0.0f && c.hidden_legs_max_gap_m >= 0.0f && c.hidden_legs_max_ratio > 0.0f && c.cut_max_solidity <= 1.0f && c.cut_solidity_max_hidden >= 0.0f && (c.cut_fill_border_columns == 0 || c.cut_fill_border_columns == 1) &&
-         c.cut_floor_contact_m >= 0.0f && c.cut_top_area_fraction >= 0.0f && c.cut_top_area_fraction <= 1.0f && c.cut_gap_min_share >= 0.0f && c.cut_gap_min_share <= 1.0f && c.cut_gap_max_fill >= 0.0f && c.cut_gap_max_fill <= 1.0f && c.cut_hidden_floor_contact_m >= 0.0f && c.pair_bridge_max_m >= 0.0f && c.cut_bottom_area_fraction >= 0.0f && c.cut_bottom_area_fraction <= 1.0f && c.cut_side_area_fraction >= 0.0f && c.cut_side_area_fraction <= 1.0f && c.cut_bottom_low_max_lid_share >= 0.0f && c.cut_bottom_low_max_lid_share <= 1.0f && c.low_max_lid_share >= 0.0f && c.low_max_lid_share <= 1.0f && c.low_max_solidity >= 0.0f && c.low_max_solidity <= 1.0f && c.low_outline_box_split >= 0 && c.low_outline_box_split <= 1 && c.low_outline_max_lid_share >= 0.0f && c.low_outline_max_lid_share <= 1.0f && c.low_min_height_m >= 0.0f && c.max_users >= 1 && c.max_users <= kMaxUsers &&
-         c.association_distance_m > 0.0f && c.association_growth_m >= 0.0f && c.track_keep_frames >= 0 && c.track_keep_frames <= 65535;
-}
-
 bool Segmenter::carve(ArenaCarver& c, int32_t w, int32_t h, Segmenter* into) {
   const size_t pixels = size_t(w) * size_t(h);
   SegmenterConfig* config = c.tail<SegmenterConfig>(1);
@@ -334,7 +314,7 @@ Status Segmenter::init(const SegmenterConfig& config, int32_t max_width, int32_t
     return Status::kBadArgument;
   if (reinterpret_cast<uintptr_t>(arena) % kArenaAlignment != 0) return Status::kArenaMisaligned;
   if (arena_bytes < segmenter_required_bytes(max_width, max_height)) return Status::kArenaTooSmall;
-  if (!config_valid(config)) return Status::kBadConfig;
+  if (!segmenter_config_check(config)) return Status::kBadConfig;
   ArenaCarver c(arena, arena_bytes);
   if (!carve(c, max_width, max_height, this)) return Status::kArenaTooSmall;
   *config_ = config;
@@ -348,7 +328,7 @@ Status Segmenter::init(const SegmenterConfig& config, int32_t max_width, int32_t
 
 Status Segmenter::set_config(const SegmenterConfig& config) {
   if (!initialized_) return Status::kNotInitialized;
-  if (!config_valid(config)) return Status::kBadConfig;
+  if (!segmenter_config_check(config)) return Status::kBadConfig;
   *config_ = config;
   return Status::kOk;
 }
