@@ -21,7 +21,7 @@ int32_t classify_pixels(const SegmenterConfig& cfg, const DepthFrame& f, const F
     // is judged by chains along the row from known model pixels, leftwards and rightwards: an
     // unseen reading not nearer than the chain's depth (by more than the tolerance) is background
     // and carries the chain on at its own depth; a nearer one is foreground and leaves the chain
-    // as it was; more than kChainGap readings missing in a row break it. Where a person has
+    // unchanged; more than kChainGap readings missing in a row break it. Where a person has
     // walked away, the wall revealed behind them continues the surfaces beside it and is
     // background at once, even where a cupboard meets the wall inside that strip. A person beside
     // a learned object at their own depth, across a gap without readings, keeps their pixels.

@@ -144,7 +144,7 @@ int32_t ComponentStage::label_components(const DepthFrame& f, SegmentationResult
   }
   if (!use_floor)
     for (int32_t k = 0; k < kept; ++k) candidates_[k].top = candidates_[k].y_max - candidates_[k].y_min;
-  // Components cut by the top border (the only ones whose fill matters, passes_person_test):
+  // Components cut by the top border (the only ones whose fill matters, meets_person_test):
   // pixels of the image box hidden by something in front count as filled, since what is behind
   // them is unknown. At most kMaxCandidates boxes, each within the frame.
   for (int32_t k = 0; k < kept; ++k) {
@@ -170,7 +170,7 @@ int32_t ComponentStage::label_components(const DepthFrame& f, SegmentationResult
 // row as abscissa). hull = pixels in those spans; hull_filled = the component's own pixels plus
 // the readings in the spans nearer than its nearest point less join_mm (hidden by something in
 // front: unknown, counted as filled). A solid box or cylinder fills its hull whatever the camera's
-// roll; two legs leave the gap between them. Work: 3 passes over the candidate's image box.
+// roll; two legs leave the gap between them. Work: 3 sweeps over the candidate's image box.
 void ComponentStage::measure_hull(const DepthFrame& f, Candidate* cand, int32_t owner) {
   Candidate& c = *cand;
   const int32_t w = f.width;
@@ -182,7 +182,7 @@ void ComponentStage::measure_hull(const DepthFrame& f, Candidate* cand, int32_t 
   // Rows with a gap between two runs of the component's pixels, at least 2 pixels wide, seen
   // through (no reading nearer than the component's nearest point less join_mm: nothing in front
   // hides it; pixels without a reading allowed, at least one with a reading): the space between
-  // two legs (header, cut_gap_min_share). Counted for every top-border component, rule on or off.
+  // two legs (cut_gap_min_share). Counted for every top-border component, rule on or off.
   const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(config_->join_mm);
   c.gap_rows = 0;
   for (int32_t v = c.v_min; v <= c.v_max; ++v) {

@@ -40,7 +40,7 @@ Candidate united(const Candidate& x, const Candidate& y, bool use_floor) {
 
 }  // namespace
 
-// Cut by the left or right border (header, cut_side_area_fraction): touches either side but not
+// Cut by the left or right border (cut_side_area_fraction): touches either side but not
 // the top border (whose height would be out of view), a floor is known, as high as a person and
 // holds the given fraction of the person area `need`. The width test is the caller's.
 bool PersonTests::cut_by_side(const DepthFrame& f, const Candidate& c, float need) const {
@@ -50,48 +50,48 @@ bool PersonTests::cut_by_side(const DepthFrame& f, const Candidate& c, float nee
          float(c.pixels) >= cfg.cut_side_area_fraction * need;
 }
 
-bool PersonTests::passes_person_test(const DepthFrame& f, const Candidate& c, bool cut, bool short_top) const {
+bool PersonTests::meets_person_test(const DepthFrame& f, const Candidate& c, bool cut, bool short_top) const {
   const SegmenterConfig& cfg = *config_;
   const float z = float(c.sz / c.pixels);
   const float need = cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (z * z);
   if (c.x_max - c.x_min > cfg.max_person_width_m) return false;
   // Cut by the bottom border (the head and shoulders of someone close): part of the area is out
-  // of view, the height is not (header, cut_bottom_area_fraction).
+  // of view, the height is not (cut_bottom_area_fraction).
   if (cut && cfg.cut_bottom_area_fraction > 0.0f && c.v_max == f.height - 1 && floor_->valid != 0 &&
       c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.cut_bottom_area_fraction * need)
     return true;
-  // Cut by the left or right border: part of the area is out of view, the height is not (header,
-  // cut_side_area_fraction).
+  // Cut by the left or right border: part of the area is out of view, the height is not
+  // (cut_side_area_fraction).
   if (cut && cut_by_side(f, c, need)) return true;
-  // Mostly hidden behind something nearer: the height shows, the area does not (header,
-  // hidden_area_fraction).
+  // Mostly hidden behind something nearer: the height shows, the area does not
+  // (hidden_area_fraction).
   if (cut && cfg.hidden_area_fraction > 0.0f && c.hidden_edge >= cfg.hidden_min_edge &&
       c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.hidden_area_fraction * need)
     return true;
-  // Short of the area, only the top-border test may still pass it (header, cut_top_area_fraction).
+  // Short of the area, only the top-border test may still accept it (cut_top_area_fraction).
   const bool area = float(c.pixels) >= need;
   if (!area && !(cut && short_top && cfg.cut_top_area_fraction > 0.0f && float(c.pixels) >= cfg.cut_top_area_fraction * need))
     return false;
   if (area && c.top >= cfg.min_person_height_m) return true;
-  // Cut by the top border: the height is out of view (header, cut_max_fill).
+  // Cut by the top border: the height is out of view (cut_max_fill).
   if (!cut || cfg.cut_max_fill <= 0.0f || c.v_min > 0 || floor_->valid == 0) return false;
-  // Off the floor only when something nearer hides the lower part (header, cut_hidden_floor_contact_m).
+  // Off the floor only when something nearer hides the lower part (cut_hidden_floor_contact_m).
   if (c.bottom > cfg.cut_floor_contact_m &&
       !(cfg.cut_hidden_floor_contact_m > 0.0f && c.bottom <= cfg.cut_hidden_floor_contact_m &&
         c.hidden_below >= cfg.hidden_min_edge))
     return false;
-  // A union: over the columns of its pieces cut by the border only (header, cut_fill_border_columns).
+  // A union: over the columns of its pieces cut by the border only (cut_fill_border_columns).
   const bool pieces = cfg.cut_fill_border_columns != 0 && c.cut_u_max >= c.cut_u_min && c.cut_pixels < c.pixels;
   const int32_t cols = pieces ? c.cut_u_max - c.cut_u_min + 1 : c.u_max - c.u_min + 1;
   const float box = float(cols) * float(c.v_max - c.v_min + 1);
   const float filled = float((pieces ? c.cut_pixels : c.pixels) + c.occluded);
   if (filled <= cfg.cut_max_fill * box) return true;
   // The hull only where nothing in front cuts the silhouette: an object seen partly behind legs
-  // takes their outline (header, cut_solidity_max_hidden).
+  // takes their outline (cut_solidity_max_hidden).
   if (c.hull > 0 && float(c.hull_filled) <= cfg.cut_max_solidity * float(c.hull) &&
       float(c.occluded) <= cfg.cut_solidity_max_hidden * float(c.pixels))
     return true;
-  // Two legs apart in enough rows (header, cut_gap_min_share).
+  // Two legs apart in enough rows (cut_gap_min_share).
   return cfg.cut_gap_min_share > 0.0f && float(c.gap_rows) >= cfg.cut_gap_min_share * float(c.v_max - c.v_min + 1) &&
          filled <= cfg.cut_gap_max_fill * box;
 }
@@ -166,16 +166,16 @@ bool PersonTests::may_merge(const MergeState& s, int32_t k, int32_t m, float* di
                                    float(frag.sz / frag.pixels - body.sz / body.pixels));
   *distance2 = d2;
   // Pieces of someone hidden behind a nearer body lie on either side of it: two pieces that
-  // each pass only as hidden join within hidden_pair_radius_m.
-  // A piece that passes only as hidden takes another one, or a smaller hidden piece that
-  // does not pass at all (a leg below a head).
+  // each qualify only as hidden join within hidden_pair_radius_m.
+  // A piece that qualifies only as hidden takes another one, or a smaller hidden piece that
+  // does not qualify at all (a leg below a head).
   const bool both_hidden = hidden_on && frag.hidden_edge >= cfg.hidden_min_edge &&
                            body.hidden_edge >= cfg.hidden_min_edge &&
                            ((s.hidden_only[k] && s.hidden_only[m]) ||
                             (s.hidden_only[m] && !s.full[k] && frag.pixels <= body.pixels) ||
                             (s.hidden_only[k] && !s.full[m] && body.pixels <= frag.pixels));
   // Legs below a body that does not reach the floor (legs_radius_m): the piece stands on the
-  // floor and does not pass alone, the body passes; the piece is lower in height and in the
+  // floor and does not qualify alone, the body qualifies; the piece is lower in height and in the
   // image, shares columns with it and has at most twice its pixels.
   const int32_t cols_shared = (frag.u_max < body.u_max ? frag.u_max : body.u_max) -
                               (frag.u_min > body.u_min ? frag.u_min : body.u_min) + 1;
@@ -184,7 +184,7 @@ bool PersonTests::may_merge(const MergeState& s, int32_t k, int32_t m, float* di
                           frag.top < body.top && frag.v_min > body.v_min && cols_shared > 0 &&
                           frag.pixels <= 2 * body.pixels && d2 <= cfg.legs_radius_m * cfg.legs_radius_m;
   // The legs of someone partly hidden (hidden_legs_radius_m): both pieces have hidden edges, the
-  // piece stands on the floor and does not pass, the other passes; the piece is lower in height
+  // piece stands on the floor and does not qualify, the other qualifies; the piece is lower in height
   // and in the image and reaches up to within hidden_legs_max_gap_m of the other's lowest point.
   const bool hidden_legs = hidden_legs_on && !s.full[k] && s.full[m] && frag.hidden_edge >= cfg.hidden_min_edge &&
                            body.hidden_edge >= cfg.hidden_min_edge && frag.bottom <= cfg.cut_floor_contact_m &&
@@ -199,7 +199,7 @@ bool PersonTests::may_merge(const MergeState& s, int32_t k, int32_t m, float* di
   // Pieces that do not touch (a person cut in two by someone standing in front) join only
   // when closer along the floor than two people can stand.
   if (!touching && !close) return false;
-  // Two pieces of one body that each pass (a torso over its legs, an arm in front of the
+  // Two pieces of one body that each qualify (a torso over its legs, an arm in front of the
   // legs): the smaller joins.
   if (s.person[k]) {
     if (!s.person[m] || candidates_[m].pixels < candidates_[k].pixels) return false;
@@ -214,7 +214,7 @@ bool PersonTests::may_merge(const MergeState& s, int32_t k, int32_t m, float* di
     const bool stacked = 2 * cols >= narrow && 10 * rows <= 6 * short_rows;
     if (!stacked && !close) return false;
   }
-  // Neither passes alone: the smaller piece must be a real share of the union, or a hand
+  // Neither qualifies alone: the smaller piece must be a real share of the union, or a hand
   // reaching over a box would lend the box its height.
   if (!s.full[k] && !s.full[m]) {
     const int32_t small = frag.pixels < body.pixels ? frag.pixels : body.pixels;
@@ -229,7 +229,7 @@ void PersonTests::merge_into(const DepthFrame& f, int32_t n, int32_t k, int32_t 
   const SegmenterConfig& cfg = *config_;
   Candidate& frag = candidates_[k];
   candidates_[into] = united(frag, candidates_[into], floor_->valid != 0);
-  s->hidden_only[into] = candidates_[into].hidden_edge >= cfg.hidden_min_edge && !passes_person_test(f, candidates_[into], false);
+  s->hidden_only[into] = candidates_[into].hidden_edge >= cfg.hidden_min_edge && !meets_person_test(f, candidates_[into], false);
   s->person[into] = s->full[into] = true;
   s->touches[into] |= s->touches[k];
   s->hides[into] |= s->hides[k];
@@ -254,18 +254,18 @@ void PersonTests::merge_fragments(const DepthFrame& f, int32_t n) {
   const bool hidden_legs_on = hidden_on && use_floor && cfg.hidden_legs_radius_m > 0.0f;
   MergeState s{};
   find_contacts(f, hidden_legs_on, &s);
-  // Pieces that pass only as cut by the border are fragments here: they may still join the rest of
+  // Pieces that qualify only as cut by the border are fragments here: they may still join the rest of
   // their body.
   for (int32_t k = 0; k < n; ++k) {
-    s.person[k] = passes_person_test(f, candidates_[k], false);
-    s.full[k] = s.person[k] || passes_person_test(f, candidates_[k], true);
+    s.person[k] = meets_person_test(f, candidates_[k], false);
+    s.full[k] = s.person[k] || meets_person_test(f, candidates_[k], true);
   }
   // Passes only as someone mostly hidden (hidden_area_fraction).
   for (int32_t k = 0; k < n; ++k)
     s.hidden_only[k] = s.full[k] && !s.person[k] && candidates_[k].hidden_edge >= cfg.hidden_min_edge;
   // A fragment joins the nearest touching (or, within fragment_pair_radius_m, not touching)
   // candidate with which it forms a person: a body cut in two by a depth jump or by someone in
-  // front (both pieces may pass on their own), or a piece of a body that passes.
+  // front (both pieces may qualify on their own), or a piece of a body that qualifies.
   float radius = cfg.fragment_radius_m > cfg.hidden_pair_radius_m || !hidden_on ? cfg.fragment_radius_m
                                                                               : cfg.hidden_pair_radius_m;
   if (cfg.legs_radius_m > radius) radius = cfg.legs_radius_m;
@@ -278,7 +278,7 @@ void PersonTests::merge_fragments(const DepthFrame& f, int32_t n) {
       if (m == k || candidates_[m].pixels == 0) continue;
       float d2 = 0.0f;
       if (!may_merge(s, k, m, &d2)) continue;
-      if (d2 <= best_d2 && passes_person_test(f, united(candidates_[k], candidates_[m], use_floor))) {
+      if (d2 <= best_d2 && meets_person_test(f, united(candidates_[k], candidates_[m], use_floor))) {
         best_d2 = d2;
         best = m;
       }
@@ -288,23 +288,23 @@ void PersonTests::merge_fragments(const DepthFrame& f, int32_t n) {
   resolve_owners(n);
 }
 
-// A component that passes only as someone mostly hidden (too small otherwise, hidden edges, high
+// A component that qualifies only as someone mostly hidden (too small otherwise, hidden edges, high
 // enough) while its image box overlaps a user's (or a component's about to be one) and it is nearer
 // than that user: it is not hidden by
 // that user but in front of them, and what is in front of a body and overlapping it in the image is
-// mostly that body's own arm or hand cut off by a depth jump (on seeds 15-18: 4 false users). Someone
+// mostly that body's own arm or hand cut off by a depth jump. Someone
 // hidden behind a user is farther than the user.
 bool PersonTests::in_front_of_a_user(const DepthFrame& f, int32_t n, int32_t k, const float* cz, const bool* strict) const {
   const SegmenterConfig& cfg = *config_;
   const Candidate& c = candidates_[k];
   if (cfg.hidden_area_fraction <= 0.0f || c.hidden_edge < cfg.hidden_min_edge) return false;
   const float need = cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (cz[k] * cz[k]);
-  if (float(c.pixels) >= need || passes_person_test(f, c, false)) return false;
+  if (float(c.pixels) >= need || meets_person_test(f, c, false)) return false;
   // Passing as cut by the bottom border (head and shoulders of someone close) is another matter.
   if (cfg.cut_bottom_area_fraction > 0.0f && c.v_max == f.height - 1 && floor_->valid != 0 &&
       c.top >= cfg.min_person_height_m && float(c.pixels) >= cfg.cut_bottom_area_fraction * need)
     return false;
-  // So is passing as cut by the left or right border (someone walking out of view).
+  // So is qualifying as cut by the left or right border (someone walking out of view).
   if (cut_by_side(f, c, need)) return false;
   for (int32_t m = 0; m < n; ++m) {
     const Candidate& u = candidates_[m];
@@ -319,18 +319,18 @@ bool PersonTests::in_front_of_a_user(const DepthFrame& f, int32_t n, int32_t k, 
 // larger user, nearer, whose image box (grown by 2 pixels) holds the component's and whose centroid
 // is within absorb_radius_m along the floor, or, for a component without a person's area that
 // reaches higher than the user, starts above its top row and shares its columns, within
-// head_radius_m (header). The nearest such user. Work: one pass over the candidates.
+// head_radius_m. The nearest such user. Work: one walk over the candidates.
 int32_t PersonTests::absorbing_user(const DepthFrame& f, int32_t n, int32_t k, const float* cx, const float* cy,
                                   const float* cz) const {
   const SegmenterConfig& cfg = *config_;
   if (cfg.absorb_radius_m <= 0.0f && cfg.head_radius_m <= 0.0f) return -1;
   const Candidate& c = candidates_[k];
   const bool use_floor = floor_->valid != 0;
-  // A piece without a person's area (it passes as hidden or cut) may be the top of a user's body
-  // (header, head_radius_m).
+  // A piece without a person's area (it qualifies as hidden or cut) may be the top of a user's body
+  // (head_radius_m).
   const bool small = float(c.pixels) < cfg.min_person_area_m2 * f.intrinsics.fx * f.intrinsics.fy / (cz[k] * cz[k]);
-  // Such a piece cut by the top border (with cut_top_area_fraction it may pass that way) beside a
-  // larger user cut there too is mostly that user's other leg, a step nearer or farther (header).
+  // Such a piece cut by the top border (with cut_top_area_fraction it may qualify that way) beside a
+  // larger user cut there too is mostly that user's other leg, a step nearer or farther.
   const bool leg_piece = cfg.cut_top_area_fraction > 0.0f && cfg.legs_radius_m > 0.0f && small && c.v_min == 0;
   int32_t best = -1;
   float r = cfg.absorb_radius_m > cfg.head_radius_m ? cfg.absorb_radius_m : cfg.head_radius_m;
@@ -362,16 +362,16 @@ int32_t PersonTests::absorbing_user(const DepthFrame& f, int32_t n, int32_t k, c
   return best;
 }
 
-// A person and a box as one component (header, box_split_height_m): the component's pixels binned
+// A person and a box as one component (box_split_height_m): the component's pixels binned
 // on the floor in a kSplitCells² grid of box_split_cell_m centred on its centroid (pixels outside
 // the grid stay). Cells whose highest point is lower than box_split_height_m are low (cells
 // reaching the top image row never); the lid is the band of two kLidBins bins of cell tops holding
 // the most low-cell pixels. The lid cells' pixels are dropped (marked −1 in parent_, so they are
 // labelled background) when they stand on the floor, make at least box_split_min_share of the
 // component, their centroid lies at least box_split_min_dist_m from the rest's along the floor and
-// the rest passes the person test; the candidate's statistics become the rest's (the hidden-edge,
+// the rest meets the person test; the candidate's statistics become the rest's (the hidden-edge,
 // occlusion and hull counts are kept). Returns 1 then; 2 when the lid is not dropped but holds at
-// least box_reject_min_share of the component (no user); else 0. Work: at most four passes over
+// least box_reject_min_share of the component (no user); else 0. Work: at most four sweeps over
 // the candidate's image box.
 int32_t PersonTests::split_box(const DepthFrame& f, int32_t k, bool low_outline) {
   const SegmenterConfig& cfg = *config_;
@@ -440,22 +440,22 @@ int32_t PersonTests::split_box(const DepthFrame& f, int32_t k, bool low_outline)
     add_height(rest, up);
   });
   if (dropped == 0 || rest.pixels == 0 || dropped_bottom > cfg.cut_floor_contact_m) return 0;
-  const bool rest_passes = passes_person_test(f, rest);
+  const bool rest_is_person = meets_person_test(f, rest);
   // Centroid distance along the floor between the dropped part and the rest.
   const float dx = float((c.sx - rest.sx) / dropped - rest.sx / rest.pixels);
   const float dy = float((c.sy - rest.sy) / dropped - rest.sy / rest.pixels);
   const float dz = float((c.sz - rest.sz) / dropped - rest.sz / rest.pixels);
   const float da = dx * ax + dy * ay + dz * az, db = dx * bx + dy * by + dz * bz;
   const bool apart = da * da + db * db >= cfg.box_split_min_dist_m * cfg.box_split_min_dist_m;
-  // A low component that passed only by its outline (header, low_max_solidity) holding a box's lid
+  // A low component that qualified only by its outline (low_max_solidity) holding a box's lid
   // apart from the rest: the outline is that of a box and something beside it, not a body's. A lid
   // under the rest is its own back (someone bent over), which the reject below would take for a
   // box's: not for these.
   const bool lid_apart = apart && float(dropped) >= cfg.box_split_min_share * float(c.pixels);
-  if (low_outline && !(rest_passes && lid_apart)) return lid_apart ? 2 : 0;
-  if (!rest_passes || !apart || float(dropped) < cfg.box_split_min_share * float(c.pixels)) {
+  if (low_outline && !(rest_is_person && lid_apart)) return lid_apart ? 2 : 0;
+  if (!rest_is_person || !apart || float(dropped) < cfg.box_split_min_share * float(c.pixels)) {
     // Not a box beside a person: a lid holding box_reject_min_share of the component is a box with
-    // a hand or arm over it (header).
+    // a hand or arm over it.
     const bool lid = cfg.box_reject_min_share > 0.0f && float(dropped) >= cfg.box_reject_min_share * float(c.pixels);
     return lid ? 2 : 0;
   }
@@ -466,20 +466,19 @@ int32_t PersonTests::split_box(const DepthFrame& f, int32_t k, bool low_outline)
   return 1;
 }
 
-// Someone low over the floor (header, low_max_lid_share): a component with the person area and
+// Someone low over the floor (low_max_lid_share): a component with the person area and
 // width, standing on the floor, its top in view, at least low_min_height_m but less than
 // min_person_height_m high, whose cells on the floor (box_split_cell_m, a kLowCells² grid centred on
 // its centroid; pixels outside the grid count as outside the lid) reach many heights: at most
 // low_max_lid_share of its pixels lie in cells whose tops fall within the height band (kLowBins
 // bins below min_person_height_m, as wide as the depth noise at its mean depth) holding the most
-// pixels. A box or cylinder reaches its top in every cell. Returns 1 then. Returns 2 (thirteenth
-// pass, low_max_solidity) when at most low_outline_max_lid_share of its pixels lie there and its
+// pixels. A box or cylinder reaches its top in every cell. Returns 1 then. Returns 2 (low_max_solidity) when at most low_outline_max_lid_share of its pixels lie there and its
 // silhouette fills at most low_max_solidity of its row-wise hull (measure_hull over its merged
-// pieces): no solid's outline. Returns 3 (fifteenth pass, cut_bottom_low_max_lid_share) for a
+// pieces): no solid's outline. Returns 3 (cut_bottom_low_max_lid_share) for a
 // component cut by the bottom border whose lowest point is above cut_floor_contact_m (its feet and
 // the floor under them out of view) when at most cut_bottom_low_max_lid_share of its pixels lie in
 // that band and at most cut_solidity_max_hidden of its image box is hidden by something nearer; such
-// a component gets no other test. Else 0. Work: two passes over the candidate's image box (three
+// a component gets no other test. Else 0. Work: two sweeps over the candidate's image box (three
 // more for the hull, one for the hidden pixels), 48 × 48 cells (9 KB) and 64 bins on the stack.
 int32_t PersonTests::low_person(const DepthFrame& f, int32_t k) {
   const SegmenterConfig& cfg = *config_;
@@ -487,7 +486,7 @@ int32_t PersonTests::low_person(const DepthFrame& f, int32_t k) {
   if ((cfg.low_max_lid_share <= 0.0f && cfg.low_max_solidity <= 0.0f && cfg.cut_bottom_low_max_lid_share <= 0.0f) ||
       floor_->valid == 0 || c.pixels == 0 || c.v_min == 0)
     return 0;
-  // Cut by the bottom border above the floor (header, cut_bottom_low_max_lid_share): the feet and
+  // Cut by the bottom border above the floor (cut_bottom_low_max_lid_share): the feet and
   // the floor under them are below the image; only the lid share judges it, with its own cap.
   const bool feet_below = cfg.cut_bottom_low_max_lid_share > 0.0f && c.v_max == f.height - 1 &&
                           c.bottom > cfg.cut_floor_contact_m;
@@ -503,16 +502,16 @@ int32_t PersonTests::low_person(const DepthFrame& f, int32_t k) {
   FloorGrid grid;
   if (!grid.init_at(*floor_, f.intrinsics, c, cfg.box_split_cell_m))
     return 0;
-  // pass 0: each cell's top; pass 1: pixel-weighted histogram of the cells' tops.
+  // sweep 0: each cell's top; sweep 1: pixel-weighted histogram of the cells' tops.
   int32_t hist[kLowBins] = {};
   const float bin_scale = float(kLowBins) / cfg.min_person_height_m;
-  for (int32_t pass = 0; pass < 2; ++pass)
+  for (int32_t sweep = 0; sweep < 2; ++sweep)
     for_each_pixel_of(f, k, [&](int32_t u, int32_t v, int32_t, uint16_t z_mm) {
       float up;
       const int32_t cell = grid.cell_of(u, v, z_mm, &up);
       if (cell < 0) return;
       float& top = cell_top[cell];
-      if (pass == 0) {
+      if (sweep == 0) {
         if (up > top) top = up;
       } else if (top >= 0.0f) {
         const int32_t bin = int32_t(top * bin_scale);
@@ -535,7 +534,7 @@ int32_t PersonTests::low_person(const DepthFrame& f, int32_t k) {
     if (float(lid) > cfg.cut_bottom_low_max_lid_share * float(c.pixels)) return 0;
     // Not when something nearer hides part of its image box (more than cut_solidity_max_hidden of
     // its pixel count): what is hidden may be the rest of a lid (a box behind someone showed 0.62).
-    // One pass over the image box.
+    // One sweep over the image box.
     int32_t occluded = 0;
     const int32_t front = int32_t(c.z_min * 1000.0f) - int32_t(cfg.join_mm);
     for (int32_t v = c.v_min; v <= c.v_max; ++v) {
@@ -545,9 +544,9 @@ int32_t PersonTests::low_person(const DepthFrame& f, int32_t k) {
     return float(occluded) <= cfg.cut_solidity_max_hidden * float(c.pixels) ? 3 : 0;
   }
   if (cfg.low_max_lid_share > 0.0f && float(lid) <= cfg.low_max_lid_share * float(c.pixels)) return 1;
-  // A lid over most cells, but an outline no solid has (header, low_max_solidity): the image of a
+  // A lid over most cells, but an outline no solid has (low_max_solidity): the image of a
   // box or cylinder is convex and fills its row-wise hull. Readings nearer than the component (less
-  // join_mm) count as filled, since what they hide is unknown. Three passes over the image box.
+  // join_mm) count as filled, since what they hide is unknown. Three sweeps over the image box.
   if (cfg.low_max_solidity <= 0.0f || float(lid) > cfg.low_outline_max_lid_share * float(c.pixels)) return 0;
   Candidate outline = c;
   measure_hull(f, &outline, k);
@@ -555,16 +554,16 @@ int32_t PersonTests::low_person(const DepthFrame& f, int32_t k) {
   return hollow ? 2 : 0;
 }
 
-// Two people joined by an arm (header, pair_bridge_max_m): the component's pixels profiled along the
+// Two people joined by an arm (pair_bridge_max_m): the component's pixels profiled along the
 // floor's horizontal axis (FloorGrid's a, the axis of its width) in at most kPairBins bins of at
 // least kPairBinM, each with its highest and lowest point. The first run of bridge bins (not empty,
 // thin and at least min_person_height_m up) with a standing bin (floor to min_person_height_m) on
-// each side is cut in its middle when each side alone passes the person test (no border
+// each side is cut in its middle when each side alone meets the person test (no border
 // relaxations) and stands on the floor. The pixels beyond the cut (the higher bins) move to a new
 // candidate (index n): its root is one of them that is no component's root, and every pixel of
 // that side points to it (labels and the later tests read one hop, parent_ → aux_); candidate k
 // keeps the rest, its statistics re-measured (its hidden-edge, occlusion and hull counts kept; the
-// new one has none). Returns n, or −1 when k is kept whole. Work: three passes over the
+// new one has none). Returns n, or −1 when k is kept whole. Work: three sweeps over the
 // candidate's image box, 64 bins on the stack.
 int32_t PersonTests::split_pair(const DepthFrame& f, int32_t n, int32_t k) {
   const SegmenterConfig& cfg = *config_;
@@ -646,7 +645,7 @@ int32_t PersonTests::split_pair(const DepthFrame& f, int32_t n, int32_t k) {
   });
   if (root < 0 || keep.pixels == 0 || moved.pixels == 0) return -1;
   if (keep.bottom > cfg.cut_floor_contact_m || moved.bottom > cfg.cut_floor_contact_m) return -1;
-  if (!passes_person_test(f, keep, false) || !passes_person_test(f, moved, false)) return -1;
+  if (!meets_person_test(f, keep, false) || !meets_person_test(f, moved, false)) return -1;
   for_each_pixel([&](int32_t, int32_t, int32_t i, float, float, float, float, int32_t b) {
     if (b >= cut) parent_[i] = root;
   });

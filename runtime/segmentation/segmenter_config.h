@@ -69,7 +69,7 @@ constexpr double kIntUnbounded = double(INT32_MAX);
   X(float, fragment_join_mm, 450.0f, 0, 65535, kClosed, "mm", "pieces touch when neighbouring pixels are this close in depth; 0 = no merging") \
   X(float, fragment_radius_m, 0.5f, 0, kUnbounded, kClosed, "m", "a touching piece joins a body within this along the floor") \
   X(float, fragment_pair_radius_m, 0.4f, 0, kUnbounded, kClosed, "m", "pieces join without touching within this; 0 = stacked pieces only") \
-  X(float, fragment_min_share, 0.05f, 0, 0.5, kOpenMax, "of the union", "when neither piece passes alone, the smaller holds at least this share") \
+  X(float, fragment_min_share, 0.05f, 0, 0.5, kOpenMax, "of the union", "when neither piece qualifies alone, the smaller holds at least this share") \
   X(float, absorb_radius_m, 0.6f, 0, kUnbounded, kClosed, "m", "a new user inside a nearer user's box within this joins it; 0 = off") \
   X(float, head_radius_m, 0.7f, 0, kUnbounded, kClosed, "m", "a small piece above a user beyond a depth jump joins it within this; 0 = off") \
   X(float, legs_radius_m, 0.55f, 0, kUnbounded, kClosed, "m", "legs on the floor join a body above the floor within this; 0 = off") \
@@ -78,15 +78,15 @@ constexpr double kIntUnbounded = double(INT32_MAX);
   X(float, box_split_cell_m, 0.1f, 0, kUnbounded, kOpenMin, "m", "floor cell size for the lid and low tests")            \
   X(float, box_split_min_dist_m, 0.6f, 0, kUnbounded, kClosed, "m", "the lid's centroid at least this far from the rest's") \
   X(float, box_reject_min_share, 0.7f, 0, 1, kClosed, "of the component", "a lid this large not split off makes no user; 0 = off") \
-  X(float, cut_max_fill, 0.6f, 0, 1, kClosed, "of the image box", "top-border cut on the floor passes filling at most this; 0 = off") \
+  X(float, cut_max_fill, 0.6f, 0, 1, kClosed, "of the image box", "top-border cut on the floor qualifies filling at most this; 0 = off") \
   X(float, cut_max_solidity, 0.8f, 0, 1, kClosed, "of the hull", "... or filling at most this of its row-wise hull; 0 = off") \
   X(float, cut_solidity_max_hidden, 0.05f, 0, kUnbounded, kClosed, "of its pixels", "hull test only when at most this of the box is hidden") \
   X(int32_t, cut_fill_border_columns, 1, 0, 1, kClosed, "", "1: a union's fill counts the border-cut pieces' columns only") \
   X(float, cut_floor_contact_m, 0.3f, 0, kUnbounded, kClosed, "m", "lowest point within this of the floor: stands on it") \
   X(float, cut_top_area_fraction, 0.8f, 0, 1, kClosed, "of the person area", "area a new top-border cut needs; 0 = the full area") \
-  X(float, low_max_lid_share, 0.4f, 0, 1, kClosed, "of the component", "someone low passes with at most this in the lid band; 0 = off") \
+  X(float, low_max_lid_share, 0.4f, 0, 1, kClosed, "of the component", "someone low qualifies with at most this in the lid band; 0 = off") \
   X(float, low_min_height_m, 0.7f, 0, kUnbounded, kClosed, "m", "someone low reaches at least this high")                 \
-  X(float, low_max_solidity, 0.6f, 0, 1, kClosed, "of the hull", "someone low passes by an outline filling at most this; 0 = off") \
+  X(float, low_max_solidity, 0.6f, 0, 1, kClosed, "of the hull", "someone low qualifies by an outline filling at most this; 0 = off") \
   X(float, low_outline_max_lid_share, 0.9f, 0, 1, kClosed, "of the component", "... with at most this in the lid band")   \
   X(int32_t, low_outline_box_split, 1, 0, 1, kClosed, "", "1: a low outline holding a box's lid apart is no user")          \
   X(float, cut_bottom_area_fraction, 0.3f, 0, 1, kClosed, "of the person area", "area a bottom-border cut as high as a person needs; 0 = off") \
@@ -105,7 +105,7 @@ constexpr double kIntUnbounded = double(INT32_MAX);
   X(float, association_growth_m, 0.08f, 0, kUnbounded, kClosed, "m/frame", "reach added per frame a track has been lost") \
   X(int32_t, track_keep_frames, 30, 0, 65535, kClosed, "frames", "a lost user keeps its id this long")                    \
   /* Top-border and bridge rules */                                                                                    \
-  X(float, cut_gap_min_share, 0.05f, 0, 1, kClosed, "of the rows", "legs together cut by the top border pass with this share of gap rows; 0 = off") \
+  X(float, cut_gap_min_share, 0.05f, 0, 1, kClosed, "of the rows", "legs together cut by the top border qualify with this share of gap rows; 0 = off") \
   X(float, cut_gap_max_fill, 0.8f, 0, 1, kClosed, "of the image box", "... filling at most this")                         \
   X(float, cut_hidden_floor_contact_m, 0.6f, 0, kUnbounded, kClosed, "m", "a top-border cut with hidden feet stands on the floor up to this; 0 = off") \
   X(float, pair_bridge_max_m, 0.4f, 0, kUnbounded, kClosed, "m", "thickest arm that bridges two people; 0 = off")

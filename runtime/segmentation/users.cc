@@ -4,9 +4,9 @@ namespace dp::seg {
 
 // The per-frame verdicts on the candidates and the tracks they matched (assign_users).
 struct UserStage::Verdicts {
-  bool strict[kMaxCandidates];   // passes the full person test (or as someone low): may become a new user
+  bool strict[kMaxCandidates];   // meets the full person test (or as someone low): may become a new user
   bool relaxed[kMaxCandidates];  // wide and large enough to keep a tracked user's id
-  bool outline[kMaxCandidates];  // passes only as low by its outline (low_max_solidity)
+  bool outline[kMaxCandidates];  // qualifies only as low by its outline (low_max_solidity)
   float cx[kMaxCandidates], cy[kMaxCandidates], cz[kMaxCandidates];  // centroids, camera metres
   bool track_matched[kMaxUsers];
 };
@@ -31,7 +31,7 @@ void UserStage::judge_candidates(const DepthFrame& f, int32_t n, Verdicts* v) {
     }
     set_centroid(k, v);
     const float need = cfg.min_person_area_m2 * focal2 / (v->cz[k] * v->cz[k]);
-    v->strict[k] = passes_person_test(f, c, true, true);
+    v->strict[k] = meets_person_test(f, c, true, true);
     const int32_t low = v->strict[k] ? 0 : low_person(f, k);
     v->strict[k] = v->strict[k] || low > 0;
     v->outline[k] = low == 2;
@@ -68,7 +68,7 @@ void UserStage::associate_tracks(int32_t n, Verdicts* v) {
   }
 }
 
-// New users: unmatched components passing the full person test, largest first, lowest free id;
+// New users: unmatched components meeting the full person test, largest first, lowest free id;
 // each may first be found a limb in front of a user, a box, two people or a piece of a user.
 // Returns the candidate count, grown by the components cut in two (split_pair).
 int32_t UserStage::admit_new_users(const DepthFrame& f, int32_t n, Verdicts* v, SegmentationResult* r) {

@@ -96,6 +96,17 @@ int run_segeval(int argc, char** argv) {
     std::printf("%s", segmenter_config_table_markdown().c_str());
     return 0;
   }
+  // The config first: a bad file or --set fails before any data is read.
+  SegmenterConfig cfg = default_segmenter_config(a.flag("--live"));
+  if (a.has("--segment-config")) cfg = load_segmenter_config_file(a.get("--segment-config"), cfg);
+  if (a.has("--set")) {
+    for (const std::string& kv : split_list(a.get("--set"))) {
+      const size_t eq = kv.find('=');
+      if (eq == std::string::npos) fail("--set wants K=V, got '" + kv + "'");
+      set_segmenter_config_field(&cfg, kv.substr(0, eq), kv.substr(eq + 1), "--set");
+    }
+    check_segmenter_config_constraints(cfg, "--set");
+  }
   const std::string dir = a.get("--data");
   const Dataset ds = open_dataset(dir);
   if (!ds.has_parts) fail(dir + ": segeval needs the ground-truth body mask (parts/)");
@@ -108,16 +119,6 @@ int run_segeval(int argc, char** argv) {
   const int w = ds.meta.width, h = ds.meta.height;
   const CameraIntrinsics intr{float(ds.meta.fx), float(ds.meta.fy), float(ds.meta.cx), float(ds.meta.cy)};
 
-  SegmenterConfig cfg = default_segmenter_config(a.flag("--live"));
-  if (a.has("--segment-config")) cfg = load_segmenter_config_file(a.get("--segment-config"), cfg);
-  if (a.has("--set")) {
-    for (const std::string& kv : split_list(a.get("--set"))) {
-      const size_t eq = kv.find('=');
-      if (eq == std::string::npos) fail("--set wants K=V, got '" + kv + "'");
-      set_segmenter_config_field(&cfg, kv.substr(0, eq), kv.substr(eq + 1), "--set");
-    }
-    check_segmenter_config_constraints(cfg, "--set");
-  }
   Segmenter seg;
   const size_t seg_bytes = segmenter_required_bytes(w, h);
   const platform::ArenaMemory seg_arena(seg_bytes);
