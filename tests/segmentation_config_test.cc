@@ -83,8 +83,8 @@ TEST(SegmentationConfig, ValidationRejectsEveryValueOutsideItsRange) {
   for (int i = 0; i < dp::kSegmenterConfigFieldCount; ++i) {
     const dp::SegmenterConfigField& f = dp::kSegmenterConfigFields[i];
     SCOPED_TRACE(f.name);
-    const bool open_min = f.range == dp::kOpenMin || f.range == dp::kOpen;
-    const bool open_max = f.range == dp::kOpenMax || f.range == dp::kOpen;
+    const bool open_min = f.range == dp::kRangeOpenMin || f.range == dp::kRangeOpen;
+    const bool open_max = f.range == dp::kRangeOpenMax || f.range == dp::kRangeOpen;
     const double step = f.type == dp::kConfigFloat ? std::fmax(1e-3, std::fabs(f.min) * 1e-3) : 1.0;
     // Below the minimum (at it when it is excluded); unsigned fields at 0 only when 0 is excluded.
     const double below = open_min ? f.min : f.min - step;
@@ -95,7 +95,7 @@ TEST(SegmentationConfig, ValidationRejectsEveryValueOutsideItsRange) {
       EXPECT_FALSE(init_accepts(c)) << below;
     }
     // Above a bounded maximum.
-    const bool bounded = f.type == dp::kConfigFloat ? f.max < dp::kUnbounded : f.max < dp::kIntUnbounded;
+    const bool bounded = f.type == dp::kConfigFloat ? f.max < dp::kConfigUnbounded : f.max < dp::kConfigIntUnbounded;
     if (bounded && f.type != dp::kConfigBool && !(f.type == dp::kConfigUint16 && f.max >= 65535)) {
       const double above = open_max ? f.max : f.max + (f.type == dp::kConfigFloat ? std::fmax(1e-3, f.max * 1e-3) : 1.0);
       SegmenterConfig c;

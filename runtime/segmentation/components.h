@@ -40,7 +40,7 @@ struct Candidate {
   int32_t owner;         // candidate this one was merged into (itself when not merged)
 };
 
-// Running statistics of a component (Segmenter::Candidate): pixel count, centroid sums,
+// Running statistics of a component (Candidate): pixel count, centroid sums,
 // extents, height range above the floor and image box. One place for the rules, so building a
 // component, re-measuring a cut one and merging two agree.
 template <class Stats>

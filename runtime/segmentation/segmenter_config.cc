@@ -17,8 +17,8 @@ double segmenter_config_value(const SegmenterConfig& c, int32_t index) {
 bool segmenter_config_in_range(int32_t index, double v) {
   if (index < 0 || index >= kSegmenterConfigFieldCount) return false;
   const SegmenterConfigField& f = kSegmenterConfigFields[index];
-  const bool above = f.range == kOpenMin || f.range == kOpen ? v > f.min : v >= f.min;
-  const bool below = f.range == kOpenMax || f.range == kOpen ? v < f.max : v <= f.max;
+  const bool above = f.range == kRangeOpenMin || f.range == kRangeOpen ? v > f.min : v >= f.min;
+  const bool below = f.range == kRangeOpenMax || f.range == kRangeOpen ? v < f.max : v <= f.max;
   return above && below;  // false for NaN
 }
 
@@ -27,9 +27,9 @@ bool segmenter_config_constraint_holds(const SegmenterConfig& c, int32_t index) 
   const SegmenterConfigConstraint& k = kSegmenterConfigConstraints[index];
   const double a = segmenter_config_value(c, k.field), b = segmenter_config_value(c, k.other);
   switch (k.relation) {
-    case kGreater: return a > b;
-    case kGreaterEqual: return a >= b;
-    case kLessEqual: return a <= b;
+    case kRelationGreater: return a > b;
+    case kRelationGreaterEqual: return a >= b;
+    case kRelationLessEqual: return a <= b;
   }
   return false;
 }

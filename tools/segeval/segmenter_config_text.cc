@@ -43,9 +43,9 @@ const char* type_text(SegmenterConfigType t) {
 
 const char* relation_text(SegmenterConfigRelation r) {
   switch (r) {
-    case kGreater: return ">";
-    case kGreaterEqual: return ">=";
-    case kLessEqual: return "<=";
+    case kRelationGreater: return ">";
+    case kRelationGreaterEqual: return ">=";
+    case kRelationLessEqual: return "<=";
   }
   return "?";
 }
@@ -74,8 +74,8 @@ int segmenter_config_field_index(const std::string& key) {
 std::string segmenter_config_range_text(int index) {
   const SegmenterConfigField& f = kSegmenterConfigFields[index];
   if (f.type == kConfigBool) return "true or false";
-  const bool open_min = f.range == kOpenMin || f.range == kOpen, open_max = f.range == kOpenMax || f.range == kOpen;
-  const bool unbounded = (f.type == kConfigFloat && f.max == kUnbounded) || (f.type != kConfigFloat && f.max == kIntUnbounded);
+  const bool open_min = f.range == kRangeOpenMin || f.range == kRangeOpen, open_max = f.range == kRangeOpenMax || f.range == kRangeOpen;
+  const bool unbounded = (f.type == kConfigFloat && f.max == kConfigUnbounded) || (f.type != kConfigFloat && f.max == kConfigIntUnbounded);
   if (unbounded) return std::string(open_min ? "> " : ">= ") + number_text(f.min);
   return std::string(open_min ? "(" : "[") + number_text(f.min) + ", " + number_text(f.max) + (open_max ? ")" : "]");
 }
