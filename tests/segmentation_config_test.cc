@@ -328,11 +328,25 @@ TEST(SegmentationConfig, RunReadsASegmentConfigFile) {
   for (const nlohmann::json& line : tall.lines) tall_users += line.contains("users") ? line["users"].size() : 0;
   EXPECT_LT(tall_users, users);
   EXPECT_NE(tall.log.find("run_tall.cfg"), std::string::npos) << tall.log;
-  // Errors reach the command line naming the key.
-  const std::string bad = write_file("run_bad.cfg", "max_users = 0\n");
-  const std::string e = error_of([&] {
+  // Errors reach the command line naming the key: out of range, unknown key, bad number.
+  auto run_error = [&](const std::string& name, const std::string& text) {
+    const std::string file = write_file(name, text);
+    return error_of([&] {
+      dp::testsupport::run_cli({"run", "--blob", "models/bpc.blob", "--source", "dataset:" + scene_dataset().path,
+                                "--segment", "on", "--segment-config", file});
+    });
+  };
+  std::string e = run_error("run_range.cfg", "max_users = 0\n");
+  EXPECT_NE(e.find("max_users = '0': out of range (int32 in [1, 15])"), std::string::npos) << e;
+  e = run_error("run_key.cfg", "# typo\nmax_user = 2\n");
+  EXPECT_NE(e.find("run_key.cfg:2: unknown key 'max_user'"), std::string::npos) << e;
+  e = run_error("run_number.cfg", "min_person_height_m = 1,2\n");
+  EXPECT_NE(e.find("min_person_height_m = '1,2': not a number"), std::string::npos) << e;
+  // With segmentation off the file would be ignored: an error instead.
+  const std::string good = write_file("run_good.cfg", "max_users = 2\n");
+  e = error_of([&] {
     dp::testsupport::run_cli({"run", "--blob", "models/bpc.blob", "--source", "dataset:" + scene_dataset().path,
-                              "--segment", "on", "--segment-config", bad});
+                              "--segment", "off", "--segment-config", good});
   });
-  EXPECT_NE(e.find("max_users = '0': out of range"), std::string::npos) << e;
+  EXPECT_NE(e.find("segmentation is off"), std::string::npos) << e;
 }
