@@ -18,6 +18,7 @@
 #include "platform/hotplug_source.h"
 #include "platform/usb_devices.h"
 #include "runtime/segmentation/segmenter.h"
+#include "tools/segeval/segmenter_config_text.h"
 #include "tools/app/overlay.h"
 #include "tools/common/error.h"
 #include "tools/common/png_io.h"
@@ -344,11 +345,16 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   std::vector<uint8_t> labels, user_mask;
   std::vector<FrameResult> user_results;
   auto seg_result = std::make_unique<SegmentationResult>();
+  if (!segment && !options.segment_config_path.empty())
+    fail("--segment-config " + options.segment_config_path + ": segmentation is off for this source (use --segment on)");
   if (segment) {
+    SegmenterConfig seg_config = default_segmenter_config(sequential);
+    if (!options.segment_config_path.empty())
+      seg_config = load_segmenter_config_file(options.segment_config_path, seg_config);
     const size_t seg_bytes = segmenter_required_bytes(w, h);
     if (!seg_bytes) fail("segmentation cannot run on " + std::to_string(w) + "x" + std::to_string(h) + " frames");
     seg_arena = platform::ArenaMemory(seg_bytes);
-    if (Status s = segmenter.init(default_segmenter_config(sequential), w, h, seg_arena.data(), seg_bytes);
+    if (Status s = segmenter.init(seg_config, w, h, seg_arena.data(), seg_bytes);
         s != Status::kOk)
       fail(std::string("segmenter init: ") + status_message(s));
     labels.assign(size_t(w) * h, 0);
@@ -371,8 +377,10 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
                intrinsics.cy, kernel_isa_name(pipeline.kernel()), kernel_isa_name(pipeline.forest_kernel()), arena_bytes,
                arena.huge_page_advice() ? " (2 MiB pages advised)" : "");
   if (segment)
-    std::fprintf(log, "run: segmentation on (floor, %s, users), arena %zu bytes\n",
-                 sequential ? "background model" : "no background model", segmenter.arena_used_bytes());
+    std::fprintf(log, "run: segmentation on (floor, %s, users), arena %zu bytes, config %s\n",
+                 segmenter.config().background_enabled ? "background model" : "no background model",
+                 segmenter.arena_used_bytes(),
+                 options.segment_config_path.empty() ? "defaults" : options.segment_config_path.c_str());
   summary.segmented = segment;
 
   // ---- the loop: no allocation from here on ----

@@ -61,6 +61,7 @@ struct RunOptions {
   int64_t max_frames = -1;      // stop after this many processed frames (−1 = source end)
   KernelIsa kernel = KernelIsa::kBest;
   SegmentMode segment = SegmentMode::kAuto;
+  std::string segment_config_path;  // SegmenterConfig file over the defaults (empty = defaults)
   BudgetOverrides budget;        // --pixel-budget / --cycle-budget over the blob's config (docs/budget.md)
   // Live sources: watch the USB bus (libusb) for the depth camera leaving and coming back.
   bool usb_watch = true;

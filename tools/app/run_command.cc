@@ -23,7 +23,7 @@ static KernelIsa parse_kernel(const std::string& name) {
 
 static int run_run(int argc, char** argv) {
   std::vector<std::string> options = kSourceOptionNames;
-  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--kernel", "--segment",
+  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--kernel", "--segment", "--segment-config",
                                     kBudgetOptionNames[0], kBudgetOptionNames[1]});
   Args args(argc, argv,
             std::string("usage: depthpose run --blob BLOB --source SRC [--json] [--overlay DIR] [--every N]\n"
@@ -47,6 +47,9 @@ static int run_run(int argc, char** argv) {
                 "  --segment MODE       on, off or auto (default): find the people first (floor, background model,\n"
                 "                       users with stable ids; docs/segmentation.md) and report joints per user.\n"
                 "                       auto = on for live sources and .oni files, off for raw files and datasets\n"
+                "  --segment-config FILE  SegmenterConfig settings over the defaults: key = value lines (# comments)\n"
+                "                       or a JSON object; an unknown key or a bad or out-of-range value is an error\n"
+                "                       (keys, ranges: docs/segmentation.md)\n"
                 "  --no-usb-watch       live sources: do not watch the USB bus for the camera leaving/returning\n",
             options, {"--json", "--quiet", "--realtime", "--all-proposals", "--no-usb-watch"});
   if (args.help_requested()) {
@@ -74,6 +77,7 @@ static int run_run(int argc, char** argv) {
   else if (segment == "on") o.segment = SegmentMode::kOn;
   else if (segment == "off") o.segment = SegmentMode::kOff;
   else fail("--segment wants on, off or auto, got '" + segment + "'");
+  o.segment_config_path = args.get("--segment-config", "");
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
   RunSummary s = run_app(o, stdout, stderr);

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -20,6 +19,8 @@
 #include "tools/common/png_io.h"
 #include "tools/eval/metrics.h"
 #include "tools/info/info.h"
+#include "tools/segeval/segmentation_digest.h"
+#include "tools/segeval/segmenter_config_text.h"
 
 namespace dp::tools {
 namespace {
@@ -42,22 +43,15 @@ static const char* const kUsage =
     "  --min-visible-area A  a third detection rate over people with >= A m^2 of body surface in view\n"
     "                         (default 0.05, about a head and neck; a person showing less is not expected)\n"
     "  --dump DIR             write DIR/NNNNNN.png per frame: depth in grey, users in colour, missed body red\n"
+    "  --digest OUT.txt       one line per frame: frame id and a 64-bit digest of everything the segmenter\n"
+    "                         output (labels, users, floor, counts, flags; not the cycles), to compare two builds\n"
     "  --per-frame OUT.jsonl  one line per frame: people (pixels, visible joints, box, border, matched user, IoU),\n"
     "                         users (pixels, body pixels, top, matched person), missed and extra pixels by height\n"
-    "  --set K=V,...          override SegmenterConfig numbers: min_person_height_m, min_person_area_m2,\n"
-    "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
-    "                         fragment_radius_m, fragment_pair_radius_m, cut_max_fill, cut_max_solidity, cut_solidity_max_hidden,\n"
-    "                         cut_fill_border_columns,\n"
-    "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, hidden_legs_radius_m,\n"
-    "                         hidden_legs_max_gap_m, hidden_legs_max_ratio, cut_floor_contact_m,\n"
-    "                         cut_bottom_area_fraction, cut_bottom_low_max_lid_share, cut_side_area_fraction, cut_top_area_fraction, cut_gap_min_share, cut_gap_max_fill,\n"
-    "                         cut_hidden_floor_contact_m, pair_bridge_max_m,\n"
-    "                         low_max_lid_share, low_min_height_m, low_max_solidity, low_outline_max_lid_share, low_outline_box_split,\n"
-    "                         fragment_min_share, absorb_radius_m, head_radius_m, legs_radius_m, box_split_height_m,\n"
-    "                         box_split_min_share, box_split_cell_m, box_split_min_dist_m,\n"
-    "                         box_reject_min_share,\n"
-    "                         floor_margin_per_m2_mm, floor_min_inlier_fraction, floor_min_extent_m, floor_samples,\n"
-    "                         floor_iterations";
+    "  --segment-config FILE  SegmenterConfig settings (key = value lines or a JSON object; strict: an unknown\n"
+    "                         key or a bad or out-of-range value is an error), over the defaults\n"
+    "  --set K=V,...          override SegmenterConfig fields after --segment-config (same keys and checks)\n"
+    "  --print-config-table   print the SegmenterConfig table (key, type, default, range, unit, meaning) as\n"
+    "                         Markdown, as in docs/segmentation.md, and exit";
 
 struct Person {
   std::vector<JointTruth> joints;
@@ -92,10 +86,26 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
 }
 
 int run_segeval(int argc, char** argv) {
-  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame"}, {"--live", "--forest-once"});
+  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame", "--digest", "--segment-config"},
+         {"--live", "--forest-once", "--print-config-table"});
   if (a.help_requested()) {
     std::printf("%s\n", a.usage().c_str());
     return 0;
+  }
+  if (a.flag("--print-config-table")) {
+    std::printf("%s", segmenter_config_table_markdown().c_str());
+    return 0;
+  }
+  // The config first: a bad file or --set fails before any data is read.
+  SegmenterConfig cfg = default_segmenter_config(a.flag("--live"));
+  if (a.has("--segment-config")) cfg = load_segmenter_config_file(a.get("--segment-config"), cfg);
+  if (a.has("--set")) {
+    for (const std::string& kv : split_list(a.get("--set"))) {
+      const size_t eq = kv.find('=');
+      if (eq == std::string::npos) fail("--set wants K=V, got '" + kv + "'");
+      set_segmenter_config_field(&cfg, kv.substr(0, eq), kv.substr(eq + 1), "--set");
+    }
+    check_segmenter_config_constraints(cfg, "--set");
   }
   const std::string dir = a.get("--data");
   const Dataset ds = open_dataset(dir);
@@ -109,70 +119,6 @@ int run_segeval(int argc, char** argv) {
   const int w = ds.meta.width, h = ds.meta.height;
   const CameraIntrinsics intr{float(ds.meta.fx), float(ds.meta.fy), float(ds.meta.cx), float(ds.meta.cy)};
 
-  SegmenterConfig cfg = default_segmenter_config(a.flag("--live"));
-  if (a.has("--set")) {
-    for (const std::string& kv : split_list(a.get("--set"))) {
-      const size_t eq = kv.find('=');
-      if (eq == std::string::npos) fail("--set wants K=V, got '" + kv + "'");
-      const std::string k = kv.substr(0, eq);
-      const double v = std::atof(kv.c_str() + eq + 1);
-      if (k == "min_person_height_m") cfg.min_person_height_m = float(v);
-      else if (k == "min_person_area_m2") cfg.min_person_area_m2 = float(v);
-      else if (k == "max_person_width_m") cfg.max_person_width_m = float(v);
-      else if (k == "floor_margin_mm") cfg.floor_margin_mm = float(v);
-      else if (k == "join_mm") cfg.join_mm = float(v);
-      else if (k == "join_mm_per_m") cfg.join_mm_per_m = float(v);
-      else if (k == "fragment_join_mm") cfg.fragment_join_mm = float(v);
-      else if (k == "fragment_radius_m") cfg.fragment_radius_m = float(v);
-      else if (k == "fragment_pair_radius_m") cfg.fragment_pair_radius_m = float(v);
-      else if (k == "cut_max_fill") cfg.cut_max_fill = float(v);
-      else if (k == "cut_max_solidity") cfg.cut_max_solidity = float(v);
-      else if (k == "hidden_area_fraction") cfg.hidden_area_fraction = float(v);
-      else if (k == "hidden_gap_mm") cfg.hidden_gap_mm = float(v);
-      else if (k == "hidden_min_edge") cfg.hidden_min_edge = int32_t(v);
-      else if (k == "hidden_pair_radius_m") cfg.hidden_pair_radius_m = float(v);
-      else if (k == "hidden_legs_radius_m") cfg.hidden_legs_radius_m = float(v);
-      else if (k == "hidden_legs_max_gap_m") cfg.hidden_legs_max_gap_m = float(v);
-      else if (k == "hidden_legs_max_ratio") cfg.hidden_legs_max_ratio = float(v);
-      else if (k == "cut_solidity_max_hidden") cfg.cut_solidity_max_hidden = float(v);
-      else if (k == "cut_fill_border_columns") cfg.cut_fill_border_columns = int32_t(v);
-      else if (k == "tracked_area_fraction") cfg.tracked_area_fraction = float(v);
-      else if (k == "fragment_min_share") cfg.fragment_min_share = float(v);
-      else if (k == "absorb_radius_m") cfg.absorb_radius_m = float(v);
-      else if (k == "head_radius_m") cfg.head_radius_m = float(v);
-      else if (k == "legs_radius_m") cfg.legs_radius_m = float(v);
-      else if (k == "box_split_height_m") cfg.box_split_height_m = float(v);
-      else if (k == "box_split_min_share") cfg.box_split_min_share = float(v);
-      else if (k == "box_split_cell_m") cfg.box_split_cell_m = float(v);
-      else if (k == "box_split_min_dist_m") cfg.box_split_min_dist_m = float(v);
-      else if (k == "box_reject_min_share") cfg.box_reject_min_share = float(v);
-      else if (k == "cut_bottom_area_fraction") cfg.cut_bottom_area_fraction = float(v);
-      else if (k == "cut_bottom_low_max_lid_share") cfg.cut_bottom_low_max_lid_share = float(v);
-      else if (k == "cut_side_area_fraction") cfg.cut_side_area_fraction = float(v);
-      else if (k == "cut_floor_contact_m") cfg.cut_floor_contact_m = float(v);
-      else if (k == "cut_top_area_fraction") cfg.cut_top_area_fraction = float(v);
-      else if (k == "low_max_lid_share") cfg.low_max_lid_share = float(v);
-      else if (k == "low_min_height_m") cfg.low_min_height_m = float(v);
-      else if (k == "low_outline_max_lid_share") cfg.low_outline_max_lid_share = float(v);
-      else if (k == "low_max_solidity") cfg.low_max_solidity = float(v);
-      else if (k == "low_outline_box_split") cfg.low_outline_box_split = int32_t(v);
-      else if (k == "cut_gap_min_share") cfg.cut_gap_min_share = float(v);
-      else if (k == "cut_gap_max_fill") cfg.cut_gap_max_fill = float(v);
-      else if (k == "cut_hidden_floor_contact_m") cfg.cut_hidden_floor_contact_m = float(v);
-      else if (k == "pair_bridge_max_m") cfg.pair_bridge_max_m = float(v);
-      else if (k == "floor_margin_per_m2_mm") cfg.floor_margin_per_m2_mm = float(v);
-      else if (k == "floor_min_inlier_fraction") cfg.floor_min_inlier_fraction = float(v);
-      else if (k == "floor_min_extent_m") cfg.floor_min_extent_m = float(v);
-      else if (k == "floor_samples") cfg.floor_samples = int32_t(v);
-      else if (k == "camera_height_min_m") cfg.camera_height_min_m = float(v);
-      else if (k == "floor_retry_iterations") cfg.floor_retry_iterations = int32_t(v);
-      else if (k == "floor_wide_inlier_fraction") cfg.floor_wide_inlier_fraction = float(v);
-      else if (k == "floor_wide_extent_m") cfg.floor_wide_extent_m = float(v);
-      else if (k == "floor_far_mm") cfg.floor_far_mm = uint16_t(v);
-      else if (k == "floor_iterations") cfg.floor_iterations = int32_t(v);
-      else fail("--set: unknown key '" + k + "'");
-    }
-  }
   Segmenter seg;
   const size_t seg_bytes = segmenter_required_bytes(w, h);
   const platform::ArenaMemory seg_arena(seg_bytes);
@@ -213,6 +159,11 @@ int run_segeval(int argc, char** argv) {
   if (a.has("--per-frame")) {
     per_frame.open(a.get("--per-frame"));
     if (!per_frame) fail(a.get("--per-frame") + ": cannot write");
+  }
+  std::ofstream digest_out;
+  if (a.has("--digest")) {
+    digest_out.open(a.get("--digest"));
+    if (!digest_out) fail(a.get("--digest") + ": cannot write");
   }
   double inter_total = 0, union_total = 0, iou_sum = 0;
   long people_total = 0, people_found = 0, findable_total = 0, findable_found = 0, false_users = 0;
@@ -257,6 +208,11 @@ int run_segeval(int argc, char** argv) {
     seg_wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     seg_cycles += double(r.total_cycles);
     for (int s = 0; s < kSegStageCount; ++s) stage_cycles[size_t(s)] += double(r.stage_cycles[s]);
+    if (digest_out.is_open()) {
+      char hex[17];
+      std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(segmentation_digest(r, w, h, w)));
+      digest_out << ds.frames[size_t(i)].id << " " << hex << "\n";
+    }
 
     if (a.has("--dump")) {
       ImageRgb img;
