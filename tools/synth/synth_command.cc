@@ -29,7 +29,10 @@ const char* kUsage =
     "  --frames N          number of frames\n"
     "  --seed S            random seed (default 1); same arguments + seed = identical dataset\n"
     "  --width W --height H  image size (default 320x240; 640x480 works; fx=fy=525*W/640)\n"
-    "  --clips LIST        comma list: subject (02), clip (02_01) or path.bvh (default: all)\n"
+    "  --clips LIST        comma list: subject (02), clip (02_01), all (every clip of mocap/clips.tsv),\n"
+    "                      split:train|validation|test (see --splits), or a .bvh/.amc file (plain or\n"
+    "                      .gz); default: the 28 clips under mocap/cmu\n"
+    "  --splits FILE       held-out splits table (default tools/synth/splits.tsv)\n"
     "  --threads N         worker threads (default: all cores); output does not depend on it\n"
     "  --preview FILE.png  contact sheet of the first frames (depth | parts | joints)\n"
     "  --rotation DEG      body yaw uniform in [-DEG, DEG] (default 60; 180 or 360 = any)\n"
@@ -64,7 +67,7 @@ int run_synth(int argc, char** argv) {
   dp::tools::Args args(argc, argv, kUsage,
                        {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
-                        "--pose-sheet", "--people", "--clutter"},
+                        "--pose-sheet", "--people", "--clutter", "--splits"},
                        {"--floor", "--no-noise", "--sequence"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
@@ -85,6 +88,7 @@ int run_synth(int argc, char** argv) {
   if (!(config.pose_min_distance_m >= 0)) fail("--pose-distance must be >= 0");
   if (!(config.rotation_deg >= 0)) fail("--rotation must be >= 0");
   if (args.has("--clips")) config.clips = dp::tools::split_list(args.get("--clips"));
+  config.splits_path = args.get("--splits", kDefaultSplitsPath);
   if (args.has("--ages")) {
     const std::string a = args.get("--ages");
     char* end = nullptr;
