@@ -1,5 +1,6 @@
 // `depthpose synth`: writes a synthetic dataset (layout v1, docs/dataset_format.md) rendered from
 // the MakeHuman body and CMU motion; see docs/synthetic_data.md.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -48,7 +49,8 @@ const char* kUsage =
     "  --pose-stride N     use every N-th mocap frame before pruning (default 4)\n"
     "  --ages A-B          age range in years (default 13-75)\n"
     "  --parts-figure PREFIX  write PREFIX_front.png and PREFIX_back.png (labelled body, docs/parts.md)\n"
-    "  --pose-sheet FILE.png  contact sheet of pose-library samples (to check retargeting)\n";
+    "  --pose-sheet FILE.png  one row of posed bodies per skeleton naming of the selected clips\n"
+    "                      (first frame, then frames spread over its clips): checks retargeting\n";
 
 std::string format_seconds(double s) {
   char buf[32];
@@ -117,18 +119,36 @@ int run_synth(int argc, char** argv) {
     std::fprintf(stderr, "synth: wrote %s_front.png and %s_back.png\n", prefix.c_str(), prefix.c_str());
   }
   if (args.has("--pose-sheet")) {
-    const int cols = 8, rows = 4, cw = 160, ch = 240;
+    // One row per skeleton naming among the selected clips: its first frame (the rest pose of a
+    // BVH conversion, where one exists), then frames spread evenly over all its clips. Left parts
+    // and right parts have different colours (docs/parts.md), so a limb retargeted onto the wrong
+    // bone or side shows at a glance.
+    const std::vector<MotionClip> clips = load_clips(assets, config.clips, config.pose_frame_stride, config.splits_path);
+    std::vector<std::string> namings;
+    for (const MotionClip& c : clips)
+      if (std::find(namings.begin(), namings.end(), c.skeleton) == namings.end()) namings.push_back(c.skeleton);
+    const int cols = 8, cw = 160, ch = 240;
+    const int rows = int(namings.size());
     dp::tools::ImageRgb sheet;
     sheet.resize(cols * cw, rows * ch);
-    const size_t n = synth.pose_library().poses.size();
-    for (int i = 0; i < cols * rows; ++i) {
-      const size_t pi = (n * size_t(i)) / size_t(cols * rows);
-      dp::tools::ImageRgb cell = synth.render_parts_figure(synth.pose_library().poses[pi], 20, cw, ch);
-      for (int y = 0; y < ch; ++y)
-        for (int x = 0; x < cw; ++x) {
-          const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
-          sheet.set((i % cols) * cw + x, (i / cols) * ch + y, c[0], c[1], c[2]);
-        }
+    const Skeleton rest = measure_skeleton(synth.assets(), synth.assets().base_vertices);
+    for (int row = 0; row < rows; ++row) {
+      std::vector<std::pair<const MotionClip*, size_t>> frames;
+      for (const MotionClip& c : clips)
+        if (c.skeleton == namings[size_t(row)])
+          for (size_t k = 0; k < c.frames.size(); ++k) frames.push_back({&c, k});
+      std::fprintf(stderr, "synth: pose sheet row %d: %s (%zu frames)\n", row + 1, namings[size_t(row)].c_str(),
+                   frames.size());
+      for (int i = 0; i < cols; ++i) {
+        const size_t at = i == 0 ? 0 : frames.size() * size_t(2 * i - 1) / size_t(2 * (cols - 1));
+        const BodyPose pose = retarget_frame(synth.assets(), rest, *frames[at].first, frames[at].second);
+        dp::tools::ImageRgb cell = synth.render_parts_figure(pose, 20, cw, ch);
+        for (int y = 0; y < ch; ++y)
+          for (int x = 0; x < cw; ++x) {
+            const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
+            sheet.set(i * cw + x, row * ch + y, c[0], c[1], c[2]);
+          }
+      }
     }
     dp::tools::write_png_rgb(args.get("--pose-sheet"), sheet);
     std::fprintf(stderr, "synth: wrote %s\n", args.get("--pose-sheet").c_str());
