@@ -690,7 +690,9 @@ TEST(SynthMocapFiles, SplitsHoldOutWholeSubjects) {
   for (const char* held : {"94", "135", "55", "49", "61", "12"}) EXPECT_EQ(train_subjects.count(held), 0u) << held;
   for (const ClipEntry& e : val) EXPECT_EQ(train_subjects.count(e.subject), 0u) << e.id;
   for (const ClipEntry& e : test) {  // the stylized walks of 105 are a held-out category, not subject
-    if (e.subject != "105") EXPECT_EQ(train_subjects.count(e.subject), 0u) << e.id;
+    if (e.subject != "105") {
+      EXPECT_EQ(train_subjects.count(e.subject), 0u) << e.id;
+    }
   }
   EXPECT_NE(error_of([&] { select_clips(kMocap, {"split:holdout"}, kDefaultSplitsPath); }).find("split must be"),
             std::string::npos);

@@ -30,10 +30,6 @@ double age_control_from_years(double years) {
   return std::min(1.0, 0.5 + 0.5 * (years - 25) / 65.0);
 }
 
-bool ends_with(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
 void sample_shape(Rng& rng, const SynthConfig& c, ShapeControls& s) {
   s.gender = rng.uniform();
   s.age = age_control_from_years(rng.uniform(c.age_min_years, c.age_max_years));
@@ -100,11 +96,21 @@ Synthesizer::Synthesizer(const std::string& assets_dir, const SynthConfig& confi
   intrinsics_.fx = intrinsics_.fy = config_.focal_640 * config_.width / 640.0;
   assets_ = load_human_assets(assets_dir);
   vertex_labels_ = vertex_part_labels(assets_);
-  std::vector<MotionClip> clips = load_clips(assets_dir, config_.clips, config_.pose_frame_stride, config_.splits_path);
-  for (auto& c : clips) clip_names_.push_back(c.name);
-  // A sequence walks through the clips frame by frame: no pruning, clip order kept.
-  library_ = build_pose_library(assets_, clips, config_.sequence ? 0.0 : config_.pose_min_distance_m,
-                                /*keep_order=*/config_.sequence);
+  std::vector<ClipEntry> entries;
+  std::vector<MotionClip> clips =
+      load_clips(assets_dir, config_.clips, config_.pose_frame_stride, config_.splits_path, &entries);
+  std::vector<std::string> categories;
+  for (size_t i = 0; i < clips.size(); ++i) {
+    clip_names_.push_back(clips[i].name);
+    categories.push_back(entries[i].category);
+  }
+  if (config_.sequence) {
+    // A sequence walks through the clips frame by frame: no pruning, clip order kept.
+    library_ = build_pose_library(assets_, clips, 0.0, /*keep_order=*/true);
+  } else {
+    library_ = build_pose_pool(assets_, clips, categories, config_.pose_variation, config_.pose_min_distance_m,
+                               &pool_report_);
+  }
   if (library_.poses.empty()) fail("no poses from the selected clips");
 }
 

@@ -21,6 +21,7 @@
 #include "tools/synth/clip_index.h"
 #include "tools/synth/depth_noise.h"
 #include "tools/synth/human_model.h"
+#include "tools/synth/pose_pool.h"
 #include "tools/synth/posing.h"
 #include "tools/synth/rasterizer.h"
 
@@ -45,6 +46,7 @@ struct SynthConfig {
   std::string splits_path = kDefaultSplitsPath;
   int pose_frame_stride = 4;         // sample every 4th mocap frame (30 Hz of 120 Hz) before pruning
   double pose_min_distance_m = 0.05; // D_pose of the furthest-neighbour pruning
+  PoseVariation pose_variation;      // synthetic poses added before pruning (pose_pool.h); none by default
   double mirror_probability = 0.5;
   // Scene ranges (see docs/synthetic_data.md).
   double distance_min_m = 1.2, distance_max_m = 4.0;     // camera to body, along the floor
@@ -118,6 +120,7 @@ class Synthesizer {
   const Intrinsics& intrinsics() const { return intrinsics_; }
   const HumanAssets& assets() const { return assets_; }
   const PoseLibrary& pose_library() const { return library_; }
+  const PosePoolReport& pose_pool_report() const { return pool_report_; }
   const std::vector<uint8_t>& vertex_labels() const { return vertex_labels_; }
   const std::vector<std::string>& clip_names() const { return clip_names_; }
 
@@ -145,6 +148,7 @@ class Synthesizer {
   HumanAssets assets_;
   std::vector<uint8_t> vertex_labels_;
   PoseLibrary library_;
+  PosePoolReport pool_report_;
   std::vector<std::string> clip_names_;
 };
 

@@ -47,6 +47,11 @@ const char* kUsage =
     "  --no-noise          clean depth (no shadows, dropouts, quantization)\n"
     "  --pose-distance M   D_pose of the pose pruning in metres (default 0.05)\n"
     "  --pose-stride N     use every N-th mocap frame before pruning (default 4)\n"
+    "  --pose-pool KIND    clips (default): the sampled mocap frames; varied: plus their mirror images,\n"
+    "                      one rotation-noise copy each within the mocap's joint limits and 0.5\n"
+    "                      upper/lower-body recombinations per pose (docs/synthetic_data.md)\n"
+    "  --pose-seed S       seed of the pose variation (default 1)\n"
+    "  --pool-report       print the pose pool per CMU category (before/after pruning, times)\n"
     "  --ages A-B          age range in years (default 13-75)\n"
     "  --parts-figure PREFIX  write PREFIX_front.png and PREFIX_back.png (labelled body, docs/parts.md)\n"
     "  --pose-sheet FILE.png  one row of posed bodies per skeleton naming of the selected clips\n"
@@ -69,8 +74,8 @@ int run_synth(int argc, char** argv) {
   dp::tools::Args args(argc, argv, kUsage,
                        {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
-                        "--pose-sheet", "--people", "--clutter", "--splits"},
-                       {"--floor", "--no-noise", "--sequence"});
+                        "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed"},
+                       {"--floor", "--no-noise", "--sequence", "--pool-report"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
     return 0;
@@ -91,6 +96,15 @@ int run_synth(int argc, char** argv) {
   if (!(config.rotation_deg >= 0)) fail("--rotation must be >= 0");
   if (args.has("--clips")) config.clips = dp::tools::split_list(args.get("--clips"));
   config.splits_path = args.get("--splits", kDefaultSplitsPath);
+  const std::string pool_kind = args.get("--pose-pool", "clips");
+  if (pool_kind == "varied") {
+    config.pose_variation.mirror = true;
+    config.pose_variation.noise_copies = 1;
+    config.pose_variation.recombined_per_pose = 0.5;
+  } else if (pool_kind != "clips") {
+    fail("--pose-pool must be clips or varied, got '" + pool_kind + "'");
+  }
+  config.pose_variation.seed = uint64_t(args.get_int("--pose-seed", 1));
   if (args.has("--ages")) {
     const std::string a = args.get("--ages");
     char* end = nullptr;
@@ -102,7 +116,8 @@ int run_synth(int argc, char** argv) {
       fail("--ages wants A-B with 1 <= A <= B <= 90, got '" + a + "'");
   }
   const std::string assets = args.get("--assets", "../shared/assets");
-  const bool figures_only = (args.has("--parts-figure") || args.has("--pose-sheet")) && !args.has("--out");
+  const bool figures_only =
+      (args.has("--parts-figure") || args.has("--pose-sheet") || args.flag("--pool-report")) && !args.has("--out");
 
   const auto t0 = std::chrono::steady_clock::now();
   Synthesizer synth(assets, config);
@@ -111,6 +126,8 @@ int run_synth(int argc, char** argv) {
                synth.clip_names().size(), synth.pose_library().candidate_count, synth.pose_library().poses.size(),
                config.pose_min_distance_m * 1000, load_s);
 
+  if (args.flag("--pool-report"))
+    std::printf("%s", format_pose_pool_report(synth.pose_pool_report(), config.pose_min_distance_m).c_str());
   if (args.has("--parts-figure")) {
     const std::string prefix = args.get("--parts-figure");
     const BodyPose pose = rest_pose(synth.assets());
