@@ -52,6 +52,7 @@ const char* kUsage =
     "                      upper/lower-body recombinations per pose (docs/synthetic_data.md)\n"
     "  --pose-seed S       seed of the pose variation (default 1)\n"
     "  --pool-report       print the pose pool per CMU category (before/after pruning, times)\n"
+    "  --pool-sheet FILE.png  one row of pruned-pool poses per kind (real, mirror, noise, recombined)\n"
     "  --ages A-B          age range in years (default 13-75)\n"
     "  --parts-figure PREFIX  write PREFIX_front.png and PREFIX_back.png (labelled body, docs/parts.md)\n"
     "  --pose-sheet FILE.png  one row of posed bodies per skeleton naming of the selected clips\n"
@@ -74,7 +75,7 @@ int run_synth(int argc, char** argv) {
   dp::tools::Args args(argc, argv, kUsage,
                        {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
-                        "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed"},
+                        "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed", "--pool-sheet"},
                        {"--floor", "--no-noise", "--sequence", "--pool-report"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
@@ -117,7 +118,8 @@ int run_synth(int argc, char** argv) {
   }
   const std::string assets = args.get("--assets", "../shared/assets");
   const bool figures_only =
-      (args.has("--parts-figure") || args.has("--pose-sheet") || args.flag("--pool-report")) && !args.has("--out");
+      (args.has("--parts-figure") || args.has("--pose-sheet") || args.has("--pool-sheet") || args.flag("--pool-report")) &&
+      !args.has("--out");
 
   const auto t0 = std::chrono::steady_clock::now();
   Synthesizer synth(assets, config);
@@ -169,6 +171,41 @@ int run_synth(int argc, char** argv) {
     }
     dp::tools::write_png_rgb(args.get("--pose-sheet"), sheet);
     std::fprintf(stderr, "synth: wrote %s\n", args.get("--pose-sheet").c_str());
+  }
+  if (args.has("--pool-sheet")) {
+    // One row per pose kind in the pruned pool (real, mirror, noise, recombined): poses spread
+    // evenly over that kind's entries, to check that synthetic variation stays human.
+    const PoseLibrary& lib = synth.pose_library();
+    auto kind_of = [](const std::string& origin) {
+      if (origin.find('+') != std::string::npos) return 3;
+      if (origin.find(" noise ") != std::string::npos) return 2;
+      if (origin.find(" mirror") != std::string::npos) return 1;
+      return 0;
+    };
+    std::vector<std::vector<size_t>> by_kind(4);
+    for (size_t i = 0; i < lib.poses.size(); ++i) by_kind[size_t(kind_of(lib.origin[i]))].push_back(i);
+    std::vector<int> kinds;
+    for (int k = 0; k < 4; ++k)
+      if (!by_kind[size_t(k)].empty()) kinds.push_back(k);
+    const int cols = 8, cw = 160, ch = 240;
+    dp::tools::ImageRgb sheet;
+    sheet.resize(cols * cw, int(kinds.size()) * ch);
+    for (size_t row = 0; row < kinds.size(); ++row) {
+      const std::vector<size_t>& members = by_kind[size_t(kinds[row])];
+      std::fprintf(stderr, "synth: pool sheet row %zu: %s (%zu poses)\n", row + 1, pose_kind_name(PoseKind(kinds[row])),
+                   members.size());
+      for (int i = 0; i < cols; ++i) {
+        const size_t pick = members[members.size() * size_t(2 * i + 1) / size_t(2 * cols)];
+        dp::tools::ImageRgb cell = synth.render_parts_figure(lib.poses[pick], 20, cw, ch);
+        for (int y = 0; y < ch; ++y)
+          for (int x = 0; x < cw; ++x) {
+            const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
+            sheet.set(i * cw + x, int(row) * ch + y, c[0], c[1], c[2]);
+          }
+      }
+    }
+    dp::tools::write_png_rgb(args.get("--pool-sheet"), sheet);
+    std::fprintf(stderr, "synth: wrote %s\n", args.get("--pool-sheet").c_str());
   }
   if (figures_only) return 0;
 
