@@ -457,6 +457,12 @@ dp::tools::DatasetMeta Synthesizer::dataset_meta() const {
   if (config_.people > 1) extra["people"] = config_.people;
   if (config_.clutter > 0) extra["clutter"] = config_.clutter;
   if (config_.sequence) extra["sequence"] = true;
+  if (config_.pose_variation.any() && !config_.sequence)
+    extra["pose_variation"] = {{"mirror", config_.pose_variation.mirror},
+                               {"noise_copies", config_.pose_variation.noise_copies},
+                               {"recombined_per_pose", config_.pose_variation.recombined_per_pose},
+                               {"noise_scale", config_.pose_variation.noise_scale},
+                               {"seed", config_.pose_variation.seed}};
   m.extra_json = extra.dump();
   return m;
 }
