@@ -35,7 +35,7 @@ BodyPose retarget_frame(const HumanAssets& assets, const Skeleton& rest, const M
 
 // Posed bone heads/tails (Hips head fixed at its rest position).
 Skeleton pose_skeleton(const HumanAssets& assets, const Skeleton& rest, const BodyPose& pose);
-// The 16 joints (definitions in the issue / docs/dataset_format.md) on a posed skeleton.
+// The 16 joints (definitions in docs/dataset_format.md) on a posed skeleton.
 JointSet joints_of(const HumanAssets& assets, const Skeleton& posed);
 
 // Linear blend skinning of the body vertices (first kBodyVertexCount of `shaped`). `out` is
