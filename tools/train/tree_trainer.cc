@@ -526,7 +526,8 @@ struct GrowNode {
 }  // namespace
 
 GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, int tree_index,
-                    const TreeParams& params, const ProgressFn& progress) {
+                    const TreeParams& params, const ProgressFn& progress, const GrowthState* resume,
+                    const LevelDoneFn& level_done) {
   const auto tree_start = std::chrono::steady_clock::now();
   if (pixels.empty()) fail("tree " + std::to_string(tree_index) + ": no training pixels");
   if (params.max_depth < 1 || params.max_depth > kMaxForestDepth)
@@ -548,10 +549,31 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
   nodes.push_back({0, 0, static_cast<uint32_t>(pixels.size())});
   std::vector<size_t> frontier = {0};
   const int threads = std::max(1, params.threads);
+  const int replay_levels = resume ? resume->levels_done : 0;
+  size_t replay_next = 0;  // next decision of resume->nodes (heap order = breadth-first order)
+  if (resume) out.feature_evaluations = resume->feature_evaluations;
   for (int level = 0; !frontier.empty(); ++level) {
     const auto level_start = std::chrono::steady_clock::now();
-    std::vector<NodeInfo> info(frontier.size());
-    for (size_t f = 0; f < frontier.size(); ++f) {
+    if (level < replay_levels) {
+      // Replay: the frontier is in heap order (children are appended in their parents' order),
+      // and so are the recorded decisions of this level.
+      for (size_t f = 0; f < frontier.size(); ++f) {
+        GrowNode& g = nodes[frontier[f]];
+        if (replay_next >= resume->nodes.size() || resume->nodes[replay_next].heap != g.heap)
+          fail("checkpoint: tree " + std::to_string(tree_index) + " has no decision for node " +
+               std::to_string(g.heap) + " at level " + std::to_string(level) +
+               " (the checkpoint belongs to other data or options)");
+        const DecidedNode& d = resume->nodes[replay_next++];
+        g.leaf = d.leaf;
+        g.du1 = d.du1;
+        g.dv1 = d.dv1;
+        g.du2 = d.du2;
+        g.dv2 = d.dv2;
+        g.threshold = d.threshold;
+      }
+    }
+    std::vector<NodeInfo> info(level < replay_levels ? 0 : frontier.size());
+    for (size_t f = 0; f < info.size(); ++f) {
       const GrowNode& g = nodes[frontier[f]];
       info[f].heap = g.heap;
       info[f].begin = g.begin;
@@ -600,6 +622,9 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
     });
 
     std::vector<size_t> splitting;
+    if (level < replay_levels)
+      for (size_t f : frontier)
+        if (!nodes[f].leaf) splitting.push_back(f);
     for (size_t f = 0; f < info.size(); ++f) {
       Best best;
       for (size_t i = first_item[f]; i < first_item[f + 1]; ++i)
@@ -647,6 +672,18 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       nodes.push_back({2 * g.heap + 2, mid, g.end});
       next.push_back(nodes.size() - 1);
     }
+    if (level < replay_levels) {
+      frontier.swap(next);
+      if (progress && level + 1 == replay_levels) {
+        LevelReport r;
+        r.tree = tree_index;
+        r.level = level;
+        r.resumed = true;
+        r.tree_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tree_start).count();
+        progress(r);
+      }
+      continue;
+    }
     frontier.swap(next);
 
     const auto now = std::chrono::steady_clock::now();
@@ -663,8 +700,23 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
       progress(r);
     }
+    if (level_done) {
+      GrowthState state;
+      state.levels_done = level + 1;
+      state.complete = frontier.empty();
+      state.feature_evaluations = out.feature_evaluations;
+      for (const GrowNode& g : nodes)
+        if (heap_level(g.heap) <= level) state.nodes.push_back({g.heap, g.leaf, g.du1, g.dv1, g.du2, g.dv2, g.threshold});
+      std::sort(state.nodes.begin(), state.nodes.end(),
+                [](const DecidedNode& a, const DecidedNode& b) { return a.heap < b.heap; });
+      level_done(state);
+    }
   }
 
+  if (resume && replay_next != resume->nodes.size())
+    fail("checkpoint: tree " + std::to_string(tree_index) + " records " +
+         std::to_string(resume->nodes.size() - replay_next) +
+         " decisions for nodes the replayed tree does not have (the checkpoint belongs to other data or options)");
   std::sort(nodes.begin(), nodes.end(), [](const GrowNode& a, const GrowNode& b) { return a.heap < b.heap; });
   TrainedTree& tree = out.tree;
   for (const GrowNode& g : nodes) {
