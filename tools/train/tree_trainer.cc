@@ -1,11 +1,12 @@
 #include "tools/train/tree_trainer.h"
 
-#include <emmintrin.h>
+#include <immintrin.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <climits>
+#include <cstdlib>
 #include <cmath>
 #include <exception>
 #include <mutex>
@@ -114,26 +115,26 @@ OffsetProposal OffsetProposal::from_forest(const TrainedForest& forest) {
 
 namespace {
 
-constexpr int kBlock = 256;          // pixels decoded at once, reused for a block of candidates
 constexpr int kMaxThresholds = 255;  // padded search table of 256 entries
+constexpr int kBlock = kMaxThresholds;  // pixels of a node's threshold sample
+// Upper bound on one work item's classification histogram cells (uint32): 64k = 256 KiB, half of
+// this machine's 512 KiB L2 per core, leaving the rest for the probe images' lines.
+constexpr size_t kItemHistogramEntries = 65536;
 
 struct Candidate {
   int32_t du1, dv1, du2, dv2;
   int thresholds;        // unique, sorted
   int search_top;        // half the padded table size
   int32_t table[kMaxThresholds + 1];  // thresholds, then INT32_MAX
-  alignas(16) int16_t splat[kMaxThresholds][8];  // each threshold in all 8 lanes (SIMD binning)
 };
 
-// Per-block decoded pixels (structure of arrays).
+// A node's threshold sample, decoded (structure of arrays).
 struct Block {
   int count = 0;
   const uint16_t* image[kBlock];
   int32_t width[kBlock], height[kBlock], u[kBlock], v[kBlock], scale[kBlock];
   int32_t depth[kBlock];  // the pixel's own probe value
-  uint8_t label[kBlock];  // compact label of the node
-  alignas(16) int16_t feature[kBlock];  // |feature| ≤ 32766 fits int16
-  alignas(16) int16_t bin[kBlock];
+  int16_t feature[kBlock];  // |feature| ≤ 32766 fits int16
 };
 
 // probe_depth() without branches: off-image probes load element 0 and then select the background
@@ -175,16 +176,138 @@ inline int32_t feature_of_pixel(const TrainingSet& set, const TrainingPixel& p, 
                        c.du2, c.dv2);
 }
 
-// Bin = number of thresholds below the feature, 8 pixels at a time: a linear scan of the sorted
-// thresholds with SIMD compares (no branches, no dependent loads; lanes past count are ignored).
-void block_bins(Block& b, const Candidate& c) {
-  for (int i = 0; i < b.count; i += 8) {
-    const __m128i f = _mm_load_si128(reinterpret_cast<const __m128i*>(b.feature + i));
-    __m128i count = _mm_setzero_si128();
-    for (int t = 0; t < c.thresholds; ++t)
-      count = _mm_sub_epi16(count, _mm_cmpgt_epi16(f, _mm_load_si128(reinterpret_cast<const __m128i*>(c.splat[t]))));
-    _mm_store_si128(reinterpret_cast<__m128i*>(b.bin + i), count);
+// The candidates of one work item in structure-of-arrays form for the pixel-major kernel: offsets
+// per candidate, thresholds transposed ([threshold][candidate]) and padded with kNoThreshold, the
+// count padded to a multiple of kLanes with inert candidates (zero offsets, no thresholds).
+constexpr int kLanes = 16;                    // int16 lanes of an AVX2 register
+constexpr int16_t kNoThreshold = 32767;       // above every feature (|feature| ≤ 32766)
+struct CandidateLanes {
+  int count = 0, padded = 0, thresholds = 0;  // thresholds = the most any candidate has
+  std::vector<int32_t> du1, dv1, du2, dv2;
+  std::vector<int16_t> table;                 // thresholds × padded
+  std::vector<int16_t> feature, bin;          // one pixel's features and bins, per candidate
+};
+
+void make_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
+  l.count = static_cast<int>(candidates.size());
+  l.padded = (l.count + kLanes - 1) / kLanes * kLanes;
+  l.thresholds = 0;
+  for (const Candidate& c : candidates) l.thresholds = std::max(l.thresholds, c.thresholds);
+  for (auto* v : {&l.du1, &l.dv1, &l.du2, &l.dv2}) v->assign(l.padded, 0);
+  l.table.assign(size_t(l.thresholds) * l.padded, kNoThreshold);
+  l.feature.assign(l.padded, 0);
+  l.bin.assign(l.padded, 0);
+  for (int c = 0; c < l.count; ++c) {
+    const Candidate& cand = candidates[c];
+    l.du1[c] = cand.du1;
+    l.dv1[c] = cand.dv1;
+    l.du2[c] = cand.du2;
+    l.dv2[c] = cand.dv2;
+    for (int t = 0; t < cand.thresholds; ++t) l.table[size_t(t) * l.padded + c] = static_cast<int16_t>(cand.table[t]);
   }
+}
+
+// A training image as the kernel reads it.
+struct ImageRef {
+  const uint16_t* probe;
+  int32_t width, height;
+};
+
+// Features and bins of every candidate at one pixel (same values as dp::depth_feature and
+// block_bins). Pixel-major: the pixel's neighbourhood stays in L1 while all candidates probe it,
+// and consecutive pixels of a node mostly come from the same image (pixels stay in image order).
+// A unary candidate (δ2 = 0) probes the pixel itself (offset 0 rounds to 0), which is its depth.
+// Off-image probes load element 0 and OR in 0x7FFF: probe values are ≤ 32767, so the result is
+// the background constant 32767 without a branch or select.
+inline void pixel_features(CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v, int32_t s) {
+  static_assert(kBackgroundDepthMm == 0x7FFF, "the OR trick needs the background to be all ones");
+  const uint32_t w = static_cast<uint32_t>(im.width), h = static_cast<uint32_t>(im.height);
+  for (int c = 0; c < l.padded; ++c) {
+    const int32_t u1 = u + probe_offset_px(l.du1[c], s), v1 = v + probe_offset_px(l.dv1[c], s);
+    const int32_t u2 = u + probe_offset_px(l.du2[c], s), v2 = v + probe_offset_px(l.dv2[c], s);
+    const int32_t in1 = -int32_t((static_cast<uint32_t>(u1) < w) & (static_cast<uint32_t>(v1) < h));
+    const int32_t in2 = -int32_t((static_cast<uint32_t>(u2) < w) & (static_cast<uint32_t>(v2) < h));
+    const int32_t d1 = im.probe[(v1 * im.width + u1) & in1] | (~in1 & 0x7FFF);
+    const int32_t d2 = im.probe[(v2 * im.width + u2) & in2] | (~in2 & 0x7FFF);
+    l.feature[c] = static_cast<int16_t>(d1 - d2);
+  }
+  for (int c = 0; c < l.padded; c += 8) {
+    const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(l.feature.data() + c));
+    __m128i count = _mm_setzero_si128();
+    const int16_t* t = l.table.data() + c;
+    for (int k = 0; k < l.thresholds; ++k, t += l.padded)
+      count = _mm_sub_epi16(count, _mm_cmpgt_epi16(f, _mm_loadu_si128(reinterpret_cast<const __m128i*>(t))));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(l.bin.data() + c), count);
+  }
+}
+
+// The same as pixel_features, 8 candidates per AVX2 instruction for the offsets and bounds and
+// 16 for the binning; probes are masked gathers of 32-bit words at the element's address whose low
+// half is the element (little-endian; masked-off lanes keep the background). A gather may read the
+// 2 bytes after an image's last element: heap blocks are allocated in 16-byte units, so they are
+// inside the allocation's rounding or the allocator's next header, never unmapped.
+// One probe for 8 candidates (offset rows du, dv) at a pixel; see pixel_features_avx2.
+struct ProbeAvx2 {
+  __m256i vs, vu, vv, w, w1, h1, half, background, low16, ones;
+  const int* base;
+};
+__attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const ProbeAvx2& q, const int32_t* du,
+                                                                          const int32_t* dv) {
+  const __m256i pu = _mm256_add_epi32(
+      q.vu, _mm256_srai_epi32(
+                _mm256_add_epi32(_mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(du)), q.vs), q.half),
+                kScaleShift));
+  const __m256i pv = _mm256_add_epi32(
+      q.vv, _mm256_srai_epi32(
+                _mm256_add_epi32(_mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(dv)), q.vs), q.half),
+                kScaleShift));
+  // Sign bit set iff u < 0, v < 0, u > w − 1 or v > h − 1.
+  const __m256i outside =
+      _mm256_or_si256(_mm256_or_si256(pu, pv), _mm256_or_si256(_mm256_sub_epi32(q.w1, pu), _mm256_sub_epi32(q.h1, pv)));
+  const __m256i index = _mm256_add_epi32(_mm256_mullo_epi32(pv, q.w), pu);
+  const __m256i g = _mm256_mask_i32gather_epi32(q.background, q.base, index, _mm256_xor_si256(outside, q.ones), 2);
+  return _mm256_and_si256(g, q.low16);
+}
+
+// The same as pixel_features, 8 candidates per AVX2 instruction for the offsets and bounds and
+// 16 for the binning; probes are masked gathers of 32-bit words at the element's address whose low
+// half is the element (little-endian; masked-off lanes keep the background). A gather may read the
+// 2 bytes after an image's last element: heap blocks are allocated in 16-byte units, so they are
+// inside the allocation's rounding or the allocator's next header, never unmapped.
+__attribute__((target("avx2"))) void pixel_features_avx2(CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v,
+                                                         int32_t s) {
+  ProbeAvx2 q;
+  q.vs = _mm256_set1_epi32(s);
+  q.vu = _mm256_set1_epi32(u);
+  q.vv = _mm256_set1_epi32(v);
+  q.w = _mm256_set1_epi32(im.width);
+  q.w1 = _mm256_set1_epi32(im.width - 1);
+  q.h1 = _mm256_set1_epi32(im.height - 1);
+  q.half = _mm256_set1_epi32(kScaleOneQ13 >> 1);
+  q.background = _mm256_set1_epi32(kBackgroundDepthMm);
+  q.low16 = _mm256_set1_epi32(0xFFFF);
+  q.ones = _mm256_set1_epi32(-1);
+  q.base = reinterpret_cast<const int*>(im.probe);
+  for (int c = 0; c < l.padded; c += 16) {
+    const __m256i f0 = _mm256_sub_epi32(probe_avx2(q, &l.du1[c], &l.dv1[c]), probe_avx2(q, &l.du2[c], &l.dv2[c]));
+    const __m256i f1 =
+        _mm256_sub_epi32(probe_avx2(q, &l.du1[c + 8], &l.dv1[c + 8]), probe_avx2(q, &l.du2[c + 8], &l.dv2[c + 8]));
+    // packs interleaves 128-bit halves: [f0 0-3, f1 0-3, f0 4-7, f1 4-7] → reorder the quadwords.
+    const __m256i f = _mm256_permute4x64_epi64(_mm256_packs_epi32(f0, f1), 0xD8);
+    __m256i count = _mm256_setzero_si256();
+    const int16_t* t = l.table.data() + c;
+    for (int k = 0; k < l.thresholds; ++k, t += l.padded)
+      count = _mm256_sub_epi16(count, _mm256_cmpgt_epi16(f, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t))));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(l.bin.data() + c), count);
+  }
+}
+
+// AVX2 when the CPU has it (same results: integer arithmetic throughout, tested against the
+// forests of the scalar version).
+using PixelFeaturesFn = void (*)(CandidateLanes&, const ImageRef&, int32_t, int32_t, int32_t);
+PixelFeaturesFn pick_pixel_features() {
+  if (std::getenv("DEPTHPOSE_TRAIN_NO_AVX2") == nullptr && __builtin_cpu_supports("avx2")) return pixel_features_avx2;
+  return pixel_features;
 }
 
 struct NodeInfo {
@@ -205,9 +328,9 @@ struct Best {
 };
 
 struct Scratch {
-  Block block{};   // zeroed: SIMD lanes past a block's count read defined values
   Block sample{};
   std::vector<Candidate> candidates;
+  CandidateLanes lanes;
   std::vector<uint32_t> counts;   // classification histograms
   std::vector<double> sums;       // regression histograms
   std::vector<float> offsets;     // regression: block pixels × joints × {w, dx, dy, dz}
@@ -221,6 +344,9 @@ class Grower {
       : set_(set), px_(pixels), tree_(tree), p_(params) {
     joints_ = static_cast<int>(set.joint_names.size());
     chunk_ = p_.objective == Objective::kClassification ? 16 : 4;
+    features_ = pick_pixel_features();
+    images_.reserve(set.images.size());
+    for (const TrainingImage& im : set.images) images_.push_back({im.probe.data(), im.width, im.height});
     scratch_.resize(std::max(1, p_.threads));
   }
 
@@ -323,24 +449,6 @@ class Grower {
     while (padded < c.thresholds + 1) padded *= 2;
     for (int i = c.thresholds; i < padded; ++i) c.table[i] = INT32_MAX;
     c.search_top = padded / 2;
-    for (int t = 0; t < c.thresholds; ++t)
-      for (int lane = 0; lane < 8; ++lane) c.splat[t][lane] = static_cast<int16_t>(c.table[t]);
-  }
-
-  void decode_block(const NodeInfo& node, uint32_t begin, uint32_t end, Block& b) const {
-    b.count = static_cast<int>(end - begin);
-    for (int i = 0; i < b.count; ++i) {
-      const TrainingPixel& p = px_[begin + i];
-      const TrainingImage& im = set_.images[p.image];
-      b.image[i] = im.probe.data();
-      b.width[i] = im.width;
-      b.height[i] = im.height;
-      b.u[i] = p.u;
-      b.v[i] = p.v;
-      b.scale[i] = p.scale_q13;
-      b.depth[i] = p.depth_mm;
-      b.label[i] = node.class_of[p.label];
-    }
   }
 
   // Evaluates candidates [c0, c1) of `node`; returns the best.
@@ -356,37 +464,20 @@ class Grower {
     Best best;
     if (p_.objective == Objective::kClassification) {
       const int k = node.classes;
-      // Four interleaved copies of each histogram, so that runs of pixels falling in the same
-      // cell do not serialize on store-to-load forwarding; summed before scoring.
       const size_t stride = size_t(bins) * k;
-      s.counts.assign(size_t(nc) * 4 * stride, 0);
-      for (uint32_t b0 = node.begin; b0 < node.end; b0 += kBlock) {
-        decode_block(node, b0, std::min<uint32_t>(node.end, b0 + kBlock), s.block);
-        Block& b = s.block;
-        const int count = b.count;
-        for (int c = 0; c < nc; ++c) {
-          const Candidate& cand = s.candidates[c];
-          uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
-          block_features(b, cand);
-          block_bins(b, cand);
-          int i = 0;
-          for (; i + 4 <= count; i += 4) {
-            ++h[b.bin[i] * k + b.label[i]];
-            ++h[stride + b.bin[i + 1] * k + b.label[i + 1]];
-            ++h[2 * stride + b.bin[i + 2] * k + b.label[i + 2]];
-            ++h[3 * stride + b.bin[i + 3] * k + b.label[i + 3]];
-          }
-          for (; i < count; ++i) ++h[b.bin[i] * k + b.label[i]];
-        }
-      }
-      for (int c = 0; c < nc; ++c) {
-        uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
-        for (size_t j = 0; j < stride; ++j) h[j] += h[stride + j] + h[2 * stride + j] + h[3 * stride + j];
+      s.counts.assign(size_t(nc) * stride, 0);
+      make_lanes(s.candidates, s.lanes);
+      CandidateLanes& l = s.lanes;
+      for (uint32_t i = node.begin; i < node.end; ++i) {
+        const TrainingPixel& p = px_[i];
+        features_(l, images_[p.image], p.u, p.v, p.scale_q13);
+        uint32_t* h = s.counts.data() + node.class_of[p.label];
+        for (int c = 0; c < nc; ++c, h += stride) ++h[l.bin[c] * k];
       }
       s.cum.resize(k);
       for (int c = 0; c < nc; ++c) {
         const Candidate& cand = s.candidates[c];
-        const uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
+        const uint32_t* h = s.counts.data() + size_t(c) * stride;
         std::fill(s.cum.begin(), s.cum.end(), 0u);
         uint32_t left = 0;
         for (int t = 0; t < cand.thresholds; ++t) {
@@ -419,31 +510,25 @@ class Grower {
       const size_t row = size_t(J) * 5;
       s.sums.assign(size_t(nc) * bins * row, 0.0);
       s.counts.assign(size_t(nc) * bins, 0);
-      s.offsets.resize(size_t(kBlock) * J * 4);
-      for (uint32_t b0 = node.begin; b0 < node.end; b0 += kBlock) {
-        const uint32_t b1 = std::min<uint32_t>(node.end, b0 + kBlock);
-        decode_block(node, b0, b1, s.block);
-        Block& b = s.block;
-        for (int i = 0; i < b.count; ++i) pixel_offsets(px_[b0 + i], s.offsets.data() + size_t(i) * J * 4);
+      s.offsets.resize(size_t(J) * 4);
+      make_lanes(s.candidates, s.lanes);
+      CandidateLanes& l = s.lanes;
+      for (uint32_t i = node.begin; i < node.end; ++i) {
+        const TrainingPixel& p = px_[i];
+        features_(l, images_[p.image], p.u, p.v, p.scale_q13);
+        pixel_offsets(p, s.offsets.data());
+        const float* o = s.offsets.data();
         for (int c = 0; c < nc; ++c) {
-          const Candidate& cand = s.candidates[c];
-          double* h = s.sums.data() + size_t(c) * bins * row;
-          uint32_t* pixel_bins = s.counts.data() + size_t(c) * bins;
-          block_features(b, cand);
-          block_bins(b, cand);
-          for (int i = 0; i < b.count; ++i) {
-            const int bin = b.bin[i];
-            ++pixel_bins[bin];
-            double* hb = h + bin * row;
-            const float* o = s.offsets.data() + size_t(i) * J * 4;
-            for (int j = 0; j < J; ++j) {
-              const double w = o[4 * j], dx = o[4 * j + 1], dy = o[4 * j + 2], dz = o[4 * j + 3];
-              hb[5 * j] += w;
-              hb[5 * j + 1] += dx;
-              hb[5 * j + 2] += dy;
-              hb[5 * j + 3] += dz;
-              hb[5 * j + 4] += dx * dx + dy * dy + dz * dz;
-            }
+          const int bin = l.bin[c];
+          ++s.counts[size_t(c) * bins + bin];
+          double* hb = s.sums.data() + (size_t(c) * bins + bin) * row;
+          for (int j = 0; j < J; ++j) {
+            const double w = o[4 * j], dx = o[4 * j + 1], dy = o[4 * j + 2], dz = o[4 * j + 3];
+            hb[5 * j] += w;
+            hb[5 * j + 1] += dx;
+            hb[5 * j + 2] += dy;
+            hb[5 * j + 3] += dz;
+            hb[5 * j + 4] += dx * dx + dy * dy + dz * dz;
           }
         }
       }
@@ -496,7 +581,18 @@ class Grower {
     s.sq += h[4];
   }
 
-  int chunk() const { return chunk_; }
+  // Candidates per work item for `node` on a level with `splittable` nodes to search. More
+  // candidates per item means each pixel's neighbourhood, loaded into cache once, serves more
+  // probes; fewer means more items to share among threads. Near the root (fewer than 8 nodes per
+  // thread) items hold chunk_ candidates; deeper, as many as keep the item's classification
+  // histograms within kItemHistogramEntries (L2-resident), up to all of the node's candidates.
+  // The chosen split does not depend on it (ties go to the lowest candidate across items).
+  int chunk_for(const NodeInfo& node, size_t splittable) const {
+    if (p_.objective != Objective::kClassification || splittable < size_t(8 * std::max(1, p_.threads))) return chunk_;
+    const size_t bins = size_t(std::min<uint32_t>(node.end - node.begin, p_.threshold_candidates)) + 1;
+    const size_t fit = kItemHistogramEntries / (bins * std::max(1, node.classes));
+    return static_cast<int>(std::max<size_t>(chunk_, fit / kLanes * kLanes));
+  }
 
   size_t scratch_bytes() const {
     size_t b = 0;
@@ -513,6 +609,8 @@ class Grower {
   TreeParams p_;
   int joints_ = 0;
   int chunk_ = 16;
+  std::vector<ImageRef> images_;
+  PixelFeaturesFn features_ = pixel_features;
   std::vector<Scratch> scratch_;
 };
 
@@ -588,6 +686,8 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
     };
     std::vector<Item> items;
     std::vector<size_t> first_item(info.size() + 1, 0);
+    size_t splittable = 0;
+    for (const NodeInfo& n : info) splittable += n.splittable;
     uint64_t evaluations = 0;
     size_t active = 0;
     for (size_t f = 0; f < info.size(); ++f) {
@@ -595,8 +695,9 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       if (!info[f].splittable) continue;
       active += info[f].end - info[f].begin;
       evaluations += uint64_t(info[f].end - info[f].begin) * params.offset_candidates;
-      for (int c = 0; c < params.offset_candidates; c += grower.chunk())
-        items.push_back({static_cast<uint32_t>(f), c, std::min(params.offset_candidates, c + grower.chunk())});
+      const int chunk = grower.chunk_for(info[f], splittable);
+      for (int c = 0; c < params.offset_candidates; c += chunk)
+        items.push_back({static_cast<uint32_t>(f), c, std::min(params.offset_candidates, c + chunk)});
     }
     first_item[info.size()] = items.size();
     std::vector<Best> results(items.size());
