@@ -120,6 +120,12 @@ constexpr int kBlock = kMaxThresholds;  // pixels of a node's threshold sample
 // Upper bound on one work item's classification histogram cells (uint32): 64k = 256 KiB, half of
 // this machine's 512 KiB L2 per core, leaving the rest for the probe images' lines.
 constexpr size_t kItemHistogramEntries = 65536;
+// Pixels per range item at least, near the root (see grow_tree): enough that an item's fixed cost
+// (zeroing and summing its partial histogram) stays small next to its feature evaluations.
+constexpr uint32_t kMinRangePixels = 4096;
+// Upper bound on a candidate group's histogram cells near the root: 256k = 1 MiB per range item;
+// a pixel's increments stay within its class's bins × candidates block (≤ 64 KiB at 31 classes).
+constexpr size_t kRangeHistogramEntries = 262144;
 
 struct Candidate {
   int32_t du1, dv1, du2, dv2;
@@ -340,6 +346,7 @@ struct Scratch {
 
 class Grower {
  public:
+  struct CandidateGroup;
   Grower(const TrainingSet& set, std::vector<TrainingPixel>& pixels, int tree, const TreeParams& params)
       : set_(set), px_(pixels), tree_(tree), p_(params) {
     joints_ = static_cast<int>(set.joint_names.size());
@@ -348,6 +355,7 @@ class Grower {
     images_.reserve(set.images.size());
     for (const TrainingImage& im : set.images) images_.push_back({im.probe.data(), im.width, im.height});
     scratch_.resize(std::max(1, p_.threads));
+    groups_.resize(std::max(1, p_.threads));
   }
 
   void pixel_offsets(const TrainingPixel& p, float* out) const {
@@ -452,8 +460,99 @@ class Grower {
   }
 
   // Evaluates candidates [c0, c1) of `node`; returns the best.
+  // Candidates [c0, c1) of `node`, prepared once (offsets, thresholds, SIMD lanes) and shared by
+  // the work items that accumulate their histograms over parts of the node's pixels.
+  struct CandidateGroup {
+    int c0 = 0, c1 = 0, bins = 1;
+    std::vector<Candidate> candidates;
+    CandidateLanes lanes;
+    size_t histogram_cells(const NodeInfo& node) const { return size_t(node.classes) * bins * (c1 - c0); }
+  };
+
+  void prepare_group(const NodeInfo& node, int c0, int c1, CandidateGroup& g, int thread) {
+    Scratch& s = scratch_[thread];
+    g.c0 = c0;
+    g.c1 = c1;
+    g.candidates.resize(c1 - c0);
+    decode_sample(node, s.sample);
+    for (int c = 0; c < c1 - c0; ++c) make_candidate(node, c0 + c, s.sample, g.candidates[c]);
+    g.bins = 1;
+    for (const Candidate& c : g.candidates) g.bins = std::max(g.bins, c.thresholds + 1);
+    make_lanes(g.candidates, g.lanes);
+  }
+
+  // Classification: adds pixels [begin, end) of `node` to `counts`, cells [class][bin][candidate]
+  // (histogram_cells of them): a pixel's increments for all candidates fall in its class's
+  // bins × candidates block (a few kB, L1-resident). Integer counts: partial histograms over
+  // disjoint pixel ranges sum to the same cells in any order (threads here; processes later).
+  void accumulate(const NodeInfo& node, CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts) const {
+    const int nc = g.c1 - g.c0;
+    const size_t class_stride = size_t(g.bins) * nc;
+    CandidateLanes& l = g.lanes;
+    for (uint32_t i = begin; i < end; ++i) {
+      const TrainingPixel& p = px_[i];
+      features_(l, images_[p.image], p.u, p.v, p.scale_q13);
+      uint32_t* h = counts + node.class_of[p.label] * class_stride;
+      for (int c = 0; c < nc; ++c) ++h[l.bin[c] * nc + c];
+    }
+  }
+
+  // Classification: the best (candidate, threshold) of a group from its complete histogram.
+  Best score_group(const NodeInfo& node, const CandidateGroup& g, const uint32_t* counts,
+                   std::vector<uint32_t>& cum) const {
+    const int k = node.classes, nc = g.c1 - g.c0, bins = g.bins;
+    const uint32_t n = node.end - node.begin;
+    Best best;
+    cum.resize(k);
+    for (int c = 0; c < nc; ++c) {
+      const Candidate& cand = g.candidates[c];
+      const uint32_t* h = counts + c;
+      std::fill(cum.begin(), cum.end(), 0u);
+      uint32_t left = 0;
+      for (int t = 0; t < cand.thresholds; ++t) {
+        uint32_t in_bin = 0;
+        for (int j = 0; j < k; ++j) {
+          const uint32_t cell = h[(size_t(j) * bins + t) * nc];
+          cum[j] += cell;
+          in_bin += cell;
+        }
+        left += in_bin;
+        if (left == 0) continue;
+        const uint32_t right = n - left;
+        if (right == 0) break;
+        // An empty bin leaves every count, hence the score, as at the previous threshold, which
+        // cannot win a strict comparison against itself.
+        if (in_bin == 0) continue;
+        double wl = nlogn(left), wr = nlogn(right);
+        for (int j = 0; j < k; ++j) {
+          wl -= nlogn(cum[j]);
+          wr -= nlogn(node.totals[j] - cum[j]);
+        }
+        const double score = (wl + wr) / n;
+        if (score < best.score) {
+          best.score = score;
+          best.candidate = g.c0 + c;
+          best.du1 = cand.du1;
+          best.dv1 = cand.dv1;
+          best.du2 = cand.du2;
+          best.dv2 = cand.dv2;
+          best.threshold = cand.table[t];
+        }
+      }
+    }
+    return best;
+  }
+
+  // Evaluates candidates [c0, c1) of `node` over all its pixels; returns the best.
   Best evaluate(const NodeInfo& node, int c0, int c1, int thread) {
     Scratch& s = scratch_[thread];
+    if (p_.objective == Objective::kClassification) {
+      CandidateGroup& g = groups_[thread];
+      prepare_group(node, c0, c1, g, thread);
+      s.counts.assign(g.histogram_cells(node), 0);
+      accumulate(node, g, node.begin, node.end, s.counts.data());
+      return score_group(node, g, s.counts.data(), s.cum);
+    }
     const int nc = c1 - c0;
     s.candidates.resize(nc);
     decode_sample(node, s.sample);
@@ -462,50 +561,7 @@ class Grower {
     for (const Candidate& c : s.candidates) bins = std::max(bins, c.thresholds + 1);
     const uint32_t n = node.end - node.begin;
     Best best;
-    if (p_.objective == Objective::kClassification) {
-      const int k = node.classes;
-      const size_t stride = size_t(bins) * k;
-      s.counts.assign(size_t(nc) * stride, 0);
-      make_lanes(s.candidates, s.lanes);
-      CandidateLanes& l = s.lanes;
-      for (uint32_t i = node.begin; i < node.end; ++i) {
-        const TrainingPixel& p = px_[i];
-        features_(l, images_[p.image], p.u, p.v, p.scale_q13);
-        uint32_t* h = s.counts.data() + node.class_of[p.label];
-        for (int c = 0; c < nc; ++c, h += stride) ++h[l.bin[c] * k];
-      }
-      s.cum.resize(k);
-      for (int c = 0; c < nc; ++c) {
-        const Candidate& cand = s.candidates[c];
-        const uint32_t* h = s.counts.data() + size_t(c) * stride;
-        std::fill(s.cum.begin(), s.cum.end(), 0u);
-        uint32_t left = 0;
-        for (int t = 0; t < cand.thresholds; ++t) {
-          for (int j = 0; j < k; ++j) {
-            s.cum[j] += h[t * k + j];
-            left += h[t * k + j];
-          }
-          if (left == 0) continue;
-          const uint32_t right = n - left;
-          if (right == 0) break;
-          double wl = nlogn(left), wr = nlogn(right);
-          for (int j = 0; j < k; ++j) {
-            wl -= nlogn(s.cum[j]);
-            wr -= nlogn(node.totals[j] - s.cum[j]);
-          }
-          const double score = (wl + wr) / n;
-          if (score < best.score) {
-            best.score = score;
-            best.candidate = c0 + c;
-            best.du1 = cand.du1;
-            best.dv1 = cand.dv1;
-            best.du2 = cand.du2;
-            best.dv2 = cand.dv2;
-            best.threshold = cand.table[t];
-          }
-        }
-      }
-    } else {
+    {
       const int J = joints_;
       const size_t row = size_t(J) * 5;
       s.sums.assign(size_t(nc) * bins * row, 0.0);
@@ -581,16 +637,17 @@ class Grower {
     s.sq += h[4];
   }
 
-  // Candidates per work item for `node` on a level with `splittable` nodes to search. More
-  // candidates per item means each pixel's neighbourhood, loaded into cache once, serves more
-  // probes; fewer means more items to share among threads. Near the root (fewer than 8 nodes per
-  // thread) items hold chunk_ candidates; deeper, as many as keep the item's classification
-  // histograms within kItemHistogramEntries (L2-resident), up to all of the node's candidates.
-  // The chosen split does not depend on it (ties go to the lowest candidate across items).
+  // Candidates per candidate group (work item) of `node` on a level with `splittable` nodes to
+  // search. More candidates per group means each pixel's neighbourhood, once in cache, serves more
+  // probes. Classification groups hold as many as keep the group's histogram within
+  // kItemHistogramEntries (L2-resident), or kRangeHistogramEntries near the root (fewer than 8
+  // nodes per thread), where groups are shared among threads by pixel ranges instead (grow_tree).
+  // The chosen split does not depend on it (ties go to the lowest candidate across groups).
   int chunk_for(const NodeInfo& node, size_t splittable) const {
-    if (p_.objective != Objective::kClassification || splittable < size_t(8 * std::max(1, p_.threads))) return chunk_;
+    if (p_.objective != Objective::kClassification) return chunk_;
+    const size_t cap = splittable < size_t(8 * std::max(1, p_.threads)) ? kRangeHistogramEntries : kItemHistogramEntries;
     const size_t bins = size_t(std::min<uint32_t>(node.end - node.begin, p_.threshold_candidates)) + 1;
-    const size_t fit = kItemHistogramEntries / (bins * std::max(1, node.classes));
+    const size_t fit = cap / (bins * std::max(1, node.classes));
     return static_cast<int>(std::max<size_t>(chunk_, fit / kLanes * kLanes));
   }
 
@@ -612,6 +669,7 @@ class Grower {
   std::vector<ImageRef> images_;
   PixelFeaturesFn features_ = pixel_features;
   std::vector<Scratch> scratch_;
+  std::vector<CandidateGroup> groups_;  // per thread, for evaluate()
 };
 
 struct GrowNode {
@@ -703,8 +761,45 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
     std::vector<Best> results(items.size());
     std::atomic<size_t> items_done{0};
     auto last_beat = std::chrono::steady_clock::now();
-    parallel_for(items.size(), threads, [&](size_t i, int thread) {
-      results[i] = grower.evaluate(info[items[i].node], items[i].c0, items[i].c1, thread);
+    // Near the root (few nodes, many pixels each) a node's pixels are dealt out in ranges: each
+    // work item accumulates the histograms of a whole candidate group over one range, so every
+    // pixel's neighbourhood is loaded once for all the group's candidates, and the integer partial
+    // histograms are summed per group before scoring. Deeper, items are (node, candidate chunk)
+    // over all the node's pixels. Both give the same counts, hence the same splits.
+    const bool by_ranges = params.objective == Objective::kClassification && splittable > 0 &&
+                           splittable < size_t(8 * threads) && level >= replay_levels;
+    std::vector<Grower::CandidateGroup> groups(by_ranges ? items.size() : 0);
+    struct RangeItem {
+      uint32_t group, begin, end;
+    };
+    std::vector<RangeItem> ranges;
+    std::vector<std::vector<uint32_t>> partial;
+    if (by_ranges) {
+      parallel_for(items.size(), threads, [&](size_t i, int thread) {
+        grower.prepare_group(info[items[i].node], items[i].c0, items[i].c1, groups[i], thread);
+      });
+      const size_t wanted = size_t(16 * threads);
+      for (size_t i = 0; i < items.size(); ++i) {
+        const NodeInfo& node = info[items[i].node];
+        const uint32_t n = node.end - node.begin;
+        const uint32_t pieces = static_cast<uint32_t>(std::clamp<size_t>(
+            (wanted + items.size() - 1) / items.size(), 1, std::max<uint32_t>(1, n / kMinRangePixels)));
+        for (uint32_t r = 0; r < pieces; ++r)
+          ranges.push_back({static_cast<uint32_t>(i), node.begin + uint32_t(uint64_t(n) * r / pieces),
+                            node.begin + uint32_t(uint64_t(n) * (r + 1) / pieces)});
+      }
+      partial.resize(ranges.size());
+    }
+    const size_t work = by_ranges ? ranges.size() : items.size();
+    parallel_for(work, threads, [&](size_t i, int thread) {
+      if (by_ranges) {
+        const RangeItem& r = ranges[i];
+        const NodeInfo& node = info[items[r.group].node];
+        partial[i].assign(groups[r.group].histogram_cells(node), 0);
+        grower.accumulate(node, groups[r.group], r.begin, r.end, partial[i].data());
+      } else {
+        results[i] = grower.evaluate(info[items[i].node], items[i].c0, items[i].c1, thread);
+      }
       const size_t done = items_done.fetch_add(1) + 1;
       if (thread == 0 && progress) {
         const auto now = std::chrono::steady_clock::now();
@@ -714,13 +809,27 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
           r.tree = tree_index;
           r.level = level;
           r.partial = true;
-          r.done = double(done) / items.size();
+          r.done = double(done) / work;
           r.seconds = std::chrono::duration<double>(now - level_start).count();
           r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
           progress(r);
         }
       }
     });
+
+    if (by_ranges) {
+      std::vector<size_t> first_range(items.size() + 1, ranges.size());
+      for (size_t i = ranges.size(); i-- > 0;) first_range[ranges[i].group] = i;
+      parallel_for(items.size(), threads, [&](size_t g, int) {
+        std::vector<uint32_t>& sum = partial[first_range[g]];
+        for (size_t i = first_range[g] + 1; i < first_range[g + 1]; ++i) {
+          for (size_t j = 0; j < sum.size(); ++j) sum[j] += partial[i][j];
+          std::vector<uint32_t>().swap(partial[i]);
+        }
+        std::vector<uint32_t> cum;
+        results[g] = grower.score_group(info[items[g].node], groups[g], sum.data(), cum);
+      });
+    }
 
     std::vector<size_t> splitting;
     if (level < replay_levels)
