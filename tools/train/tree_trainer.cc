@@ -58,12 +58,10 @@ struct NLogN {
     for (int i = 1; i < kNLogNTable; ++i) v[i] = i * std::log(double(i));
   }
 };
-const NLogN& nlogn_table() {
-  static const NLogN t;
-  return t;
-}
+// Built at program start (before main, so no guard check in the scoring loops).
+const NLogN kNLogN;
 inline double nlogn(uint32_t n) {
-  return n < uint32_t(kNLogNTable) ? nlogn_table().v[n] : double(n) * std::log(double(n));
+  return n < uint32_t(kNLogNTable) ? kNLogN.v[n] : double(n) * std::log(double(n));
 }
 
 }  // namespace
@@ -191,7 +189,6 @@ struct CandidateLanes {
   int count = 0, padded = 0, thresholds = 0;  // thresholds = the most any candidate has
   std::vector<int32_t> du1, dv1, du2, dv2;
   std::vector<int16_t> table;                 // thresholds × padded
-  std::vector<int16_t> feature, bin;          // one pixel's features and bins, per candidate
 };
 
 void make_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
@@ -201,8 +198,6 @@ void make_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
   for (const Candidate& c : candidates) l.thresholds = std::max(l.thresholds, c.thresholds);
   for (auto* v : {&l.du1, &l.dv1, &l.du2, &l.dv2}) v->assign(l.padded, 0);
   l.table.assign(size_t(l.thresholds) * l.padded, kNoThreshold);
-  l.feature.assign(l.padded, 0);
-  l.bin.assign(l.padded, 0);
   for (int c = 0; c < l.count; ++c) {
     const Candidate& cand = candidates[c];
     l.du1[c] = cand.du1;
@@ -225,7 +220,10 @@ struct ImageRef {
 // A unary candidate (δ2 = 0) probes the pixel itself (offset 0 rounds to 0), which is its depth.
 // Off-image probes load element 0 and OR in 0x7FFF: probe values are ≤ 32767, so the result is
 // the background constant 32767 without a branch or select.
-inline void pixel_features(CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v, int32_t s) {
+// Writes bin[0, l.padded); `feature` is scratch of l.padded entries. `l` is shared by threads
+// (read only); feature and bin are the calling thread's.
+inline void pixel_features(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v, int32_t s,
+                           int16_t* feature, int16_t* bin) {
   static_assert(kBackgroundDepthMm == 0x7FFF, "the OR trick needs the background to be all ones");
   const uint32_t w = static_cast<uint32_t>(im.width), h = static_cast<uint32_t>(im.height);
   for (int c = 0; c < l.padded; ++c) {
@@ -235,23 +233,18 @@ inline void pixel_features(CandidateLanes& l, const ImageRef& im, int32_t u, int
     const int32_t in2 = -int32_t((static_cast<uint32_t>(u2) < w) & (static_cast<uint32_t>(v2) < h));
     const int32_t d1 = im.probe[(v1 * im.width + u1) & in1] | (~in1 & 0x7FFF);
     const int32_t d2 = im.probe[(v2 * im.width + u2) & in2] | (~in2 & 0x7FFF);
-    l.feature[c] = static_cast<int16_t>(d1 - d2);
+    feature[c] = static_cast<int16_t>(d1 - d2);
   }
   for (int c = 0; c < l.padded; c += 8) {
-    const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(l.feature.data() + c));
+    const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(feature + c));
     __m128i count = _mm_setzero_si128();
     const int16_t* t = l.table.data() + c;
     for (int k = 0; k < l.thresholds; ++k, t += l.padded)
       count = _mm_sub_epi16(count, _mm_cmpgt_epi16(f, _mm_loadu_si128(reinterpret_cast<const __m128i*>(t))));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(l.bin.data() + c), count);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(bin + c), count);
   }
 }
 
-// The same as pixel_features, 8 candidates per AVX2 instruction for the offsets and bounds and
-// 16 for the binning; probes are masked gathers of 32-bit words at the element's address whose low
-// half is the element (little-endian; masked-off lanes keep the background). A gather may read the
-// 2 bytes after an image's last element: heap blocks are allocated in 16-byte units, so they are
-// inside the allocation's rounding or the allocator's next header, never unmapped.
 // One probe for 8 candidates (offset rows du, dv) at a pixel; see pixel_features_avx2.
 struct ProbeAvx2 {
   __m256i vs, vu, vv, w, w1, h1, half, background, low16, ones;
@@ -280,8 +273,8 @@ __attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const P
 // half is the element (little-endian; masked-off lanes keep the background). A gather may read the
 // 2 bytes after an image's last element: heap blocks are allocated in 16-byte units, so they are
 // inside the allocation's rounding or the allocator's next header, never unmapped.
-__attribute__((target("avx2"))) void pixel_features_avx2(CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v,
-                                                         int32_t s) {
+__attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
+                                                         int32_t v, int32_t s, int16_t*, int16_t* bin) {
   ProbeAvx2 q;
   q.vs = _mm256_set1_epi32(s);
   q.vu = _mm256_set1_epi32(u);
@@ -304,13 +297,13 @@ __attribute__((target("avx2"))) void pixel_features_avx2(CandidateLanes& l, cons
     const int16_t* t = l.table.data() + c;
     for (int k = 0; k < l.thresholds; ++k, t += l.padded)
       count = _mm256_sub_epi16(count, _mm256_cmpgt_epi16(f, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t))));
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(l.bin.data() + c), count);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(bin + c), count);
   }
 }
 
 // AVX2 when the CPU has it (same results: integer arithmetic throughout, tested against the
 // forests of the scalar version).
-using PixelFeaturesFn = void (*)(CandidateLanes&, const ImageRef&, int32_t, int32_t, int32_t);
+using PixelFeaturesFn = void (*)(const CandidateLanes&, const ImageRef&, int32_t, int32_t, int32_t, int16_t*, int16_t*);
 PixelFeaturesFn pick_pixel_features() {
   if (std::getenv("DEPTHPOSE_TRAIN_NO_AVX2") == nullptr && __builtin_cpu_supports("avx2")) return pixel_features_avx2;
   return pixel_features;
@@ -337,6 +330,7 @@ struct Scratch {
   Block sample{};
   std::vector<Candidate> candidates;
   CandidateLanes lanes;
+  std::vector<int16_t> feature, bin;  // one pixel's features and bins per candidate (pixel_features)
   std::vector<uint32_t> counts;   // classification histograms
   std::vector<double> sums;       // regression histograms
   std::vector<float> offsets;     // regression: block pixels × joints × {w, dx, dy, dz}
@@ -485,15 +479,20 @@ class Grower {
   // (histogram_cells of them): a pixel's increments for all candidates fall in its class's
   // bins × candidates block (a few kB, L1-resident). Integer counts: partial histograms over
   // disjoint pixel ranges sum to the same cells in any order (threads here; processes later).
-  void accumulate(const NodeInfo& node, CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts) const {
+  void accumulate(const NodeInfo& node, const CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts,
+                  int thread) {
     const int nc = g.c1 - g.c0;
     const size_t class_stride = size_t(g.bins) * nc;
-    CandidateLanes& l = g.lanes;
+    const CandidateLanes& l = g.lanes;
+    Scratch& s = scratch_[thread];
+    s.feature.resize(l.padded);
+    s.bin.resize(l.padded);
+    int16_t* bin = s.bin.data();
     for (uint32_t i = begin; i < end; ++i) {
       const TrainingPixel& p = px_[i];
-      features_(l, images_[p.image], p.u, p.v, p.scale_q13);
+      features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), bin);
       uint32_t* h = counts + node.class_of[p.label] * class_stride;
-      for (int c = 0; c < nc; ++c) ++h[l.bin[c] * nc + c];
+      for (int c = 0; c < nc; ++c) ++h[bin[c] * nc + c];
     }
   }
 
@@ -550,7 +549,7 @@ class Grower {
       CandidateGroup& g = groups_[thread];
       prepare_group(node, c0, c1, g, thread);
       s.counts.assign(g.histogram_cells(node), 0);
-      accumulate(node, g, node.begin, node.end, s.counts.data());
+      accumulate(node, g, node.begin, node.end, s.counts.data(), thread);
       return score_group(node, g, s.counts.data(), s.cum);
     }
     const int nc = c1 - c0;
@@ -568,14 +567,16 @@ class Grower {
       s.counts.assign(size_t(nc) * bins, 0);
       s.offsets.resize(size_t(J) * 4);
       make_lanes(s.candidates, s.lanes);
-      CandidateLanes& l = s.lanes;
+      const CandidateLanes& l = s.lanes;
+      s.feature.resize(l.padded);
+      s.bin.resize(l.padded);
       for (uint32_t i = node.begin; i < node.end; ++i) {
         const TrainingPixel& p = px_[i];
-        features_(l, images_[p.image], p.u, p.v, p.scale_q13);
+        features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
         pixel_offsets(p, s.offsets.data());
         const float* o = s.offsets.data();
         for (int c = 0; c < nc; ++c) {
-          const int bin = l.bin[c];
+          const int bin = s.bin[c];
           ++s.counts[size_t(c) * bins + bin];
           double* hb = s.sums.data() + (size_t(c) * bins + bin) * row;
           for (int j = 0; j < J; ++j) {
@@ -796,7 +797,7 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
         const RangeItem& r = ranges[i];
         const NodeInfo& node = info[items[r.group].node];
         partial[i].assign(groups[r.group].histogram_cells(node), 0);
-        grower.accumulate(node, groups[r.group], r.begin, r.end, partial[i].data());
+        grower.accumulate(node, groups[r.group], r.begin, r.end, partial[i].data(), thread);
       } else {
         results[i] = grower.evaluate(info[items[i].node], items[i].c0, items[i].c1, thread);
       }
