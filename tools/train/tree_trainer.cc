@@ -707,6 +707,7 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
   std::vector<size_t> frontier = {0};
   const int threads = std::max(1, params.threads);
   const int replay_levels = resume ? resume->levels_done : 0;
+  size_t range_peak_bytes = 0;  // candidate groups and partial histograms of the range levels
   size_t replay_next = 0;  // next decision of resume->nodes (heap order = breadth-first order)
   if (resume) out.feature_evaluations = resume->feature_evaluations;
   for (int level = 0; !frontier.empty(); ++level) {
@@ -790,6 +791,10 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
                             node.begin + uint32_t(uint64_t(n) * (r + 1) / pieces)});
       }
       partial.resize(ranges.size());
+      size_t level_bytes = 0;
+      for (size_t i = 0; i < items.size(); ++i) level_bytes += groups[i].histogram_cells(info[items[i].node]) * 4 + sizeof(Candidate) * groups[i].candidates.size();
+      for (const RangeItem& r : ranges) level_bytes += groups[r.group].histogram_cells(info[items[r.group].node]) * 4;
+      range_peak_bytes = std::max(range_peak_bytes, level_bytes);
     }
     const size_t work = by_ranges ? ranges.size() : items.size();
     parallel_for(work, threads, [&](size_t i, int thread) {
@@ -956,7 +961,7 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
     n.left = position(2 * n.heap_index + 1);
     n.right = position(2 * n.heap_index + 2);
   }
-  out.peak_bytes = pixels.size() * sizeof(TrainingPixel) * 2 + grower.scratch_bytes() +
+  out.peak_bytes = pixels.size() * sizeof(TrainingPixel) * 2 + grower.scratch_bytes() + range_peak_bytes +
                    nodes.size() * sizeof(GrowNode);
   out.pixels = std::move(pixels);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tree_start).count();
