@@ -66,8 +66,18 @@ class Bz2Integers {
       int err = BZ_OK;
       len_ = BZ2_bzRead(&err, bz_, buffer_, sizeof buffer_);
       pos_ = 0;
-      if (err == BZ_STREAM_END) eof_ = true;
-      else if (err != BZ_OK) fail(path_ + ": corrupt bzip2 data");
+      if (err == BZ_STREAM_END) {
+        eof_ = true;
+        // One tree is one bzip2 stream: bytes after it (a second stream, garbage) are refused,
+        // not ignored.
+        void* unused = nullptr;
+        int unused_bytes = 0, e2 = BZ_OK;
+        BZ2_bzReadGetUnused(&e2, bz_, &unused, &unused_bytes);
+        if (e2 != BZ_OK || unused_bytes > 0 || std::fgetc(file_) != EOF)
+          fail(path_ + ": trailing data after the bzip2 stream (a PCL tree file holds one stream)");
+      } else if (err != BZ_OK) {
+        fail(path_ + ": corrupt bzip2 data");
+      }
       if (len_ <= 0) { len_ = 0; return -1; }
     }
     return static_cast<unsigned char>(buffer_[pos_++]);

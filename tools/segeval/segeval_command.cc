@@ -17,6 +17,7 @@
 #include "tools/common/body_model.h"
 #include "tools/common/dataset.h"
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
 #include "tools/common/png_io.h"
 #include "tools/eval/metrics.h"
 #include "tools/info/info.h"
@@ -71,16 +72,17 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
   std::vector<Person> out;
   const json extra = json::parse(r.extra_json.empty() ? "{}" : r.extra_json);
   if (extra.contains("people")) {
+    const std::string frame = ds.dir + "/frames.jsonl frame " + r.id;
+    if (!extra["people"].is_array()) fail(frame + ": \"people\" is not an array");
     for (const json& p : extra["people"]) {
+      const std::string where = frame + " person " + std::to_string(out.size() + 1);
+      if (!p.is_object() || !p.contains("joints") || !p["joints"].is_array())
+        fail(where + ": no \"joints\" array");
+      if (p["joints"].size() != ds.meta.joints.size())
+        fail(where + ": has " + std::to_string(p["joints"].size()) + " joints, meta.json names " +
+             std::to_string(ds.meta.joints.size()));
       Person person;
-      for (const json& j : p.at("joints")) {
-        JointTruth t;
-        t.x = j.at(0).get<float>();
-        t.y = j.at(1).get<float>();
-        t.z = j.at(2).get<float>();
-        t.visible = j.at(3).is_boolean() ? j.at(3).get<bool>() : j.at(3).get<int>() != 0;
-        person.joints.push_back(t);
-      }
+      for (const json& j : p["joints"]) person.joints.push_back(joint_truth_from_json(j, where));
       out.push_back(std::move(person));
     }
   } else {
@@ -173,6 +175,12 @@ int run_segeval(int argc, char** argv) {
       else fail("--set: unknown key '" + k + "'");
     }
   }
+  // Millimetre tolerances the segmenter takes as int32: beyond the 16-bit depth range they mean
+  // nothing, and 1e30 would overflow the conversion.
+  for (const auto& [name, value] : {std::pair<const char*, float>{"join_mm", cfg.join_mm},
+                                    {"fragment_join_mm", cfg.fragment_join_mm}, {"hidden_gap_mm", cfg.hidden_gap_mm}})
+    if (!(value >= 0.0f && value <= 65535.0f))
+      fail(std::string("--set ") + name + " = " + std::to_string(value) + " is outside 0..65535 mm");
   Segmenter seg;
   const size_t seg_bytes = segmenter_required_bytes(w, h);
   const platform::ArenaMemory seg_arena(seg_bytes);
@@ -209,11 +217,8 @@ int run_segeval(int argc, char** argv) {
 
   std::vector<uint8_t> labels(size_t(w) * h), own_mask(size_t(w) * h);
   const bool forest_per_user = !a.flag("--forest-once");
-  std::ofstream per_frame;
-  if (a.has("--per-frame")) {
-    per_frame.open(a.get("--per-frame"));
-    if (!per_frame) fail(a.get("--per-frame") + ": cannot write");
-  }
+  std::unique_ptr<AtomicOutputFile> per_frame;
+  if (a.has("--per-frame")) per_frame = std::make_unique<AtomicOutputFile>(a.get("--per-frame"));
   double inter_total = 0, union_total = 0, iou_sum = 0;
   long people_total = 0, people_found = 0, findable_total = 0, findable_found = 0, false_users = 0;
   long sizable_total = 0, sizable_found = 0;
@@ -314,7 +319,7 @@ int run_segeval(int argc, char** argv) {
     }
     long false_here = 0;
     for (int u = 0; u < nu; ++u) false_here += person_of_user[size_t(u)] < 0;
-    if (per_frame.is_open()) {
+    if (per_frame) {
       // Diagnostics: where the IoU goes. Missed body pixels and extra user pixels by height above
       // the segmenter's floor (when it has one): < 5 cm, 5..15 cm, higher (or no floor).
       json line;
@@ -391,7 +396,7 @@ int run_segeval(int argc, char** argv) {
                                             ? overlap[size_t(u) * np + size_t(person_of_user[size_t(u)])] : 0}});
       }
       line["users"] = us;
-      per_frame << line.dump() << "\n";
+      per_frame->write(line.dump() + "\n");
     }
     false_users += false_here;
     frames_with_false += false_here > 0;
@@ -532,12 +537,9 @@ int run_segeval(int argc, char** argv) {
     std::printf("    over the people found only      segmented %.4f, ground-truth mask %.4f, difference %+.4f\n",
                 f_seg.value_or(0), f_gt.value_or(0), f_seg.value_or(0) - f_gt.value_or(0));
   }
-  if (a.has("--json")) {
-    const std::string path = a.get("--json");
-    std::ofstream f(path);
-    if (!f) fail(path + ": cannot write");
-    f << out.dump(2) << "\n";
-  }
+  if (per_frame) per_frame->commit();
+  if (a.has("--json")) write_file_atomic(a.get("--json"), out.dump(2) + "\n");
+  check_output_stream();
   return 0;
 }
 
