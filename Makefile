@@ -4,7 +4,7 @@
 #   make test       install what is missing, build, run every test (normal, ASan+UBSan, debug
 #                   checks, the chain, the checks); ends with "N passed, N failed, N skipped"
 #   make bench      benchmarks (tests/bench/*_bench.cc, one binary each)
-#   make fuzz-smoke libFuzzer on the parsers
+#   make fuzz-smoke libFuzzer, one target per parser, FUZZ_SECONDS each (~3 min)
 #   make check-runtime  proves the runtime references no heap / exception symbols
 #   make deps       installs the Debian packages of mk/debian-packages.txt that are missing
 # Components add rules in mk/*.mk; sources are found by directory, so adding a file needs no edit here.
@@ -172,13 +172,51 @@ bench: $(BENCH_BINS) $(CLI) $(EXTRA_LINK_DEPS)
 	@for b in $(BENCH_BINS); do echo "== $$b"; $$b || exit 1; done
 
 # ---- fuzz (clang + libFuzzer) --------------------------------------------------------------
+# One target per parser (tests/fuzz/*_fuzz.cc), each built with its own sources under ASan+UBSan
+# and run FUZZ_SECONDS (default 15) from the seeds in tests/fuzz/seeds/<target> (the blob target
+# from the demo blobs); 7 targets × 15 s + builds stay within about 3 minutes. Any crash, leak,
+# sanitizer report or timeout fails the target. Crash inputs land in $(BUILD)/fuzz/artifacts.
 FUZZ_CXX := clang++-14
-fuzz-smoke: $(CLI)
-	@mkdir -p $(BUILD)/fuzz/corpus
-	$(CLI) demo --write-blobs $(BUILD)/fuzz/corpus
-	$(FUZZ_CXX) $(CXXSTD) -O1 -g -I. -DDP_BLOB_FUZZING -fsanitize=fuzzer,address,undefined -fno-exceptions -fno-rtti \
-	  tests/fuzz/blob_loader_fuzz.cc $(wildcard forest_blob/blob_loader.cc forest_blob/crc32.cc) -o $(BUILD)/fuzz/blob_loader_fuzz
-	$(BUILD)/fuzz/blob_loader_fuzz -max_total_time=$${FUZZ_SECONDS:-60} -max_len=65536 $(BUILD)/fuzz/corpus
+FUZZ_SECONDS ?= 15
+FUZZ_DIR := $(BUILD)/fuzz
+FUZZ_FLAGS := $(CXXSTD) -O1 -g -I. -I/usr/include/openni2 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
+FUZZ_RUN_FLAGS := -max_len=65536 -timeout=10 -rss_limit_mb=2048 -print_final_stats=0
+# target: sources and libraries besides tests/fuzz/<target>_fuzz.cc
+FUZZ_SRCS_blob_loader   := forest_blob/blob_loader.cc forest_blob/crc32.cc
+FUZZ_SRCS_forest_file   := tools/train/forest_file.cc tools/common/file_io.cc
+FUZZ_LIBS_forest_file   := -lz
+FUZZ_SRCS_oni_container := platform/oni_container.cc tools/common/file_io.cc
+FUZZ_SRCS_png_dataset   := tools/common/png_io.cc tools/common/dataset.cc tools/common/file_io.cc
+FUZZ_LIBS_png_dataset   := -lpng -lz
+FUZZ_SRCS_bvh           := tools/synth/motion.cc
+FUZZ_SRCS_asf_amc       := tools/synth/motion.cc
+FUZZ_SRCS_pcl_tree      := tools/convert/pcl_tree_reader.cc
+FUZZ_LIBS_pcl_tree      := -lbz2
+FUZZ_TARGETS := blob_loader forest_file oni_container png_dataset bvh asf_amc pcl_tree
+
+$(FUZZ_DIR)/blob_loader_fuzz: tests/fuzz/blob_loader_fuzz.cc $(FUZZ_SRCS_blob_loader)
+	@mkdir -p $(@D)
+	$(FUZZ_CXX) $(FUZZ_FLAGS) -DDP_BLOB_FUZZING -fno-exceptions -fno-rtti $^ -o $@
+define FUZZ_RULE
+$(FUZZ_DIR)/$(1)_fuzz: tests/fuzz/$(1)_fuzz.cc $(FUZZ_SRCS_$(1)) $(wildcard tests/fuzz/*.h)
+	@mkdir -p $$(@D)
+	$(FUZZ_CXX) $(FUZZ_FLAGS) $$(filter %.cc,$$^) $(FUZZ_LIBS_$(1)) -o $$@
+endef
+$(foreach t,$(filter-out blob_loader,$(FUZZ_TARGETS)),$(eval $(call FUZZ_RULE,$(t))))
+
+fuzz-smoke: $(CLI) $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%_fuzz)
+	@mkdir -p $(FUZZ_DIR)/artifacts
+	@rm -rf $(FUZZ_DIR)/corpus && mkdir -p $(FUZZ_DIR)/corpus/blob_loader
+	@$(CLI) demo --write-blobs $(FUZZ_DIR)/corpus/blob_loader > /dev/null
+	@for t in $(FUZZ_TARGETS); do \
+	  mkdir -p $(FUZZ_DIR)/corpus/$$t; \
+	  if [ -d tests/fuzz/seeds/$$t ]; then cp tests/fuzz/seeds/$$t/* $(FUZZ_DIR)/corpus/$$t/; fi; \
+	  echo "== fuzz $$t ($${FUZZ_SECONDS:-$(FUZZ_SECONDS)} s)"; \
+	  $(FUZZ_DIR)/$${t}_fuzz $(FUZZ_RUN_FLAGS) -max_total_time=$${FUZZ_SECONDS:-$(FUZZ_SECONDS)} \
+	    -artifact_prefix=$(FUZZ_DIR)/artifacts/$$t- $(FUZZ_DIR)/corpus/$$t > $(FUZZ_DIR)/$$t.log 2>&1 \
+	    || { tail -40 $(FUZZ_DIR)/$$t.log; echo "fuzz-smoke: $$t FAILED (log $(FUZZ_DIR)/$$t.log)"; exit 1; }; \
+	  grep -E "^#[0-9]+.*DONE" $(FUZZ_DIR)/$$t.log | tail -1; \
+	done; echo "fuzz-smoke: OK ($(words $(FUZZ_TARGETS)) targets, nothing found)"
 
 deps:
 	@mk/ensure_deps.sh

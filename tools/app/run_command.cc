@@ -8,6 +8,7 @@
 #include "tools/common/args.h"
 #include "tools/common/budget_options.h"
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
 
 namespace dp::tools {
 
@@ -23,7 +24,7 @@ static KernelIsa parse_kernel(const std::string& name) {
 
 static int run_run(int argc, char** argv) {
   std::vector<std::string> options = kSourceOptionNames;
-  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--kernel", "--segment", "--segment-config",
+  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--loop", "--kernel", "--segment", "--segment-config",
                                     kBudgetOptionNames[0], kBudgetOptionNames[1]});
   Args args(argc, argv,
             std::string("usage: depthpose run --blob BLOB --source SRC [--json] [--overlay DIR] [--every N]\n"
@@ -42,6 +43,7 @@ static int run_run(int argc, char** argv) {
                 "  --realtime           replay files at their recorded pace, dropping frames when late\n"
                 "                       (live sources always deliver the newest frame)\n"
                 "  --frames N           stop after N processed frames\n"
+                "  --loop N             play a file source N times (rewound at its end): soak runs (docs/app.md)\n"
                 "  --kernel K           forest kernel: scalar, avx2, avx512 or best (default best)\n" +
                 std::string(kBudgetOptionsUsage) +
                 "  --segment MODE       on, off or auto (default): find the people first (floor, background model,\n"
@@ -69,6 +71,8 @@ static int run_run(int argc, char** argv) {
   o.realtime = args.flag("--realtime");
   o.max_frames = args.get_int("--frames", -1);
   if (args.has("--frames") && o.max_frames < 1) fail("--frames must be at least 1");
+  o.loop = args.get_int("--loop", 1);
+  if (o.loop < 1) fail("--loop must be at least 1");
   o.kernel = parse_kernel(args.get("--kernel", "best"));
   o.usb_watch = !args.flag("--no-usb-watch");
   o.budget = budget_overrides_from_args(args);
@@ -83,6 +87,7 @@ static int run_run(int argc, char** argv) {
   RunSummary s = run_app(o, stdout, stderr);
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
+  check_output_stream();  // --json > /dev/full, a full disk: exit 1, not 0
   return s.source_failed ? 1 : 0;
 }
 

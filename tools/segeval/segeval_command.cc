@@ -16,6 +16,7 @@
 #include "tools/common/body_model.h"
 #include "tools/common/dataset.h"
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
 #include "tools/common/png_io.h"
 #include "tools/eval/metrics.h"
 #include "tools/info/info.h"
@@ -65,16 +66,17 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
   std::vector<Person> out;
   const json extra = json::parse(r.extra_json.empty() ? "{}" : r.extra_json);
   if (extra.contains("people")) {
+    const std::string frame = ds.dir + "/frames.jsonl frame " + r.id;
+    if (!extra["people"].is_array()) fail(frame + ": \"people\" is not an array");
     for (const json& p : extra["people"]) {
+      const std::string where = frame + " person " + std::to_string(out.size() + 1);
+      if (!p.is_object() || !p.contains("joints") || !p["joints"].is_array())
+        fail(where + ": no \"joints\" array");
+      if (p["joints"].size() != ds.meta.joints.size())
+        fail(where + ": has " + std::to_string(p["joints"].size()) + " joints, meta.json names " +
+             std::to_string(ds.meta.joints.size()));
       Person person;
-      for (const json& j : p.at("joints")) {
-        JointTruth t;
-        t.x = j.at(0).get<float>();
-        t.y = j.at(1).get<float>();
-        t.z = j.at(2).get<float>();
-        t.visible = j.at(3).is_boolean() ? j.at(3).get<bool>() : j.at(3).get<int>() != 0;
-        person.joints.push_back(t);
-      }
+      for (const json& j : p["joints"]) person.joints.push_back(joint_truth_from_json(j, where));
       out.push_back(std::move(person));
     }
   } else {
@@ -155,16 +157,9 @@ int run_segeval(int argc, char** argv) {
 
   std::vector<uint8_t> labels(size_t(w) * h), own_mask(size_t(w) * h);
   const bool forest_per_user = !a.flag("--forest-once");
-  std::ofstream per_frame;
-  if (a.has("--per-frame")) {
-    per_frame.open(a.get("--per-frame"));
-    if (!per_frame) fail(a.get("--per-frame") + ": cannot write");
-  }
-  std::ofstream digest_out;
-  if (a.has("--digest")) {
-    digest_out.open(a.get("--digest"));
-    if (!digest_out) fail(a.get("--digest") + ": cannot write");
-  }
+  std::unique_ptr<AtomicOutputFile> per_frame, digest_out;
+  if (a.has("--per-frame")) per_frame = std::make_unique<AtomicOutputFile>(a.get("--per-frame"));
+  if (a.has("--digest")) digest_out = std::make_unique<AtomicOutputFile>(a.get("--digest"));
   double inter_total = 0, union_total = 0, iou_sum = 0;
   long people_total = 0, people_found = 0, findable_total = 0, findable_found = 0, false_users = 0;
   long sizable_total = 0, sizable_found = 0;
@@ -208,10 +203,10 @@ int run_segeval(int argc, char** argv) {
     seg_wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     seg_cycles += double(r.total_cycles);
     for (int s = 0; s < kSegStageCount; ++s) stage_cycles[size_t(s)] += double(r.stage_cycles[s]);
-    if (digest_out.is_open()) {
+    if (digest_out) {
       char hex[17];
       std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(segmentation_digest(r, w, h, w)));
-      digest_out << ds.frames[size_t(i)].id << " " << hex << "\n";
+      digest_out->write(ds.frames[size_t(i)].id + " " + hex + "\n");
     }
 
     if (a.has("--dump")) {
@@ -270,7 +265,7 @@ int run_segeval(int argc, char** argv) {
     }
     long false_here = 0;
     for (int u = 0; u < nu; ++u) false_here += person_of_user[size_t(u)] < 0;
-    if (per_frame.is_open()) {
+    if (per_frame) {
       // Diagnostics: where the IoU goes. Missed body pixels and extra user pixels by height above
       // the segmenter's floor (when it has one): < 5 cm, 5..15 cm, higher (or no floor).
       json line;
@@ -347,7 +342,7 @@ int run_segeval(int argc, char** argv) {
                                             ? overlap[size_t(u) * np + size_t(person_of_user[size_t(u)])] : 0}});
       }
       line["users"] = us;
-      per_frame << line.dump() << "\n";
+      per_frame->write(line.dump() + "\n");
     }
     false_users += false_here;
     frames_with_false += false_here > 0;
@@ -488,12 +483,10 @@ int run_segeval(int argc, char** argv) {
     std::printf("    over the people found only      segmented %.4f, ground-truth mask %.4f, difference %+.4f\n",
                 f_seg.value_or(0), f_gt.value_or(0), f_seg.value_or(0) - f_gt.value_or(0));
   }
-  if (a.has("--json")) {
-    const std::string path = a.get("--json");
-    std::ofstream f(path);
-    if (!f) fail(path + ": cannot write");
-    f << out.dump(2) << "\n";
-  }
+  if (per_frame) per_frame->commit();
+  if (digest_out) digest_out->commit();
+  if (a.has("--json")) write_file_atomic(a.get("--json"), out.dump(2) + "\n");
+  check_output_stream();
   return 0;
 }
 
