@@ -242,7 +242,7 @@ Scene arranged_scene(uint32_t seed, int frame, int width, int height) {
       const CameraIntrinsics k = resolved(s.camera);
       const float z0 = 2.5f + jz;
       const float edge = (float(width) - 0.5f - k.cx) * z0 / k.fx;
-      const float shown = rng.uniform(0.03f, 0.12f) + 0.01f * float(frame);
+      const float shown = rng.uniform(0.01f, 0.02f) + 0.004f * float(frame);
       s.boxes.push_back({edge - shown, edge + 0.4f, 0.0f, rng.uniform(1.6f, 1.8f), z0, z0 + 0.02f, 1});
       standing(x0 - 0.8f, 3.5f, 1.75f, 2);
       break;
@@ -269,7 +269,7 @@ Scene arranged_scene(uint32_t seed, int frame, int width, int height) {
         s.boxes.push_back({x - 0.29f, x + 0.29f, 0.62f, 1.0f, z - 0.1f, z + 0.12f, truth});
         s.cylinders.push_back({x, z, 0.2f, 1.0f, 1.7f, truth});
       }
-      s.boxes.push_back({x0 + 0.2f, x0 + 0.8f, 0.0f, 0.35f, 1.5f + jz, 1.7f + jz, 0});
+      s.boxes.push_back({x0 + 0.2f, x0 + 0.8f, 0.0f, 0.45f, 1.5f + jz, 1.7f + jz, 0});
       break;
     }
     case 4:  // a box with the arm of someone hidden behind it over its lid
@@ -282,7 +282,7 @@ Scene arranged_scene(uint32_t seed, int frame, int width, int height) {
     case 5:  // someone bent over and someone lying with an arm raised
       s.camera.height_m = rng.uniform(1.0f, 1.5f);
       s.camera.pitch_deg = rng.uniform(5.0f, 20.0f);
-      add_person(&s, x0 - 0.6f, 2.6f + jz, 1.75f, Posture::kBentOver, 0.0f, 1);
+      add_person(&s, x0 - 0.6f, 2.6f + jz, 1.35f, Posture::kBentOver, 0.0f, 1);
       add_person(&s, x0 + 0.7f, 3.4f + jz, 1.7f, Posture::kLying, 0.5f, 2);
       break;
     case 6:  // someone mostly hidden behind another person
