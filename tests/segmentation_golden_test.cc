@@ -1,7 +1,8 @@
 // Per-frame segmentation output pinned on seeded scenes: the digest (labels, users, floor,
 // counts and flags; tools/segeval/segmentation_digest.h) of every frame of 8 seeds of
-// tools::random_scene, run as a live sequence (background model on, no reset) and as independent
-// frames (background model off, reset per frame), must equal the committed digests in
+// tools::random_scene and 16 of tools::arranged_scene (the border and joining cases), run as a
+// live sequence (background model on, no reset) and as independent frames (background model off,
+// reset per frame), must equal the committed digests in
 // tests/segmentation_golden_digests.h. Any change in what the segmenter outputs fails here, so a
 // restructuring that must not change behaviour is proven by this test passing unchanged.
 // To pin a deliberate behaviour change, regenerate the digests and review the diff:
@@ -32,6 +33,8 @@ struct GoldenDigest {
 #include "tests/segmentation_golden_digests.h"
 
 constexpr uint32_t kSeeds[] = {1, 2, 3, 4, 5, 6, 7, 8};
+// tools::arranged_scene: two seeds per arrangement (seed % 8).
+constexpr uint32_t kArrangedSeeds[] = {100, 101, 102, 103, 104, 105, 106, 107, 108, 109, 110, 111, 112, 113, 114, 115};
 constexpr int kLiveFrames = 12;
 constexpr int kIndependentFrames = 6;
 
@@ -41,11 +44,12 @@ struct GoldenRun {
 };
 
 // mode "live": one segmenter over the sequence; "independent": reset before every frame.
-void run_seed(uint32_t seed, bool live, GoldenRun* out) {
+void run_seed(uint32_t seed, bool live, GoldenRun* out, bool arranged = false) {
   dp::testing_seg::SegmenterHarness h(dp::default_segmenter_config(live));
   const int frames = live ? kLiveFrames : kIndependentFrames;
   for (int frame = 0; frame < frames; ++frame) {
-    dp::tools::RenderedScene scene = dp::tools::render_scene(dp::tools::random_scene(seed, frame));
+    dp::tools::RenderedScene scene = dp::tools::render_scene(
+        arranged ? dp::tools::arranged_scene(seed, frame) : dp::tools::random_scene(seed, frame));
     dp::tools::add_depth_noise(&scene, seed, frame);
     if (!live) h.segmenter.reset();
     ASSERT_EQ(h.run(scene), dp::Status::kOk) << "seed " << seed << " frame " << frame;
@@ -64,6 +68,10 @@ TEST(SegmentationGolden, PerFrameOutputMatchesTheCommittedDigests) {
   for (uint32_t seed : kSeeds) {
     run_seed(seed, true, &run);
     run_seed(seed, false, &run);
+  }
+  for (uint32_t seed : kArrangedSeeds) {
+    run_seed(seed, true, &run, true);
+    run_seed(seed, false, &run, true);
   }
   ASSERT_FALSE(HasFatalFailure());
   std::printf("frames %zu, users %d, frames with users %d, with a floor %d\n", run.digests.size(), run.users, run.frames_with_users, run.floors);

@@ -218,6 +218,99 @@ Scene random_scene(uint32_t seed, int frame, int width, int height) {
   return s;
 }
 
+Scene arranged_scene(uint32_t seed, int frame, int width, int height) {
+  SceneRng rng{0x8CB92BA72F3D8DD7ull ^ (uint64_t(seed) * 0xD6E8FEB86659FD93ull)};
+  Scene s;
+  s.camera.width = width;
+  s.camera.height = height;
+  const float jx = rng.uniform(-0.1f, 0.1f), jz = rng.uniform(-0.15f, 0.15f);
+  const float drift = 0.02f * float(frame) * (rng.integer(0, 1) ? 1.0f : -1.0f);
+  const float x0 = jx + drift;
+  auto standing = [&](float x, float z, float tall, uint8_t truth) {
+    s.cylinders.push_back({x, z, 0.2f, 0.0f, tall, truth});
+  };
+  switch (seed % 8) {
+    case 0:  // two people joined by an arm held out at shoulder height
+      s.camera.height_m = 1.3f;
+      s.camera.pitch_deg = 12.0f + rng.uniform(-2.0f, 2.0f);
+      standing(x0 - 0.45f, 3.0f + jz, 1.7f, 1);
+      standing(x0 + 0.45f, 3.0f + jz, 1.7f, 2);
+      s.boxes.push_back({x0 - 0.3f, x0 + 0.3f, 1.25f, 1.35f, 2.88f + jz, 2.98f + jz, 1});
+      break;
+    case 1: {  // someone at the right image border, a strip of them in view
+      s.camera.height_m = 1.0f;
+      const CameraIntrinsics k = resolved(s.camera);
+      const float z0 = 2.5f + jz;
+      const float edge = (float(width) - 0.5f - k.cx) * z0 / k.fx;
+      const float shown = rng.uniform(0.01f, 0.02f) + 0.004f * float(frame);
+      s.boxes.push_back({edge - shown, edge + 0.4f, 0.0f, rng.uniform(1.6f, 1.8f), z0, z0 + 0.02f, 1});
+      standing(x0 - 0.8f, 3.5f, 1.75f, 2);
+      break;
+    }
+    case 2:  // someone kneeling close to the camera: the bottom border cuts the legs above the floor
+      s.camera.height_m = 1.2f;
+      s.camera.pitch_deg = 10.0f + rng.uniform(-1.5f, 1.5f);
+      s.boxes.push_back({x0 - 0.2f, x0 + 0.2f, 0.0f, 0.5f, 1.1f, 1.25f, 1});
+      s.boxes.push_back({x0 - 0.2f, x0 + 0.2f, 0.3f, 0.68f, 1.25f, 1.45f, 1});
+      s.boxes.push_back({x0 - 0.1f, x0 + 0.1f, 0.5f, 0.8f, 1.45f, 1.6f, 1});
+      s.cylinders.push_back({x0 - 0.25f, 1.2f, 0.05f, 0.0f, 0.55f, 1});
+      s.cylinders.push_back({x0 + 0.25f, 1.2f, 0.05f, 0.0f, 0.55f, 1});
+      break;
+    case 3: {  // legs cut by the top border of a low camera looking down; the second pair's feet
+               // hidden by a box in front of them
+      s.camera.height_m = 0.8f;
+      s.camera.pitch_deg = 25.0f + rng.uniform(-3.0f, 3.0f);
+      s.camera.roll_deg = rng.uniform(-3.0f, 3.0f);
+      for (int p = 0; p < 2; ++p) {
+        const float x = x0 + (p == 0 ? -0.55f : 0.5f), z = (p == 0 ? 1.5f : 2.0f) + jz;
+        const uint8_t truth = uint8_t(p + 1);
+        s.cylinders.push_back({x - 0.22f, z, 0.07f, 0.0f, 0.7f, truth});
+        s.cylinders.push_back({x + 0.22f, z, 0.07f, 0.0f, 0.7f, truth});
+        s.boxes.push_back({x - 0.29f, x + 0.29f, 0.62f, 1.0f, z - 0.1f, z + 0.12f, truth});
+        s.cylinders.push_back({x, z, 0.2f, 1.0f, 1.7f, truth});
+      }
+      s.boxes.push_back({x0 + 0.2f, x0 + 0.8f, 0.0f, 0.45f, 1.5f + jz, 1.7f + jz, 0});
+      break;
+    }
+    case 4:  // a box with the arm of someone hidden behind it over its lid
+      s.camera.height_m = 1.2f;
+      s.camera.pitch_deg = 10.0f;
+      s.boxes.push_back({x0 - 0.5f, x0 + 0.1f, 0.0f, 0.7f, 2.5f + jz, 2.9f + jz, 0});
+      s.boxes.push_back({x0 - 0.25f, x0 - 0.17f, 0.7f, 1.15f, 2.6f + jz, 2.68f + jz, 2});
+      standing(x0 + 0.9f, 3.2f, 1.7f, 1);
+      break;
+    case 5:  // someone bent over and someone lying with an arm raised
+      s.camera.height_m = rng.uniform(1.0f, 1.5f);
+      s.camera.pitch_deg = rng.uniform(5.0f, 20.0f);
+      add_person(&s, x0 - 0.6f, 2.6f + jz, 1.35f, Posture::kBentOver, 0.0f, 1);
+      add_person(&s, x0 + 0.7f, 3.4f + jz, 1.7f, Posture::kLying, 0.5f, 2);
+      break;
+    case 6:  // someone mostly hidden behind another person
+      s.camera.height_m = rng.uniform(0.9f, 1.5f);
+      s.camera.pitch_deg = rng.uniform(0.0f, 12.0f);
+      add_person(&s, x0, 2.0f + jz, 1.75f, Posture::kStanding, 0.0f, 1);
+      add_person(&s, x0 + rng.uniform(0.15f, 0.4f), 3.3f + jz, 1.8f, Posture::kStanding, 0.0f, 2);
+      s.boxes.push_back({x0 - 1.2f, x0 - 0.6f, 0.0f, 0.6f, 2.8f, 3.3f, 0});
+      break;
+    default:  // legs split from a body by a depth jump: the upper body leaning towards the camera
+      s.camera.height_m = 1.0f;
+      s.camera.pitch_deg = 8.0f;
+      s.cylinders.push_back({x0 - 0.1f, 2.6f + jz, 0.07f, 0.0f, 0.85f, 1});
+      s.cylinders.push_back({x0 + 0.1f, 2.6f + jz, 0.07f, 0.0f, 0.85f, 1});
+      s.boxes.push_back({x0 - 0.2f, x0 + 0.2f, 0.85f, 1.5f, 2.1f + jz, 2.3f + jz, 1});
+      s.cylinders.push_back({x0, 2.15f + jz, 0.1f, 1.5f, 1.72f, 1});
+      s.boxes.push_back({x0 + 0.6f, x0 + 1.1f, 0.0f, 0.5f, 2.4f, 2.9f, 0});
+      break;
+  }
+  const int boxes = rng.integer(1, 3);
+  for (int b = 0; b < boxes; ++b) {
+    const float z = rng.uniform(3.5f, 6.0f), x = rng.uniform(-0.5f, 0.5f) * z, w = rng.uniform(0.15f, 0.5f);
+    s.boxes.push_back({x - w, x + w, 0.0f, rng.uniform(0.3f, 0.8f), z - w, z + w, 0});
+  }
+  if (rng.integer(0, 1)) s.wall_z = rng.uniform(6.0f, 7.5f);
+  return s;
+}
+
 void add_depth_noise(RenderedScene* scene, uint32_t seed, int frame) {
   SceneRng rng{0x2545F4914F6CDD1Dull ^ (uint64_t(seed) << 20) ^ uint64_t(uint32_t(frame))};
   const int w = scene->width, h = scene->height;

@@ -63,6 +63,13 @@ namespace dp::tools {
 // tracking and the background model. Same seed and frame, same scene, on every platform (integer
 // generator; no library random numbers).
 Scene random_scene(uint32_t seed, int frame, int width = 320, int height = 240);
+// Seeded arrangements that put the person tests' border and joining cases in view, one per
+// seed % 8: two people joined by an arm, someone at the right image border, someone kneeling close
+// to the camera (cut by the bottom border), legs cut by the top border of a low camera (one pair
+// with its feet hidden by a box), a box with the arm of someone hidden behind it, someone bent
+// over or lying low, someone mostly hidden behind another person, and legs split from a body by a
+// depth jump. Positions jitter with the seed and drift with `frame`; 1–3 boxes are added.
+Scene arranged_scene(uint32_t seed, int frame, int width = 320, int height = 240);
 // Sensor-like defects, deterministic in (seed, frame): ±0.2 % depth jitter, 1 % of readings
 // dropped and short horizontal dropout runs along depth edges.
 void add_depth_noise(RenderedScene* scene, uint32_t seed, int frame);
