@@ -15,6 +15,7 @@
 #include "platform/oni_recorder.h"
 #include "tests/app_run_support.h"
 #include "tests/app_test_support.h"
+#include "tests/shared_data.h"
 #include "tools/app/overlay.h"
 #include "tools/app/run.h"
 #include "tools/cli/command.h"
@@ -231,26 +232,26 @@ TEST(AppRun, OverlaysShowPartsJointsAndAreWritten) {
   }
 }
 
-TEST(AppRun, RunsOnSkeltrackRawFrames) {
+TEST(AppRunSharedData, RunsOnSkeltrackRawFrames) {
   TempDir dir;
   const std::string blob = write_test_blob(dir);
   RunOptions o;
   o.blob_path = blob;
-  o.source_spec = "raw:../shared/data/skeltrack-frames/*.raw:640x480";
+  o.source_spec = "raw:" + dp::test::shared_path("data/skeltrack-frames") + "/*.raw:640x480";
   o.json = true;
   o.max_frames = 3;
   Captured c = run_captured(o);
-  ASSERT_EQ(c.lines.size(), 3u) << "needs ../shared/data/skeltrack-frames (12 files): " << c.log;
+  ASSERT_EQ(c.lines.size(), 3u) << "needs " << dp::test::shared_path("data/skeltrack-frames") << " (12 files): " << c.log;
   EXPECT_NE(c.log.find("640x480, fx 525.0 fy 525.0 cx 319.5 cy 239.5"), std::string::npos) << c.log;
   for (const json& j : c.lines) EXPECT_GT(j["foreground_pixels"].get<int>(), 1000);
 }
 
-TEST(AppRun, TheFrameLoopAllocatesNothing) {
+TEST(AppRunSharedData, TheFrameLoopAllocatesNothing) {
   TempDir dir;
   const std::string blob = write_test_blob(dir);
   RunOptions o;
   o.blob_path = blob;
-  o.source_spec = "raw:../shared/data/skeltrack-frames/*.raw:640x480";
+  o.source_spec = "raw:" + dp::test::shared_path("data/skeltrack-frames") + "/*.raw:640x480";
   o.json = true;
   o.all_proposals = true;
   long news_in_loop = -1;
@@ -304,7 +305,7 @@ TEST(AppRun, ReplaysARecordingMadeByRecord) {
     }
 }
 
-TEST(AppRun, BadInputsGiveOneLineErrors) {
+TEST(AppRunSharedData, BadInputsGiveOneLineErrors) {
   TempDir dir;
   const std::string blob = write_test_blob(dir);
   auto error_of = [](const RunOptions& o) {
@@ -319,13 +320,13 @@ TEST(AppRun, BadInputsGiveOneLineErrors) {
   };
   RunOptions o;
   o.blob_path = dir / "missing.blob";
-  o.source_spec = "raw:../shared/data/skeltrack-frames/*.raw:640x480";
+  o.source_spec = "raw:" + dp::test::shared_path("data/skeltrack-frames") + "/*.raw:640x480";
   EXPECT_NE(error_of(o).find("missing.blob"), std::string::npos);
   { std::ofstream(dir / "junk.blob") << "junk junk junk junk junk junk junk junk junk junk junk junk"; }
   o.blob_path = dir / "junk.blob";
   EXPECT_NE(error_of(o).find("junk.blob"), std::string::npos);
   o.blob_path = blob;
-  o.source_spec = "raw:../shared/data/skeltrack-frames/*.raw:320x240";
+  o.source_spec = "raw:" + dp::test::shared_path("data/skeltrack-frames") + "/*.raw:320x240";
   EXPECT_NE(error_of(o).find("wrong resolution"), std::string::npos) << error_of(o);
   o.source_spec = "raw:" + (dir / "*.nothing") + ":640x480";
   EXPECT_NE(error_of(o).find("no file matches"), std::string::npos);

@@ -15,6 +15,7 @@
 #include "tests/app_run_support.h"
 #include "tests/app_test_support.h"
 #include "tests/cli_test_support.h"
+#include "tests/shared_data.h"
 #include "tools/app/run.h"
 #include "tools/cli/command.h"
 #include "tools/common/error.h"
@@ -34,7 +35,7 @@ using nlohmann::json;
 
 namespace {
 
-const char* kAssets = "../shared/assets";
+const std::string kAssets = dp::test::shared_path("assets");
 const char* kBlob = "models/bpc.blob";  // the shipped 31-part forest
 constexpr int kFrames = 30;
 
@@ -87,7 +88,7 @@ RunOptions options_for(const std::string& spec) {
 
 }  // namespace
 
-TEST(SynthSequence, OneSceneWithBodiesSteppingThroughTheirClips) {
+TEST(SynthSequenceSharedData, OneSceneWithBodiesSteppingThroughTheirClips) {
   SynthConfig c;
   c.clips = {"02_01"};
   c.floor = true;
@@ -122,7 +123,7 @@ TEST(SynthSequence, OneSceneWithBodiesSteppingThroughTheirClips) {
     }
 }
 
-TEST(AppRunUsers, TwoPeopleOnARecordingGetJointsUnderStableIds) {
+TEST(AppRunUsersSharedData, TwoPeopleOnARecordingGetJointsUnderStableIds) {
   Scene& s = scene();
   const auto truth = read_people(s.dataset);
   ASSERT_EQ(truth.size(), size_t(kFrames));
@@ -180,7 +181,7 @@ TEST(AppRunUsers, TwoPeopleOnARecordingGetJointsUnderStableIds) {
   }
 }
 
-TEST(AppRunUsers, TextModePrintsOneLinePerUser) {
+TEST(AppRunUsersSharedData, TextModePrintsOneLinePerUser) {
   RunOptions o = options_for("oni:" + scene().oni);
   o.json = false;
   o.max_frames = 3;
@@ -192,7 +193,7 @@ TEST(AppRunUsers, TextModePrintsOneLinePerUser) {
   EXPECT_NE(c.text[4].find("tracked 2 frames"), std::string::npos) << c.text[4];
 }
 
-TEST(AppRunUsers, SegmentOffAndAutoOnDatasets) {
+TEST(AppRunUsersSharedData, SegmentOffAndAutoOnDatasets) {
   // --segment off: the whole band is foreground (floor and clutter included); no users reported.
   RunOptions off = options_for("oni:" + scene().oni);
   off.segment = SegmentMode::kOff;
@@ -216,11 +217,11 @@ TEST(AppRunUsers, SegmentOffAndAutoOnDatasets) {
   EXPECT_LT(on.lines[1]["foreground_pixels"].get<int>() * 2, a.lines[1]["foreground_pixels"].get<int>());
 }
 
-TEST(AppRunUsers, BadSegmentModeIsRefused) {
+TEST(AppRunUsersSharedData, BadSegmentModeIsRefused) {
   EXPECT_THROW(run_cli({"run", "--blob", kBlob, "--source", "oni:" + scene().oni, "--segment", "maybe"}), ToolError);
 }
 
-TEST(AppRunUsers, EvalSegmentReportsSegmentationQuality) {
+TEST(AppRunUsersSharedData, EvalSegmentReportsSegmentationQuality) {
   // `depthpose eval --segment` measures the segmenter on a labelled dataset (segeval's protocol).
   Scene& s = scene();
   const std::string out = s.dir / "seg.json";

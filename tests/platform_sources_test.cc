@@ -6,6 +6,7 @@
 
 #include "platform/frame_source.h"
 #include "tests/app_test_support.h"
+#include "tests/shared_data.h"
 #include "tools/common/error.h"
 
 using namespace dp;
@@ -30,10 +31,10 @@ void write_raw(const std::string& path, const std::vector<uint16_t>& pixels, siz
 
 }  // namespace
 
-TEST(PlatformSources, RawSkeltrackFramesAreReadAsLittleEndianMillimetres) {
-  const std::string glob = "../shared/data/skeltrack-frames/*.raw";
+TEST(PlatformSourcesSharedData, RawSkeltrackFramesAreReadAsLittleEndianMillimetres) {
+  const std::string glob = dp::test::shared_path("data/skeltrack-frames/*.raw");
   auto source = open_source("raw:" + glob + ":640x480");
-  ASSERT_EQ(source->frame_count(), 12) << "needs the 12 Skeltrack frames in ../shared/data/skeltrack-frames";
+  ASSERT_EQ(source->frame_count(), 12) << "needs the 12 Skeltrack frames in " << dp::test::shared_path("data/skeltrack-frames");
   EXPECT_EQ(source->width(), 640);
   EXPECT_EQ(source->height(), 480);
   const CameraIntrinsics k = source->intrinsics();
@@ -43,7 +44,7 @@ TEST(PlatformSources, RawSkeltrackFramesAreReadAsLittleEndianMillimetres) {
   EXPECT_FLOAT_EQ(k.cy, 239.5f);
   EXPECT_FALSE(source->live());
   // Frame 0 is the first file by name, byte for byte.
-  std::ifstream f("../shared/data/skeltrack-frames/depth-data-1028894671.raw", std::ios::binary);
+  std::ifstream f(dp::test::shared_path("data/skeltrack-frames/depth-data-1028894671.raw"), std::ios::binary);
   std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
   ASSERT_EQ(bytes.size(), 640u * 480u * 2u);
   std::vector<uint16_t> depth(640 * 480);
@@ -99,24 +100,24 @@ TEST(PlatformSources, DatasetUsesItsIntrinsicsAndSkipsMissingFrames) {
   EXPECT_EQ(source->next(depth.data(), &info), NextStatus::kEnd);
 }
 
-TEST(PlatformSources, IntrinsicsOverride) {
+TEST(PlatformSourcesSharedData, IntrinsicsOverride) {
   SourceOptions o;
   o.has_intrinsics = true;
   o.intrinsics = CameraIntrinsics{580.0f, 581.0f, 320.0f, 240.0f};
-  auto source = open_source("raw:../shared/data/skeltrack-frames/*.raw:640x480", o);
+  auto source = open_source("raw:" + dp::test::shared_path("data/skeltrack-frames") + "/*.raw:640x480", o);
   EXPECT_FLOAT_EQ(source->intrinsics().fx, 580.0f);
   EXPECT_FLOAT_EQ(source->intrinsics().cy, 240.0f);
 }
 
-TEST(PlatformSources, BadSpecsAreOneLineErrors) {
+TEST(PlatformSourcesSharedData, BadSpecsAreOneLineErrors) {
   TempDir dir;
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"", "unknown source"},
       {"webcam:0", "unknown source"},
-      {"raw:../shared/data/skeltrack-frames/*.raw", "want raw:GLOB:WxH"},
-      {"raw:../shared/data/skeltrack-frames/*.raw:640", "bad frame size"},
-      {"raw:../shared/data/skeltrack-frames/*.raw:0x480", "bad frame size"},
-      {"raw:../shared/data/skeltrack-frames/*.raw:320x240", "wrong resolution"},
+      {"raw:" + dp::test::shared_path("data/skeltrack-frames") + "/*.raw", "want raw:GLOB:WxH"},
+      {"raw:" + dp::test::shared_path("data/skeltrack-frames") + "/*.raw:640", "bad frame size"},
+      {"raw:" + dp::test::shared_path("data/skeltrack-frames") + "/*.raw:0x480", "bad frame size"},
+      {"raw:" + dp::test::shared_path("data/skeltrack-frames") + "/*.raw:320x240", "wrong resolution"},
       {"raw:" + (dir / "none*.raw") + ":640x480", "no file matches"},
       {"dataset:", "want dataset:DIR"},
       {"dataset:" + (dir / "missing"), "missing"},

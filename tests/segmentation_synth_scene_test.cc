@@ -8,15 +8,16 @@
 
 #include "tools/common/body_model.h"
 #include "tools/synth/synth.h"
+#include "tests/shared_data.h"
 
 using namespace dp::synth;
 
 namespace {
 
 std::unique_ptr<Synthesizer> make(int people, int clutter) {
-  const std::string assets = "../shared/assets";
+  const std::string assets = dp::test::shared_path("assets");
   EXPECT_TRUE(std::filesystem::exists(assets + "/makehuman/3dobjs/base.obj"))
-      << "shared assets missing: expected " << assets << " (run the tests from the repo root)";
+      << "shared assets missing: expected " << assets << " (set DEPTHPOSE_SHARED or make test SHARED=DIR)";
   SynthConfig c;
   c.clips = {"02_01"};
   c.floor = true;
@@ -27,7 +28,7 @@ std::unique_ptr<Synthesizer> make(int people, int clutter) {
 
 }  // namespace
 
-TEST(SegmentationSynthScene, PeopleAndClutterAreLabelledAndBodyZeroIsUnchanged) {
+TEST(SegmentationSynthSceneSharedData, PeopleAndClutterAreLabelledAndBodyZeroIsUnchanged) {
   auto one = make(1, 0);
   auto many = make(3, 12);
   for (uint64_t frame = 0; frame < 3; ++frame) {

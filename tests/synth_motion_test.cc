@@ -18,6 +18,7 @@
 
 #include "tools/synth/clip_index.h"
 #include "tools/synth/motion.h"
+#include "tests/shared_data.h"
 
 namespace dp::synth {
 namespace {
@@ -254,8 +255,8 @@ TEST(SynthMotion, MalformedFilesNameFileAndLine) {
   EXPECT_NE(e.find("cannot open /nonexistent/x.bvh"), std::string::npos) << e;
 }
 
-TEST(SynthMotion, SharedCmuClipLoads) {
-  const std::string dir = "../shared/assets/mocap/cmu/02";
+TEST(SynthMotionSharedData, SharedCmuClipLoads) {
+  const std::string dir = dp::test::shared_path("assets/mocap/cmu/02");
   ASSERT_TRUE(fs::exists(dir + "/02.asf")) << "shared CMU mocap missing under " << dir;
   MotionClip c = load_asf_amc(dir + "/02.asf", dir + "/02_01.amc", 4);
   EXPECT_EQ(c.segments.size(), 31u);  // all CMU bones map onto the rig
@@ -265,10 +266,10 @@ TEST(SynthMotion, SharedCmuClipLoads) {
   for (size_t k = 0; k < c.frames.size(); ++k) EXPECT_LT(posed_direction(c, k, "LeftUpLeg").y, -0.5) << k;
 }
 
-TEST(SynthMotion, AssimpBvhMatchesCmuAsfAmcOfTheSameClip) {
+TEST(SynthMotionSharedData, AssimpBvhMatchesCmuAsfAmcOfTheSameClip) {
   const std::string bvh = "/usr/share/assimp/models/BVH/01_01.bvh";
   ASSERT_TRUE(fs::exists(bvh)) << bvh << " missing: install assimp-testmodels (make deps)";
-  const std::string dir = "../shared/assets/mocap/cmu/01";
+  const std::string dir = dp::test::shared_path("assets/mocap/cmu/01");
   ASSERT_TRUE(fs::exists(dir + "/01_01.amc")) << "shared CMU mocap missing under " << dir;
   MotionClip b = load_bvh(bvh);
   MotionClip a = load_asf_amc(dir + "/01.asf", dir + "/01_01.amc");
@@ -631,9 +632,9 @@ TEST(SynthMocapFiles, BvhTruncatedAnywhereInItsLastRowIsRefused) {
 
 // ---- The shared corpus ----
 
-const std::string kMocap = "../shared/assets/mocap";
+const std::string kMocap = dp::test::shared_path("assets/mocap");
 
-TEST(SynthMocapFiles, SharedDazMotionBuilderAndGzAmcClipsLoad) {
+TEST(SynthMocapFilesSharedData, SharedDazMotionBuilderAndGzAmcClipsLoad) {
   ASSERT_TRUE(fs::exists(kMocap + "/clips.tsv")) << "shared mocap index missing: " << kMocap << "/clips.tsv";
   // DAZ, gzip and CRLF: frame 0 is the T-pose, arms sideways, legs down.
   const MotionClip daz = load_bvh(kMocap + "/cmu-bvh-daz/60/60_01.bvh.gz", 100);
@@ -660,7 +661,7 @@ TEST(SynthMocapFiles, SharedDazMotionBuilderAndGzAmcClipsLoad) {
             std::string::npos);
 }
 
-TEST(SynthMocapFiles, EveryClipOfTheSharedIndexLoads) {
+TEST(SynthMocapFilesSharedData, EveryClipOfTheSharedIndexLoads) {
   ASSERT_TRUE(fs::exists(kMocap + "/clips.tsv")) << "shared mocap index missing: " << kMocap << "/clips.tsv";
   const std::vector<ClipEntry> all = select_clips(kMocap, {"all"}, kDefaultSplitsPath);
   EXPECT_EQ(all.size(), 289u);
@@ -680,7 +681,7 @@ TEST(SynthMocapFiles, EveryClipOfTheSharedIndexLoads) {
   EXPECT_GT(frames, 360000);
 }
 
-TEST(SynthMocapFiles, SplitsHoldOutWholeSubjects) {
+TEST(SynthMocapFilesSharedData, SplitsHoldOutWholeSubjects) {
   const std::vector<ClipEntry> test = select_clips(kMocap, {"split:test"}, kDefaultSplitsPath);
   const std::vector<ClipEntry> train = select_clips(kMocap, {"split:train"}, kDefaultSplitsPath);
   const std::vector<ClipEntry> val = select_clips(kMocap, {"split:validation"}, kDefaultSplitsPath);

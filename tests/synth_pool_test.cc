@@ -12,6 +12,7 @@
 #include <png.h>
 
 #include "tests/cli_test_support.h"
+#include "tests/shared_data.h"
 #include "tools/common/png_io.h"
 #include "tools/synth/clip_index.h"
 #include "tools/synth/pose_pool.h"
@@ -21,7 +22,7 @@ namespace dp::synth {
 namespace {
 namespace fs = std::filesystem;
 
-const std::string kAssets = "../shared/assets";
+const std::string kAssets = dp::test::shared_path("assets");
 
 std::vector<JointSet> random_clusters(uint64_t seed, int clusters, int per_cluster, double spread) {
   uint64_t s = seed;
@@ -55,7 +56,7 @@ TEST(SynthPosePool, GridSelectionEqualsThePlainScan) {
   EXPECT_TRUE(furthest_neighbour_selection({}, 0.05).empty());
 }
 
-class PoolFixture : public ::testing::Test {
+class SynthPosePoolSharedData : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     ASSERT_TRUE(fs::exists(kAssets + "/mocap/clips.tsv")) << "shared assets missing under " << kAssets;
@@ -73,11 +74,11 @@ class PoolFixture : public ::testing::Test {
   static std::unique_ptr<std::vector<MotionClip>> clips_;
   static std::vector<std::string> categories_;
 };
-std::unique_ptr<HumanAssets> PoolFixture::assets_;
-std::unique_ptr<std::vector<MotionClip>> PoolFixture::clips_;
-std::vector<std::string> PoolFixture::categories_;
+std::unique_ptr<HumanAssets> SynthPosePoolSharedData::assets_;
+std::unique_ptr<std::vector<MotionClip>> SynthPosePoolSharedData::clips_;
+std::vector<std::string> SynthPosePoolSharedData::categories_;
 
-TEST_F(PoolFixture, GridSelectionEqualsThePlainScanOnMocap) {
+TEST_F(SynthPosePoolSharedData, GridSelectionEqualsThePlainScanOnMocap) {
   const HumanAssets& a = *assets_;
   const Skeleton rest = measure_skeleton(a, a.base_vertices);
   std::vector<JointSet> joints;
@@ -89,7 +90,7 @@ TEST_F(PoolFixture, GridSelectionEqualsThePlainScanOnMocap) {
   EXPECT_LT(fast.size(), joints.size());
 }
 
-TEST_F(PoolFixture, MirrorSwapsSidesAndTwiceIsIdentity) {
+TEST_F(SynthPosePoolSharedData, MirrorSwapsSidesAndTwiceIsIdentity) {
   const HumanAssets& a = *assets_;
   const Skeleton rest = measure_skeleton(a, a.base_vertices);
   const BodyPose p = retarget_frame(a, rest, (*clips_)[1], 40);
@@ -106,7 +107,7 @@ TEST_F(PoolFixture, MirrorSwapsSidesAndTwiceIsIdentity) {
   }
 }
 
-TEST_F(PoolFixture, VariedPoolIsDeterministicStaysNearItsSourcesAndReportsEveryPose) {
+TEST_F(SynthPosePoolSharedData, VariedPoolIsDeterministicStaysNearItsSourcesAndReportsEveryPose) {
   const HumanAssets& a = *assets_;
   PoseVariation v;
   v.mirror = true;
@@ -194,7 +195,7 @@ TEST_F(PoolFixture, VariedPoolIsDeterministicStaysNearItsSourcesAndReportsEveryP
   EXPECT_GT(pruned.kept[3], 0u);
 }
 
-TEST(SynthPoseSheet, OneRowPerSkeletonNaming) {
+TEST(SynthPoseSheetSharedData, OneRowPerSkeletonNaming) {
   const std::string dir = fs::temp_directory_path() / "synth_pose_sheet_test";
   fs::create_directories(dir);
   const std::string sheet = dir + "/sheet.png";

@@ -14,6 +14,7 @@
 #include "tools/common/body_model.h"
 #include "tools/common/dataset.h"
 #include "tools/synth/synth.h"
+#include "tests/shared_data.h"
 
 namespace dp::synth {
 namespace {
@@ -21,13 +22,13 @@ namespace fs = std::filesystem;
 using dp::tools::kJointMirror;
 using dp::tools::kPartMirror;
 
-const char* kAssets = "../shared/assets";
+const std::string kAssets = dp::test::shared_path("assets");
 
-class SynthRender : public ::testing::Test {
+class SynthRenderSharedData : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    ASSERT_TRUE(fs::exists(std::string(kAssets) + "/makehuman/3dobjs/base.obj"))
-        << "shared assets missing: expected " << kAssets << " (run the tests from the repo root)";
+    ASSERT_TRUE(fs::exists(kAssets + "/makehuman/3dobjs/base.obj"))
+        << "shared assets missing: expected " << kAssets << " (set DEPTHPOSE_SHARED or make test SHARED=DIR)";
     SynthConfig c;
     c.clips = {"02_01"};
     synth_ = std::make_unique<Synthesizer>(kAssets, c);
@@ -35,9 +36,9 @@ class SynthRender : public ::testing::Test {
   static void TearDownTestSuite() { synth_.reset(); }
   static std::unique_ptr<Synthesizer> synth_;
 };
-std::unique_ptr<Synthesizer> SynthRender::synth_;
+std::unique_ptr<Synthesizer> SynthRenderSharedData::synth_;
 
-TEST_F(SynthRender, EveryPartAppearsInAFrontalRender) {
+TEST_F(SynthRenderSharedData, EveryPartAppearsInAFrontalRender) {
   const DepthLabelImage img = synth_->render_body_view(rest_pose(synth_->assets()), 0, 480, 640);
   std::vector<int> count(256, 0);
   for (uint8_t l : img.label) count[l]++;
@@ -46,7 +47,7 @@ TEST_F(SynthRender, EveryPartAppearsInAFrontalRender) {
   for (int l = dp::tools::kPartCount; l < 255; ++l) EXPECT_EQ(count[l], 0) << l;
 }
 
-TEST_F(SynthRender, LabelTableIsMirrorSymmetric) {
+TEST_F(SynthRenderSharedData, LabelTableIsMirrorSymmetric) {
   // Every vertex at (x, y, z) with label p has a partner at (-x, y, z) with label mirror(p).
   const HumanAssets& a = synth_->assets();
   const std::vector<uint8_t>& labels = synth_->vertex_labels();
@@ -72,7 +73,7 @@ TEST_F(SynthRender, LabelTableIsMirrorSymmetric) {
   EXPECT_GE(matched, checked * 99 / 100);
 }
 
-TEST_F(SynthRender, TPoseCorrectionPutsArmsOutSideways) {
+TEST_F(SynthRenderSharedData, TPoseCorrectionPutsArmsOutSideways) {
   const HumanAssets& a = synth_->assets();
   const Skeleton rest = measure_skeleton(a, a.base_vertices);
   for (const char* arm : {"LeftArm", "RightArm"}) {
@@ -83,7 +84,7 @@ TEST_F(SynthRender, TPoseCorrectionPutsArmsOutSideways) {
   }
 }
 
-TEST_F(SynthRender, RetargetedWalkIsUprightWithLeftOnTheLeft) {
+TEST_F(SynthRenderSharedData, RetargetedWalkIsUprightWithLeftOnTheLeft) {
   const HumanAssets& a = synth_->assets();
   const Skeleton rest = measure_skeleton(a, a.base_vertices);
   const PoseLibrary& lib = synth_->pose_library();
@@ -102,7 +103,7 @@ TEST_F(SynthRender, RetargetedWalkIsUprightWithLeftOnTheLeft) {
   }
 }
 
-TEST_F(SynthRender, SkeletonFollowsShape) {
+TEST_F(SynthRenderSharedData, SkeletonFollowsShape) {
   const HumanAssets& a = synth_->assets();
   ShapeControls tall, short_;
   tall.height = 0.6;
@@ -117,7 +118,7 @@ TEST_F(SynthRender, SkeletonFollowsShape) {
   EXPECT_LT(ht, 2.0);
 }
 
-TEST_F(SynthRender, MirroredRenderIsTheFlippedImageWithSwappedLabelsAndJoints) {
+TEST_F(SynthRenderSharedData, MirroredRenderIsTheFlippedImageWithSwappedLabelsAndJoints) {
   FrameParams p = synth_->sample_frame_params(7, 3);
   p.mirror = false;
   p.camera_roll_deg = 0;
@@ -149,7 +150,7 @@ TEST_F(SynthRender, MirroredRenderIsTheFlippedImageWithSwappedLabelsAndJoints) {
   }
 }
 
-TEST_F(SynthRender, FramesArePureFunctionsOfSeedAndIndex) {
+TEST_F(SynthRenderSharedData, FramesArePureFunctionsOfSeedAndIndex) {
   const SynthFrame a = synth_->render_frame(5, 11), b = synth_->render_frame(5, 11), c = synth_->render_frame(6, 11);
   EXPECT_EQ(a.depth.pixels, b.depth.pixels);
   EXPECT_EQ(a.parts.pixels, b.parts.pixels);
@@ -185,7 +186,7 @@ int run_synth(std::vector<std::string> args) {
   return cmd->run(int(argv.size()), argv.data());
 }
 
-TEST(SynthCommand, DatasetIsValidAndIdenticalForAnyThreadCount) {
+TEST(SynthCommandSharedData, DatasetIsValidAndIdenticalForAnyThreadCount) {
   char pattern[] = "/tmp/synth_render_test_XXXXXX";
   const std::string dir = mkdtemp(pattern);
   const std::string one = dir + "/t1", two = dir + "/t2";
