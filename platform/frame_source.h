@@ -96,7 +96,7 @@ struct SourceOptions {
   // (`run --realtime`). OpenNI2 streams always do; V4L2 otherwise delivers its queue in order.
   bool latest_only = false;
   // oni: recordings: let OpenNI2 play the file in a loop so rewind() is possible without a seek
-  // (`run --loop`); next() still returns kEnd after each pass.
+  // (`run --loop`); next() still returns kEnd at the end of every play-through.
   bool oni_repeat = false;
 };
 

@@ -84,7 +84,7 @@ class OniSource final : public FrameSource {
     if (!device_.isFile()) fail("oni:" + path + ": OpenNI2 did not open it as a recording");
     openni::PlaybackControl* playback = device_.getPlaybackControl();
     if (!playback) fail("oni:" + path + ": no playback control");
-    // Every frame once (with repeat_: pass after pass), as fast as the reader reads.
+    // Every frame once (with repeat_: the file again and again), as fast as the reader reads.
     playback->setSpeed(-1.0f);
     playback->setRepeatEnabled(repeat_);
     if (!device_.hasSensor(openni::SENSOR_DEPTH)) fail("oni:" + path + ": the recording has no depth stream");
