@@ -205,7 +205,7 @@ std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOp
     source = open_dataset_source(rest);
   } else if (kind == "oni") {
     if (rest.empty()) fail("source '" + spec + "': want oni:FILE");
-    source = open_oni_source(rest);
+    source = open_oni_source(rest, options.oni_repeat);
   } else if (kind == "openni") {
     source = open_openni_device_source(rest, options);
   } else if (kind == "v4l2") {

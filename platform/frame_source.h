@@ -64,9 +64,9 @@ class FrameSource {
   virtual int64_t frame_count() const { return -1; }
   // See the contract above. `depth_mm` holds width()·height() elements.
   virtual NextStatus next(uint16_t* depth_mm, FrameInfo* info) = 0;
-  // Starts again at the first frame, allocating nothing (raw and dataset sources); the stats keep
-  // counting. False when the source cannot: live sources, and .oni recordings (OpenNI2 2.2's
-  // PlaybackControl::seek crashes; a caller reopens the file instead).
+  // Starts again at the first frame, allocating nothing (raw and dataset sources, .oni recordings
+  // opened with SourceOptions::oni_repeat); the stats keep counting. False when the source cannot:
+  // live sources, .oni without oni_repeat (OpenNI2 2.2's PlaybackControl::seek crashes).
   virtual bool rewind() { return false; }
   const std::string& last_error() const { return error_; }
   // Last non-fatal problem (a skipped corrupt frame, a lost device), for logs. Empty if none.
@@ -95,6 +95,9 @@ struct SourceOptions {
   // Live sources: hand over only the newest frame, counting older queued ones as dropped
   // (`run --realtime`). OpenNI2 streams always do; V4L2 otherwise delivers its queue in order.
   bool latest_only = false;
+  // oni: recordings: let OpenNI2 play the file in a loop so rewind() is possible without a seek
+  // (`run --loop`); next() still returns kEnd at the end of every play-through.
+  bool oni_repeat = false;
 };
 
 // Opens a source from its spec (see above). Throws ToolError naming the problem.

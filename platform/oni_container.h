@@ -36,7 +36,7 @@ struct OniContainerSummary {
   uint64_t records_end = 0;     // offset just past the end record (= file_bytes when it has none)
 };
 
-// Reads `path` (a regular file within tools::limits::kMaxInputFileBytes) and checks its structure.
+// Maps `path` (a regular file; only the record headers are touched) and checks its structure.
 // Throws ToolError "oni:<path>: not a readable OpenNI2 recording (truncated or corrupt: <what is
 // wrong> at byte <offset>)" on the first problem.
 OniContainerSummary check_oni_container(const std::string& path);

@@ -70,7 +70,7 @@ void check_depth_mode(const openni::VideoMode& mode, const std::string& what) {
 
 class OniSource final : public FrameSource {
  public:
-  explicit OniSource(const std::string& path) : path_(path) {
+  OniSource(const std::string& path, bool repeat) : path_(path), repeat_(repeat) {
     if (FILE* f = std::fopen(path.c_str(), "rb")) {
       std::fclose(f);
     } else {
@@ -84,9 +84,9 @@ class OniSource final : public FrameSource {
     if (!device_.isFile()) fail("oni:" + path + ": OpenNI2 did not open it as a recording");
     openni::PlaybackControl* playback = device_.getPlaybackControl();
     if (!playback) fail("oni:" + path + ": no playback control");
-    // Every frame once, as fast as the reader reads; never loop back to the start.
+    // Every frame once (with repeat_: the file again and again), as fast as the reader reads.
     playback->setSpeed(-1.0f);
-    playback->setRepeatEnabled(false);
+    playback->setRepeatEnabled(repeat_);
     if (!device_.hasSensor(openni::SENSOR_DEPTH)) fail("oni:" + path + ": the recording has no depth stream");
     if (stream_.create(device_, openni::SENSOR_DEPTH) != openni::STATUS_OK)
       fail("oni:" + path + ": cannot open its depth stream (" + extended_error() + ")");
@@ -149,6 +149,12 @@ class OniSource final : public FrameSource {
     }
     return NextStatus::kEnd;
   }
+  bool rewind() override {
+    if (!repeat_ || failed_) return false;
+    read_ = 0;  // OpenNI2 goes on with the file's first frame
+    return true;
+  }
+
  private:
   static constexpr int kFrameTimeoutMs = 2000;
   std::string path_;
@@ -157,6 +163,7 @@ class OniSource final : public FrameSource {
   int width_ = 0, height_ = 0;
   int64_t total_ = 0, read_ = 0;
   bool failed_ = false;
+  bool repeat_ = false;
   CameraIntrinsics own_{};
 };
 
@@ -314,7 +321,9 @@ std::string openni_library_dir() {
   return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
 }
 
-std::unique_ptr<FrameSource> open_oni_source(const std::string& path) { return std::make_unique<OniSource>(path); }
+std::unique_ptr<FrameSource> open_oni_source(const std::string& path, bool repeat) {
+  return std::make_unique<OniSource>(path, repeat);
+}
 
 std::unique_ptr<FrameSource> open_openni_device_source(const std::string& uri, const SourceOptions& options) {
   return std::make_unique<DeviceSource>(uri, options);

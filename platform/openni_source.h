@@ -24,7 +24,9 @@ std::string openni_library_dir();
 // oni:FILE — every frame once, in order, as fast as it can be read (setSpeed(-1), no repeat;
 // frame count from the file; never seeks). Throws ToolError for a missing, corrupt or depth-less
 // file. A recording that ends early (truncated) makes next() return kError naming the frame.
-std::unique_ptr<FrameSource> open_oni_source(const std::string& path);
+// With `repeat`, OpenNI2 plays the file in a loop: next() returns kEnd at the end of every
+// play-through and rewind() continues with the next one (no seek, no reopen).
+std::unique_ptr<FrameSource> open_oni_source(const std::string& path, bool repeat = false);
 
 // openni / openni:URI — a device (first one when `uri` is empty). Live: next() waits up to
 // options.poll_timeout_ms. A disconnect (OpenNI2 event or read failure) returns kDeviceLost once

@@ -25,6 +25,7 @@
 #include "tools/common/png_io.h"
 #include "tools/convert/pcl_import.h"
 #include "tools/eval/evaluator.h"
+#include "tools/eval/plots.h"
 
 using namespace dp;
 using dp::apptest::TempDir;
@@ -276,4 +277,42 @@ TEST(ReliabilityInputs, OniContainerCheckedBeforeOpenNiSeesIt) {
   }
   // Truncation inside the records is refused too.
   EXPECT_HAS(error_of([&] { platform::check_oni_bytes(bytes.data(), 100, "demo"); }), "truncated or corrupt");
+}
+
+TEST(ReliabilityInputs, SegevalSetToleranceIsRangeChecked) {
+  TempDir t;
+  const std::string dir = t / "ds";
+  write_joint_dataset(dir, std::string("{\"id\":\"000000\",\"joints\":") + kTwoJoints + "}\n");
+  const std::string m = error_of([&] { testsupport::run_cli({"segeval", "--data", dir, "--set", "join_mm=1e30"}); });
+  EXPECT_HAS(m, "join_mm");
+  EXPECT_HAS(m, "outside 0..65535 mm");
+}
+
+TEST(ReliabilityInputs, PlotsOfFarOffPointsStayOnTheCanvas) {
+  // A truth joint at x = 1e300 (infinite as a float) and proposals at ±1e30 px: the overlay is
+  // written without converting them to int (clang's UBSan flagged "inf is outside the range of
+  // representable values of type 'int'" in plot_overlay).
+  TempDir t;
+  tools::EvalReport r;
+  r.method = "BPC";
+  r.frames = 1;
+  r.joint_names = {"head"};
+  r.ap = {0.5};
+  r.curves.resize(1);
+  r.positives = {1};
+  tools::OverlayFrame o;
+  o.id = "000000";
+  o.width = 32;
+  o.height = 24;
+  o.depth_mm.assign(32 * 24, 1000);
+  o.part.assign(32 * 24, -1);
+  o.proposals = {{tools::ScoredPoint{tools::Point3{1e30f, -1e30f, 1.0f}, 1.0f}}};
+  tools::JointSamples::Truth truth;
+  truth.position = tools::Point3{float(1e300), 1e38f, 0.0f};
+  truth.visible = true;
+  o.truth = {truth};
+  r.overlays.push_back(o);
+  const std::vector<std::string> written = tools::write_eval_plots(r, t / "plots");
+  ASSERT_EQ(written.size(), 3u);
+  EXPECT_TRUE(std::filesystem::file_size(t / "plots/overlay_000000.png") > 0);
 }

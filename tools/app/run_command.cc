@@ -28,7 +28,7 @@ static int run_run(int argc, char** argv) {
                                     kBudgetOptionNames[0], kBudgetOptionNames[1]});
   Args args(argc, argv,
             std::string("usage: depthpose run --blob BLOB --source SRC [--json] [--overlay DIR] [--every N]\n"
-                        "                     [--realtime] [--all-proposals] [--frames N] [--kernel K]\n"
+                        "                     [--realtime] [--all-proposals] [--frames N] [--loop N] [--kernel K]\n"
                         "  Runs the forest on every frame of a source: one JSON line per frame on stdout (--json),\n"
                         "  events and a closing summary (fps, p50/p99/max frame time, budget overruns, dropped and\n"
                         "  corrupt frames) on stderr.\n"

@@ -7,10 +7,10 @@
 
 namespace dp::tools::limits {
 
-// Bytes of one input file read whole into memory (blob, trained .forest, PNG, .oni, JSON/JSONL,
-// BVH/ASF/AMC). The largest file the project makes is a blob of 3 depth-20 PCL trees (≈ 44 MB:
-// 3 · 2^20 nodes of 10 bytes and leaf-index entries of 4); 1 GiB leaves room for larger forests and
-// still fits in memory on the machines the tools run on.
+// Bytes of one input file read whole into memory (blob, trained .forest, PNG, JSON/JSONL). The
+// largest file the project makes is a blob of 3 depth-20 PCL trees (≈ 44 MB: 3 · 2^20 nodes of 10
+// bytes and leaf-index entries of 4); 1 GiB leaves room for larger forests and still fits in
+// memory on the machines the tools run on. (.oni recordings are mapped, not read: any size.)
 // Files that are not regular files (/dev/zero, pipes, directories) are refused outright: their
 // size cannot be checked in advance.
 constexpr uint64_t kMaxInputFileBytes = uint64_t(1) << 30;
