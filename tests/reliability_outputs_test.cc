@@ -6,10 +6,13 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <functional>
+#include <iterator>
 #include <new>
 #include <string>
 #include <vector>
@@ -21,6 +24,7 @@
 #include "tests/app_run_support.h"
 #include "tests/app_test_support.h"
 #include "tests/cli_test_support.h"
+#include "tests/shared_data.h"
 #include "tools/app/run.h"
 #include "tools/cli/command.h"
 #include "tools/common/error.h"
@@ -254,4 +258,80 @@ TEST(ReliabilityOutputs, RecordWritesItsContentOnceAndLeavesNothingOnFailure) {
                tools::ToolError);
   for (const std::string& name : directory_entries(t.path))
     EXPECT_EQ(name.find(".partial"), std::string::npos) << name;
+}
+
+namespace {
+
+std::string read_text(const std::string& path) {
+  std::ifstream f(path);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+bool has_meta_json(const std::string& path) { return std::filesystem::exists(path + "/meta.json"); }
+
+}  // namespace
+
+TEST(ReliabilityOutputs, AtomicDirectoryIsSwappedInWholeOrLeftAsItWas) {
+  TempDir t;
+  const std::string out = t / "dataset";
+  {
+    tools::AtomicOutputDirectory d(out, has_meta_json, "dataset");
+    write_text_file(d.path() + "/meta.json", "{}\n");
+    write_text_file(d.path() + "/a", "first\n");
+    EXPECT_FALSE(std::filesystem::exists(out)) << "nothing appears before commit";
+    d.commit();
+  }
+  EXPECT_EQ(read_text(out + "/a"), "first\n");
+  {  // abandoned (an error on the way): the old folder stays, no temporary is left
+    tools::AtomicOutputDirectory d(out, has_meta_json, "dataset");
+    write_text_file(d.path() + "/meta.json", "{}\n");
+    write_text_file(d.path() + "/b", "second\n");
+  }
+  EXPECT_EQ(read_text(out + "/a"), "first\n");
+  EXPECT_FALSE(std::filesystem::exists(out + "/b"));
+  EXPECT_EQ(directory_entries(t.path), std::vector<std::string>{"dataset"});
+  {  // committed over the old one: only the new files remain
+    tools::AtomicOutputDirectory d(out, has_meta_json, "dataset");
+    write_text_file(d.path() + "/meta.json", "{}\n");
+    write_text_file(d.path() + "/b", "second\n");
+    d.commit();
+  }
+  EXPECT_FALSE(std::filesystem::exists(out + "/a"));
+  EXPECT_EQ(read_text(out + "/b"), "second\n");
+  EXPECT_EQ(directory_entries(t.path), std::vector<std::string>{"dataset"});
+  // A non-empty folder that is not a dataset is refused, named, and left alone.
+  const std::string other = t / "notes";
+  std::filesystem::create_directories(other);
+  write_text_file(other + "/keep.txt", "mine\n");
+  try {
+    tools::AtomicOutputDirectory d(other, has_meta_json, "dataset");
+    ADD_FAILURE() << "a non-dataset folder was accepted";
+  } catch (const tools::ToolError& e) {
+    EXPECT_NE(std::string(e.what()).find(other), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(read_text(other + "/keep.txt"), "mine\n");
+}
+
+TEST(ReliabilityOutputsSharedData, SynthOverAnExistingDatasetLeavesNoFramesOfTheOldOne) {
+  TempDir t;
+  const std::string out = t / "data", assets = dp::test::shared_path("assets");
+  const auto synth = [&](const std::string& frames) {
+    return dp::testsupport::run_cli({"synth", "--assets", assets, "--out", out, "--frames", frames, "--seed", "5",
+                                     "--clips", "02_01", "--width", "80", "--height", "60", "--threads", "1"});
+  };
+  ASSERT_EQ(synth("4"), 0);
+  ASSERT_EQ(synth("2"), 0);
+  size_t depth_files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(out + "/depth")) depth_files += e.is_regular_file();
+  EXPECT_EQ(depth_files, 2u) << "frames of the earlier dataset were left beside the new frames.jsonl";
+  const std::string jsonl = read_text(out + "/frames.jsonl");
+  EXPECT_EQ(std::count(jsonl.begin(), jsonl.end(), '\n'), 2);
+  EXPECT_EQ(directory_entries(t.path), std::vector<std::string>{"data"});
+  // A folder that is not a dataset is refused and left as it was.
+  const std::string mine = t / "mine";
+  std::filesystem::create_directories(mine);
+  write_text_file(mine + "/keep.txt", "mine\n");
+  EXPECT_THROW(dp::testsupport::run_cli({"synth", "--assets", assets, "--out", mine, "--frames", "1", "--clips",
+                                         "02_01", "--width", "80", "--height", "60"}),
+               tools::ToolError);
+  EXPECT_EQ(directory_entries(mine), std::vector<std::string>{"keep.txt"});
 }

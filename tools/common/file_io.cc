@@ -1,5 +1,7 @@
 #include "tools/common/file_io.h"
 
+#include <filesystem>
+
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -151,6 +153,46 @@ void check_output_stream(std::FILE* out, const char* name) {
     std::clearerr(out);
     fail(std::string("cannot write to ") + name + ": " + std::strerror(e ? e : EIO));
   }
+}
+
+AtomicOutputDirectory::AtomicOutputDirectory(const std::string& path, bool (*replaceable)(const std::string&),
+                                             const char* what)
+    : final_(path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(path, ec)) {
+    if (!fs::is_directory(path, ec)) fail("cannot write " + std::string(what) + " " + path + ": it exists and is not a directory");
+    if (!fs::is_empty(path, ec) && !replaceable(path))
+      fail("will not replace " + path + ": it is a non-empty folder that is not a " + what + " (choose a new folder)");
+  }
+  tmp_ = temporary_path_for(path);
+  fs::create_directories(tmp_, ec);
+  if (ec) fail("cannot create " + tmp_ + " (for " + path + "): " + ec.message());
+}
+
+AtomicOutputDirectory::~AtomicOutputDirectory() {
+  if (committed_) return;
+  std::error_code ec;
+  std::filesystem::remove_all(tmp_, ec);
+}
+
+void AtomicOutputDirectory::commit() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  std::string aside;
+  if (fs::exists(final_, ec)) {
+    aside = temporary_path_for(final_ + ".old");
+    fs::rename(final_, aside, ec);
+    if (ec) fail("cannot replace " + final_ + ": " + ec.message() + " (the new output is left in " + tmp_ + ")");
+  }
+  fs::rename(tmp_, final_, ec);
+  if (ec) {
+    std::error_code back;
+    if (!aside.empty()) fs::rename(aside, final_, back);
+    fail("cannot move " + tmp_ + " to " + final_ + ": " + ec.message());
+  }
+  committed_ = true;
+  if (!aside.empty()) fs::remove_all(aside, ec);
 }
 
 }  // namespace dp::tools

@@ -43,6 +43,26 @@ class AtomicOutputFile {
   std::FILE* file_ = nullptr;
 };
 
+// A directory output built whole (a dataset): everything is written under a temporary directory
+// beside `path` (path()), and commit() swaps it in: an existing `path` is renamed aside, the new
+// directory renamed into place, the old one removed. Destroyed without commit() (an error on the
+// way, a killed run leaves only the .tmp-* folder), the temporary directory is removed and `path`
+// is left as it was. An existing `path` is replaced only when `replaceable(path)` says so (e.g. it
+// is a dataset); otherwise the constructor refuses it, naming it, before anything is written.
+class AtomicOutputDirectory {
+ public:
+  AtomicOutputDirectory(const std::string& path, bool (*replaceable)(const std::string& path), const char* what);
+  ~AtomicOutputDirectory();
+  AtomicOutputDirectory(const AtomicOutputDirectory&) = delete;
+  AtomicOutputDirectory& operator=(const AtomicOutputDirectory&) = delete;
+  const std::string& path() const { return tmp_; }  // where to write
+  void commit();                                     // ToolError naming the final path on failure
+
+ private:
+  std::string final_, tmp_;
+  bool committed_ = false;
+};
+
 // A temporary name beside `path` for an output being built (file or directory): path + ".tmp-<pid>-<n>".
 std::string temporary_path_for(const std::string& path);
 

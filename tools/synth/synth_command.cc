@@ -14,11 +14,15 @@
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
 #include "tools/common/dataset.h"
+#include "tools/common/file_io.h"
 #include "tools/common/error.h"
 #include "tools/synth/synth.h"
 
 namespace dp::synth {
 namespace {
+
+// An existing --out that synth may replace: a depthpose dataset (it has meta.json).
+bool is_dataset_folder(const std::string& path) { return std::filesystem::exists(path + "/meta.json"); }
 using dp::tools::fail;
 namespace fs = std::filesystem;
 
@@ -209,7 +213,7 @@ int run_synth(int argc, char** argv) {
   }
   if (figures_only) return 0;
 
-  const std::string out = args.get("--out");
+  const std::string out_final = args.get("--out");
   const long long frames = args.get_int("--frames", -1);
   if (frames < 1) fail("--frames N (N >= 1) is required");
   const uint64_t seed = uint64_t(args.get_int("--seed", 1));
@@ -217,6 +221,10 @@ int run_synth(int argc, char** argv) {
   if (threads < 1) fail("--threads must be >= 1");
   threads = int(std::min<long long>(threads, frames));
 
+  // The dataset is built in a temporary folder and swapped in whole at the end, so that a failed
+  // or killed run never leaves a mix of old and new frames under --out.
+  dp::tools::AtomicOutputDirectory out_dir(out_final, is_dataset_folder, "depthpose dataset");
+  const std::string& out = out_dir.path();
   dp::tools::create_dataset(out, synth.dataset_meta(), true);
   if (config.people > 1) std::filesystem::create_directories(out + "/people");
   std::vector<dp::tools::FrameRecord> records(static_cast<size_t>(frames));
@@ -280,9 +288,10 @@ int run_synth(int argc, char** argv) {
   if (tty) std::fprintf(stderr, "\n");
   if (!error.empty()) fail(error);
   dp::tools::write_frames_jsonl(out, records);
+  out_dir.commit();
   const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::fprintf(stderr, "synth: wrote %lld frames to %s in %.1fs (%.1f frames/s with %d threads)\n", frames,
-               out.c_str(), el, frames / el, threads);
+               out_final.c_str(), el, frames / el, threads);
 
   if (preview_count) {
     const int W = config.width, H = config.height, cols = 2;
