@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "tests/cli_test_support.h"
 #include "tests/train_stick_bodies.h"
 #include "tests/train_toy_data.h"
 #include "tools/common/error.h"
@@ -159,6 +160,42 @@ TEST(TrainResume, ResumeWithoutCheckpointStartsOver) {
   fo.resume = true;
   EXPECT_TRUE(bytes_without_timings(train_forest(set, fo, {})) == expected);
   EXPECT_TRUE(read_checkpoint(fo.checkpoint_path).trees.at(0).complete);
+}
+
+TEST(TrainResume, CommandWritesRemovesAndChecksItsCheckpoint) {
+  testing_toy::TempDir tmp;
+  const std::string data = tmp.path + "/toy";
+  testing_toy::ToyOptions o;
+  o.stripes = true;
+  testing_toy::write_toy_dataset(data, o);
+  const std::vector<std::string> base = {"train", "--data", data, "--method", "bpc", "--trees", "1", "--depth", "5",
+                                         "--offsets", "20", "--quiet"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = base;
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  // A finished run leaves the forest and no checkpoint (nor its temp file); --resume without a
+  // checkpoint starts over and writes the same trees.
+  ASSERT_EQ(0, testsupport::run_cli(with({"--out", tmp.path + "/a.forest"})));
+  EXPECT_FALSE(std::filesystem::exists(tmp.path + "/a.forest.checkpoint"));
+  EXPECT_FALSE(std::filesystem::exists(tmp.path + "/a.forest.checkpoint.tmp"));
+  ASSERT_EQ(0, testsupport::run_cli(with({"--out", tmp.path + "/b.forest", "--resume"})));
+  EXPECT_TRUE(bytes_without_timings(read_forest(tmp.path + "/a.forest")) ==
+              bytes_without_timings(read_forest(tmp.path + "/b.forest")));
+  // A damaged checkpoint at --checkpoint is refused, naming the file.
+  std::ofstream(tmp.path + "/c.ckpt") << "not a checkpoint";
+  const std::string e = what_of([&] {
+    testsupport::run_cli(with({"--out", tmp.path + "/c.forest", "--checkpoint", tmp.path + "/c.ckpt", "--resume"}));
+  });
+  EXPECT_NE(e.find(tmp.path + "/c.ckpt"), std::string::npos) << e;
+  EXPECT_NE(e.find("bad magic"), std::string::npos) << e;
+  // Retro-fitting is not checkpointed: asking for it is an error, not silently ignored.
+  EXPECT_NE(what_of([&] {
+              testsupport::run_cli({"train", "--data", data, "--method", "bpc", "--structure", tmp.path + "/a.forest",
+                                    "--resume", "--quiet", "--out", tmp.path + "/d.forest"});
+            }).find("not checkpointed"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -6,7 +6,10 @@
 // one feature (offset pair) computed at one pixel and binned against the node's thresholds; the
 // paper's |T| candidates are offset pairs × thresholds, so the rate in (pixel·|T|) is ×20.
 // Environment: TRAIN_BENCH_METHOD (bpc|ojr: OJR adds the vote leaves), TRAIN_BENCH_IMAGES, TRAIN_BENCH_DEPTH, TRAIN_BENCH_OFFSETS, TRAIN_BENCH_THREADS
-// override the configuration.
+// override the configuration; TRAIN_BENCH_LEVELS=1 prints each level's evaluations and wall time.
+// DEPTHPOSE_TRAIN_NO_AVX2=1 (read by the trainer) measures the scalar feature path.
+// Before/after comparisons: build both versions and alternate the two binaries back to back
+// (docs/training.md, Throughput), since this shared machine's load varies from minute to minute.
 #include <time.h>
 
 #include <chrono>

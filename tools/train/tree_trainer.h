@@ -1,11 +1,14 @@
 // Tree-structure training (paper section 3.5.1): greedy, breadth first. Each level evaluates,
 // for every frontier node, |offsets| candidate offset pairs × up to |thresholds| thresholds over
-// all the node's pixels with one histogram pass per candidate block, picks the candidate that
-// minimizes Eq. 7, and partitions the pixels (stable) into the children.
+// all the node's pixels (pixel-major: each pixel's features for a whole group of candidates at
+// once, docs/training.md "Throughput"), picks the candidate that minimizes Eq. 7, and partitions
+// the pixels (stable) into the children.
 //
-// Determinism: every random choice is keyed by (seed, tree, node heap index, candidate), histogram
-// counts are integers or sums in a fixed pixel order, and ties go to the lowest candidate and
-// threshold. The grown tree is therefore identical for any thread count.
+// Determinism: every random choice is keyed by (seed, tree, node heap index, candidate),
+// classification histograms are integer counts (partial histograms over pixel ranges sum exactly
+// in any order), regression sums run in a fixed pixel order per candidate, and ties go to the
+// lowest candidate and threshold. The grown tree is therefore identical for any thread count and
+// any division of the work into items.
 #pragma once
 #include <array>
 #include <cstdint>
