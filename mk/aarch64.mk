@@ -49,10 +49,16 @@ $(A64)/data/pcl.blob: $(CLI)
 	@mkdir -p $(@D)
 	$(CLI) convert --from-pcl $(PCL_TREES) --out $@
 
-test-aarch64: $(A64_TEST_BIN) $(A64)/data/pcl.blob
+# The x86-64 reference's digests of the real frames, which the aarch64 run must reproduce bit for bit.
+$(A64)/data/x86_digests.txt: $(BUILD)/bin/runtime_tests
+	@mkdir -p $(@D)
+	@DP_DIGESTS_OUT=$@ $(BUILD)/bin/runtime_tests --gtest_filter=PclRealFrames.ReferenceDigestsAgreeAcrossArchitectures \
+	  > $(A64)/data/x86_digests.log 2>&1 || { cat $(A64)/data/x86_digests.log; rm -f $@; exit 1; }
+
+test-aarch64: $(A64_TEST_BIN) $(A64)/data/pcl.blob $(A64)/data/x86_digests.txt
 	@mkdir -p $(A64)/test-logs
-	@cd $(CURDIR) && DP_PCL_BLOB=$(A64)/data/pcl.blob $(QEMU_A64) $(A64_TEST_BIN) $(GTEST_ARGS) 2>&1 | \
-	  tee $(A64)/test-logs/unit.log; exit $${PIPESTATUS[0]}
+	@cd $(CURDIR) && DP_PCL_BLOB=$(A64)/data/pcl.blob DP_DIGESTS_EXPECTED=$(A64)/data/x86_digests.txt \
+	  $(QEMU_A64) $(A64_TEST_BIN) $(GTEST_ARGS) 2>&1 | tee $(A64)/test-logs/unit.log; exit $${PIPESTATUS[0]}
 
 check-runtime-aarch64: $(A64_LIB)
 	@$(MAKE) --no-print-directory BUILD=$(A64) CXX="$(A64_CCACHE)$(A64_CXX)" NM=$(A64_NM) check-runtime

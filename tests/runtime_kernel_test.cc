@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <random>
 #include <string>
@@ -1051,3 +1053,56 @@ TEST(Sse41Kernels, OjrScanEqualsTheReference) {
   }
 }
 #endif
+
+// The reference's bits on one architecture equal its bits on the other: digests of every leaf and
+// every proposal (PCL's forest and the shipped models on three Skeltrack frames, the reference
+// kernels) are written by the x86-64 run when DP_DIGESTS_OUT names a file, and compared line by
+// line by the aarch64 run (make test-aarch64) when DP_DIGESTS_EXPECTED names that file. Either way
+// the widest kernels must give the reference's digest.
+namespace {
+uint64_t fnv1a(uint64_t h, const void* data, size_t bytes) {
+  const uint8_t* p = static_cast<const uint8_t*>(data);
+  for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  return h;
+}
+uint64_t digest(const Outcome& o) {
+  uint64_t h = 14695981039346656037ull;
+  h = fnv1a(h, o.leaves.data(), o.leaves.size() * sizeof(uint32_t));
+  const FrameResult& r = o.result;
+  h = fnv1a(h, &r.joint_count, sizeof r.joint_count);
+  h = fnv1a(h, r.proposal_count, sizeof r.proposal_count);
+  for (int j = 0; j < r.joint_count; ++j) h = fnv1a(h, r.proposals[j], sizeof(JointProposal) * size_t(r.proposal_count[j]));
+  const uint32_t flags = r.flags & ~uint32_t(kFlagOverCycleBudget);
+  h = fnv1a(h, &flags, sizeof flags);
+  h = fnv1a(h, &r.evaluated_pixels, sizeof r.evaluated_pixels);
+  return h;
+}
+}  // namespace
+
+TEST_F(PclRealFrames, ReferenceDigestsAgreeAcrossArchitectures) {
+  std::vector<std::pair<std::string, std::vector<uint8_t>>> models = {{"pcl", *blob_bytes_}};
+  for (const char* m : {"models/bpc.blob", "models/ojr.blob"}) models.emplace_back(m, blob::read_blob_file(m));
+  std::string lines;
+  for (auto& [name, bytes] : models) {
+    Runner r(bytes, 640, 480);
+    for (const char* frame : {"1028894671", "1166565565", "82823944"}) {
+      const std::vector<uint16_t> depth =
+          read_skeltrack(std::string("../shared/data/skeltrack-frames/depth-data-") + frame + ".raw");
+      const DepthFrame f{depth.data(), 640, 480, 640, tools::kinect_intrinsics(640, 480), nullptr};
+      const uint64_t ref = digest(run(r, KernelIsa::kScalar, f));
+      EXPECT_EQ(digest(run(r, KernelIsa::kBest, f)), ref) << name << " " << frame;
+      char line[160];
+      std::snprintf(line, sizeof line, "%s %s %016llx\n", name.c_str(), frame, static_cast<unsigned long long>(ref));
+      lines += line;
+    }
+  }
+  if (const char* out = std::getenv("DP_DIGESTS_OUT")) {
+    std::ofstream(out) << lines;
+  }
+  if (const char* expected = std::getenv("DP_DIGESTS_EXPECTED")) {
+    std::ifstream in(expected);
+    ASSERT_TRUE(in.good()) << expected << ": the digests of the other architecture's run are missing";
+    const std::string want((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(lines, want) << "the reference's bits differ between architectures";
+  }
+}
