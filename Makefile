@@ -1,12 +1,22 @@
 # depthpose — GNU Make build. Everything lands under $(BUILD) (default build/).
 #   make            build the CLI (build/bin/depthpose) and the runtime library
-#   make run        run the main job (see README)
-#   make test       unit tests, normal build and ASan+UBSan build; ends with "N passed, N failed"
+#   make run        install what is missing, build, run the shipped model on the shipped recording
+#   make test       install what is missing, build, run every test (normal, ASan+UBSan, debug
+#                   checks, the chain, the checks); ends with "N passed, N failed, N skipped"
 #   make bench      benchmarks (tests/bench/*_bench.cc, one binary each)
-#   make fuzz-smoke libFuzzer on the blob loader (~60 s)
+#   make fuzz-smoke libFuzzer, one target per parser, FUZZ_SECONDS each (~3 min)
 #   make check-runtime  proves the runtime references no heap / exception symbols
-#   make deps       installs the Debian packages the project needs
+#   make deps       installs the Debian packages of mk/debian-packages.txt that are missing
 # Components add rules in mk/*.mk; sources are found by directory, so adding a file needs no edit here.
+# Builds use every core unless a -j is given (make -j1 for a serial build).
+
+# GNU Make 4.3 shows no -j in $(MAKEFLAGS) while it reads the makefile, so the top-level make
+# looks for one on its own command line (and in an exported MAKEFLAGS); sub-makes share its slots.
+ifeq ($(MAKELEVEL),0)
+  ifeq ($(filter -j% j% --jobs%,$(shell tr '\0' ' ' < /proc/$$PPID/cmdline 2>/dev/null; echo " $$MAKEFLAGS")),)
+    MAKEFLAGS += -j$(shell nproc 2>/dev/null || echo 2)
+  endif
+endif
 
 BUILD    ?= build
 SAN      ?=
@@ -66,7 +76,8 @@ RUNTIME_SRCS := $(sort $(filter-out $(foreach d,$(OTHER_ISA_DIRS),runtime/kernel
 TOOLS_SRCS   := $(sort $(shell find tools platform forest_blob -name '*.cc' \
                    -not -path 'platform/openni_driver/*' -not -path 'tools/cli/main.cc') )
 TOOLS_SRCS   := $(filter-out $(RUNTIME_SRCS),$(TOOLS_SRCS))
-TEST_SRCS    := $(sort $(shell find tests -name '*.cc' -not -path 'tests/bench/*' -not -path 'tests/fuzz/*'))
+TEST_SRCS    := $(sort $(shell find tests -name '*.cc' -not -path 'tests/bench/*' -not -path 'tests/fuzz/*' \
+                   -not -path 'tests/probes/*'))
 BENCH_SRCS   := $(sort $(wildcard tests/bench/*_bench.cc))
 
 RUNTIME_OBJS := $(RUNTIME_SRCS:%.cc=$(BUILD)/obj/%.o)
@@ -82,7 +93,7 @@ TEST_BIN     := $(BUILD)/bin/depthpose_tests
 LINK_TOOLS   := -Wl,--whole-archive $(TOOLS_LIB) -Wl,--no-whole-archive $(RUNTIME_LIB)
 EXTRA_LINK_DEPS :=
 
-.PHONY: all run test test-unit test-asan chain-smoke bench fuzz-smoke check-runtime deps clean model
+.PHONY: all run test test-unit test-debug test-asan chain-smoke bench fuzz-smoke check-runtime deps clean model
 .DEFAULT_GOAL := all
 all: $(CLI) $(RUNTIME_LIB) $(EXTRA_LINK_DEPS)
 
@@ -132,43 +143,107 @@ check-runtime: $(RUNTIME_LIB)
 	if [ -n "$$bad" ]; then echo "check-runtime: FAILED: runtime references: $$bad"; exit 1; fi; \
 	echo "check-runtime: OK ($(RUNTIME_LIB) references no heap or exception symbols)"
 
+# Where the tests find the shared data (../shared: assets, PCL trees, Skeltrack frames). Tests that
+# need it carry "SharedData" in their suite name: GTEST_ARGS=--gtest_filter=-*SharedData* runs the rest.
+SHARED ?= ../shared
+export DEPTHPOSE_SHARED := $(abspath $(SHARED))
+
+# One GoogleTest run: its log and exit status land in $(BUILD)/test-logs/unit.log(.rc) for
+# mk/test_summary.sh, which also counts suite set-up failures, skips and crashes.
 test-unit: $(TEST_BIN) $(EXTRA_LINK_DEPS)
 	@mkdir -p $(BUILD)/test-logs
-	@cd $(CURDIR) && $(TEST_BIN) $(GTEST_ARGS) 2>&1 | tee $(BUILD)/test-logs/unit.log; exit $${PIPESTATUS[0]}
+	@cd $(CURDIR) && $(TEST_BIN) $(GTEST_ARGS) > $(BUILD)/test-logs/unit.log 2>&1; rc=$$?; \
+	  echo $$rc > $(BUILD)/test-logs/unit.log.rc; \
+	  grep -E '^\[  (FAILED|SKIPPED) \]|^\[==========\]|^\[  PASSED  \]' $(BUILD)/test-logs/unit.log | sed 's|^|$(BUILD): |'; \
+	  exit $$rc
 
 SHELL := /bin/bash
-test:
-	@rc=0; \
-	$(MAKE) --no-print-directory test-unit BUILD=build || rc=1; \
-	$(MAKE) --no-print-directory test-unit BUILD=build/asan SAN=1 OPT=-O1 || rc=1; \
-	$(MAKE) --no-print-directory check-runtime BUILD=build || rc=1; \
-	$(MAKE) --no-print-directory chain-smoke BUILD=build || rc=1; \
-	mk/test_summary.sh build/test-logs/unit.log build/asan/test-logs/unit.log build/chain/chain.log; s=$$?; \
+# The runs of `make test`, as independent targets so that they build and run side by side.
+# The ASan+UBSan build lives in its own folder; each run writes a log that the summary reads.
+TEST_LOGS := $(BUILD)/test-logs/unit.log $(BUILD)/asan/test-logs/unit.log $(BUILD)/chain/chain.log \
+             $(BUILD)/test-logs/check-runtime.log $(BUILD)/test-logs/summary-selftest.log
+.PHONY: ensure-deps test-runs test-run-unit test-run-asan test-run-check-runtime test-summary-selftest
+ensure-deps:
+	@mk/ensure_deps.sh
+test: ensure-deps
+	@rc=0; $(MAKE) --no-print-directory -k test-runs || rc=1; \
+	mk/test_summary.sh $(TEST_LOGS); s=$$?; \
 	[ $$rc -eq 0 ] && [ $$s -eq 0 ]
+test-runs: test-run-unit test-run-asan chain-smoke test-run-check-runtime test-summary-selftest
+test-run-unit: test-unit
+test-run-asan:
+	@$(MAKE) --no-print-directory test-unit BUILD=$(BUILD)/asan SAN=1 OPT=-O1
+test-run-check-runtime:
+	@mkdir -p $(BUILD)/test-logs
+	@$(MAKE) --no-print-directory check-runtime > $(BUILD)/test-logs/check-runtime.out 2>&1; rc=$$?; \
+	  cat $(BUILD)/test-logs/check-runtime.out; \
+	  { if [ $$rc -eq 0 ]; then echo "[       OK ] CheckRuntime.NoHeapOrExceptionSymbols"; \
+	    else echo "[  FAILED  ] CheckRuntime.NoHeapOrExceptionSymbols"; fi; \
+	    echo "[==========] 1 tests ran."; } > $(BUILD)/test-logs/check-runtime.log; exit $$rc
+$(BUILD)/bin/summary_probe: tests/probes/summary_probe.cc
+	@mkdir -p $(@D)
+	$(CXX) $(TOOLS_CXXFLAGS) -o $@ $< -lgtest -lgtest_main
+test-summary-selftest: $(BUILD)/bin/summary_probe
+	@mkdir -p $(BUILD)/test-logs
+	@mk/test_summary_selftest.sh $(BUILD)/bin/summary_probe $(BUILD)/summary-selftest | tee $(BUILD)/test-logs/summary-selftest.log | grep -v '^\[       OK'; true
 
 # The whole chain (synth → train → convert → tune → eval → record → run) on a tiny corpus.
 chain-smoke: $(CLI) $(EXTRA_LINK_DEPS)
-	@CLI=$(CLI) mk/chain_smoke.sh
+	@CLI=$(CLI) CHAIN_DIR=$(BUILD)/chain ASSETS=$(DEPTHPOSE_SHARED)/assets mk/chain_smoke.sh
 
 bench: $(BENCH_BINS) $(CLI) $(EXTRA_LINK_DEPS)
 	@mkdir -p $(BUILD)/bench
 	@for b in $(BENCH_BINS); do echo "== $$b"; $$b || exit 1; done
 
 # ---- fuzz (clang + libFuzzer) --------------------------------------------------------------
+# One target per parser (tests/fuzz/*_fuzz.cc), each built with its own sources under ASan+UBSan
+# and run FUZZ_SECONDS (default 15) from the seeds in tests/fuzz/seeds/<target> (the blob target
+# from the demo blobs); 7 targets × 15 s + builds stay within about 3 minutes. Any crash, leak,
+# sanitizer report or timeout fails the target. Crash inputs land in $(BUILD)/fuzz/artifacts.
 FUZZ_CXX := clang++-14
-fuzz-smoke: $(CLI)
-	@mkdir -p $(BUILD)/fuzz/corpus
-	$(CLI) demo --write-blobs $(BUILD)/fuzz/corpus
-	$(FUZZ_CXX) $(CXXSTD) -O1 -g -I. -DDP_BLOB_FUZZING -fsanitize=fuzzer,address,undefined -fno-exceptions -fno-rtti \
-	  tests/fuzz/blob_loader_fuzz.cc $(wildcard forest_blob/blob_loader.cc forest_blob/crc32.cc) -o $(BUILD)/fuzz/blob_loader_fuzz
-	$(BUILD)/fuzz/blob_loader_fuzz -max_total_time=$${FUZZ_SECONDS:-60} -max_len=65536 $(BUILD)/fuzz/corpus
+FUZZ_SECONDS ?= 15
+FUZZ_DIR := $(BUILD)/fuzz
+FUZZ_FLAGS := $(CXXSTD) -O1 -g -I. -I/usr/include/openni2 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
+FUZZ_RUN_FLAGS := -max_len=65536 -timeout=10 -rss_limit_mb=2048 -print_final_stats=0
+# target: sources and libraries besides tests/fuzz/<target>_fuzz.cc
+FUZZ_SRCS_blob_loader   := forest_blob/blob_loader.cc forest_blob/crc32.cc
+FUZZ_SRCS_forest_file   := tools/train/forest_file.cc tools/common/file_io.cc
+FUZZ_LIBS_forest_file   := -lz
+FUZZ_SRCS_oni_container := platform/oni_container.cc tools/common/file_io.cc
+FUZZ_SRCS_png_dataset   := tools/common/png_io.cc tools/common/dataset.cc tools/common/file_io.cc
+FUZZ_LIBS_png_dataset   := -lpng -lz
+FUZZ_SRCS_bvh           := tools/synth/motion.cc
+FUZZ_SRCS_asf_amc       := tools/synth/motion.cc
+FUZZ_SRCS_pcl_tree      := tools/convert/pcl_tree_reader.cc
+FUZZ_LIBS_pcl_tree      := -lbz2
+FUZZ_TARGETS := blob_loader forest_file oni_container png_dataset bvh asf_amc pcl_tree
+
+$(FUZZ_DIR)/blob_loader_fuzz: tests/fuzz/blob_loader_fuzz.cc $(FUZZ_SRCS_blob_loader)
+	@mkdir -p $(@D)
+	$(FUZZ_CXX) $(FUZZ_FLAGS) -DDP_BLOB_FUZZING -fno-exceptions -fno-rtti $^ -o $@
+define FUZZ_RULE
+$(FUZZ_DIR)/$(1)_fuzz: tests/fuzz/$(1)_fuzz.cc $(FUZZ_SRCS_$(1)) $(wildcard tests/fuzz/*.h)
+	@mkdir -p $$(@D)
+	$(FUZZ_CXX) $(FUZZ_FLAGS) $$(filter %.cc,$$^) $(FUZZ_LIBS_$(1)) -o $$@
+endef
+$(foreach t,$(filter-out blob_loader,$(FUZZ_TARGETS)),$(eval $(call FUZZ_RULE,$(t))))
+
+fuzz-smoke: $(CLI) $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%_fuzz)
+	@mkdir -p $(FUZZ_DIR)/artifacts
+	@rm -rf $(FUZZ_DIR)/corpus && mkdir -p $(FUZZ_DIR)/corpus/blob_loader
+	@$(CLI) demo --write-blobs $(FUZZ_DIR)/corpus/blob_loader > /dev/null
+	@for t in $(FUZZ_TARGETS); do \
+	  mkdir -p $(FUZZ_DIR)/corpus/$$t; \
+	  if [ -d tests/fuzz/seeds/$$t ]; then cp tests/fuzz/seeds/$$t/* $(FUZZ_DIR)/corpus/$$t/; fi; \
+	  echo "== fuzz $$t ($${FUZZ_SECONDS:-$(FUZZ_SECONDS)} s)"; \
+	  $(FUZZ_DIR)/$${t}_fuzz $(FUZZ_RUN_FLAGS) -max_total_time=$${FUZZ_SECONDS:-$(FUZZ_SECONDS)} \
+	    -artifact_prefix=$(FUZZ_DIR)/artifacts/$$t- $(FUZZ_DIR)/corpus/$$t > $(FUZZ_DIR)/$$t.log 2>&1 \
+	    || { tail -40 $(FUZZ_DIR)/$$t.log; echo "fuzz-smoke: $$t FAILED (log $(FUZZ_DIR)/$$t.log)"; exit 1; }; \
+	  grep -E "^#[0-9]+.*DONE" $(FUZZ_DIR)/$$t.log | tail -1; \
+	done; echo "fuzz-smoke: OK ($(words $(FUZZ_TARGETS)) targets, nothing found)"
 
 deps:
-	apt-get update -qq
-	DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
-	  g++ make clang-14 libclang-rt-14-dev libfuzzer-14-dev libgtest-dev libbenchmark-dev \
-	  libpng-dev zlib1g-dev libbz2-dev nlohmann-json3-dev libeigen3-dev \
-	  libopenni2-dev libusb-1.0-0-dev assimp-testmodels
+	@mk/ensure_deps.sh
 
 clean:
 	rm -rf build
@@ -177,12 +252,16 @@ clean:
 -include $(RUNTIME_OBJS:.o=.d) $(TOOLS_OBJS:.o=.d) $(TEST_OBJS:.o=.d) $(BUILD)/obj/tools/cli/main.d
 
 # ---- the main job ----------------------------------------------------------------------------
-# Replays the shipped recording with the shipped OJR blob when both exist (MODEL=bpc for BPC);
-# until then runs the handcrafted smoke demo.
-MODEL ?= ojr
-run: all
-	@if [ -f models/$(MODEL).blob ] && [ -f models/demo.oni ] && $(CLI) --help | grep -q '^  run '; then \
-	  mkdir -p out && $(CLI) run --blob models/$(MODEL).blob --source oni:models/demo.oni --overlay out; \
-	else \
-	  $(CLI) demo; \
-	fi
+# Installs what is missing, builds, then replays the shipped recording with the shipped OJR blob
+# (MODEL=bpc for BPC), writing the overlays under $(RUN_OUT). A missing model, recording or
+# subcommand is an error that names it.
+MODEL   ?= ojr
+RUN_OUT ?= $(BUILD)/run
+run: ensure-deps
+	@$(MAKE) --no-print-directory all
+	@for f in models/$(MODEL).blob models/demo.oni; do \
+	  [ -f $$f ] || { echo "make run: $$f is missing (make model regenerates the shipped models)"; exit 1; }; done
+	@$(CLI) --help | grep -q '^  run ' || { echo "make run: $(CLI) has no 'run' subcommand (its registration is broken)"; exit 1; }
+	@mkdir -p $(RUN_OUT)
+	$(CLI) run --blob models/$(MODEL).blob --source oni:models/demo.oni --overlay $(RUN_OUT)
+	@echo "make run: overlays written to $(RUN_OUT)/"

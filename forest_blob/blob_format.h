@@ -153,6 +153,22 @@ constexpr int kMaxStartsCap = 256;
 constexpr int kMaxMeanShiftIterations = 64;
 constexpr int kMaxProposalsCap = 8;
 
+// RuntimeConfig bounds: what the runtime can honour. The loader (validate_config) refuses a value
+// outside them, so the runtime never checks them per frame.
+constexpr uint32_t kProbabilityOneQ15 = 32768;  // prob_threshold_q15 ≤ 1.0
+constexpr int kMaxPushBackMm = 500;             // |push_back_mm|: larger moves a joint out of the body
+constexpr int kMaxBandwidthMm = 2000;           // bandwidth_mm 1..2000: a wider kernel spans the whole body
+constexpr int kMaxVoteLengthMm = 4000;          // vote_length_mm 0..2·kMaxVoteOffsetMm (0 = no limit)
+constexpr int kMaxMergeToleranceMm = 2000;      // merge_tolerance_mm 1..2000, as the bandwidth
+// far_mm ≤ 32766: the runtime's background constant is 32767 mm (runtime/fixed_point.h), so a depth
+// at or beyond it is never foreground whatever the band says.
+constexpr int kMaxFarMm = 32766;
+// max_evaluated_pixels 1..kMaxFrameDimension²: every pixel of the largest frame; the runtime
+// counts and lists pixels in int32 and sizes its pixel arrays by min(frame, budget).
+constexpr uint32_t kMaxEvaluatedPixels = uint32_t(kMaxFrameDimension) * uint32_t(kMaxFrameDimension);
+// cycle_budget: any uint64 (0 = none); the budget model computes in uint64 with per-pixel costs
+// ≥ 65 cycles, so no quotient it forms overflows int64.
+
 inline constexpr size_t nodes_per_tree(int depth) { return (size_t(1) << depth) - 1; }
 inline constexpr size_t leaves_per_tree(int depth) { return size_t(1) << depth; }
 

@@ -46,6 +46,7 @@ const char* blob_status_message(BlobStatus s) {
     case BlobStatus::kBadPartMask: return "a joint's part mask names a part the forest lacks";
     case BlobStatus::kBadConfig: return "a runtime config value is outside its range";
     case BlobStatus::kReservedNotZero: return "a reserved field is not zero";
+    case BlobStatus::kEmpty: return "blob is empty (0 bytes)";
   }
   return "unknown status";
 }
@@ -72,27 +73,45 @@ bool names_ok(const char (*names)[kNameBytes], int count, int capacity) {
 
 int abs16(int16_t v) { return v < 0 ? -int(v) : int(v); }
 
-BlobStatus validate_meta(const ForestMeta& m) {
-  if (m.method != uint8_t(Method::kBpc) && m.method != uint8_t(Method::kOjr)) return BlobStatus::kBadMethod;
-  if (m.tree_count < 1 || m.tree_count > kMaxTrees) return BlobStatus::kBadTreeCount;
-  if (m.depth < 1 || m.depth > kMaxDepth) return BlobStatus::kBadDepth;
+// True when lo ≤ v ≤ hi; otherwise records the field, value and range in *p (when given).
+bool in_range(BlobProblem* p, const char* field, int32_t joint, int64_t v, int64_t lo, int64_t hi) {
+  if (v >= lo && v <= hi) return true;
+  if (p) {
+    p->field = field;
+    p->joint = joint;
+    p->value = v;
+    p->min = lo;
+    p->max = hi;
+  }
+  return false;
+}
+
+BlobStatus validate_meta(const ForestMeta& m, BlobProblem* p) {
+  if (!in_range(p, "meta.method", -1, m.method, uint8_t(Method::kBpc), uint8_t(Method::kOjr)))
+    return BlobStatus::kBadMethod;
+  if (!in_range(p, "meta.tree_count", -1, m.tree_count, 1, kMaxTrees)) return BlobStatus::kBadTreeCount;
+  if (!in_range(p, "meta.depth", -1, m.depth, 1, kMaxDepth)) return BlobStatus::kBadDepth;
   const bool bpc = m.method == uint8_t(Method::kBpc);
-  if (m.part_count > kMaxParts || (bpc && m.part_count < 1)) return BlobStatus::kBadPartCount;
-  if (m.joint_count > kMaxJoints || (!bpc && m.joint_count < 1)) return BlobStatus::kBadJointCount;
-  if (bpc ? m.votes_per_joint != 0 : (m.votes_per_joint < 1 || m.votes_per_joint > kMaxVotesPerLeafJoint))
+  if (!in_range(p, "meta.part_count", -1, m.part_count, bpc ? 1 : 0, kMaxParts)) return BlobStatus::kBadPartCount;
+  if (!in_range(p, "meta.joint_count", -1, m.joint_count, bpc ? 0 : 1, kMaxJoints)) return BlobStatus::kBadJointCount;
+  if (!in_range(p, "meta.votes_per_joint", -1, m.votes_per_joint, bpc ? 0 : 1, bpc ? 0 : kMaxVotesPerLeafJoint))
     return BlobStatus::kBadVotesPerJoint;
   if (!(m.reference_focal_px > 0.0f && m.reference_focal_px < 1e6f)) return BlobStatus::kBadFocalLength;
-  if (m.leaf_count < 1 || m.leaf_count > m.tree_count * leaves_per_tree(m.depth)) return BlobStatus::kBadLeafCount;
+  if (!in_range(p, "meta.leaf_count", -1, m.leaf_count, 1, int64_t(m.tree_count) * int64_t(leaves_per_tree(m.depth))))
+    return BlobStatus::kBadLeafCount;
   if (bpc) {
-    if (m.leaf_stride_bytes < 2u * m.part_count || m.leaf_stride_bytes % 4 != 0 || m.leaf_stride_bytes > 4u * kMaxParts)
+    if (!in_range(p, "meta.leaf_stride_bytes", -1, m.leaf_stride_bytes, 2 * m.part_count, 4 * kMaxParts) ||
+        m.leaf_stride_bytes % 4 != 0)
       return BlobStatus::kBadLeafStride;
-  } else if (m.leaf_stride_bytes != uint32_t(m.joint_count) * m.votes_per_joint * sizeof(OjrVote)) {
-    return BlobStatus::kBadLeafStride;
+  } else {
+    const int64_t stride = int64_t(m.joint_count) * m.votes_per_joint * int64_t(sizeof(OjrVote));
+    if (!in_range(p, "meta.leaf_stride_bytes", -1, m.leaf_stride_bytes, stride, stride)) return BlobStatus::kBadLeafStride;
   }
-  if (m.max_width < 1 || m.max_height < 1 || m.max_width > uint32_t(kMaxFrameDimension) ||
-      m.max_height > uint32_t(kMaxFrameDimension))
+  if (!in_range(p, "meta.max_width", -1, m.max_width, 1, kMaxFrameDimension) ||
+      !in_range(p, "meta.max_height", -1, m.max_height, 1, kMaxFrameDimension))
     return BlobStatus::kBadFrameSize;
-  if (m.max_abs_offset_pxm > uint32_t(kMaxProbeOffsetPxm)) return BlobStatus::kOffsetTooLarge;
+  if (!in_range(p, "meta.max_abs_offset_pxm", -1, m.max_abs_offset_pxm, 0, kMaxProbeOffsetPxm))
+    return BlobStatus::kOffsetTooLarge;
   if (m.reserved0 != 0 || m.reserved1 != 0 || m.reserved2 != 0) return BlobStatus::kReservedNotZero;
   if (!names_ok(m.part_names, m.part_count, kMaxParts) || !names_ok(m.joint_names, m.joint_count, kMaxJoints))
     return BlobStatus::kBadName;
@@ -101,34 +120,41 @@ BlobStatus validate_meta(const ForestMeta& m) {
 
 }  // namespace
 
-BlobStatus validate_config(const ForestMeta& m, const RuntimeConfig& c) {
+BlobStatus validate_config(const ForestMeta& m, const RuntimeConfig& c, BlobProblem* p) {
   const bool bpc = m.method == uint8_t(Method::kBpc);
   for (int j = 0; j < kMaxJoints; ++j) {
     const JointConfig& jc = c.joints[j];
     if (jc.reserved != 0) return BlobStatus::kReservedNotZero;
     if (j >= m.joint_count) continue;
     if (bpc) {
-      if (m.part_count < 32 && (jc.part_mask >> m.part_count) != 0) return BlobStatus::kBadPartMask;
-      if (jc.part_mask == 0) return BlobStatus::kBadPartMask;
-      if (jc.prob_threshold_q15 > 32768) return BlobStatus::kBadConfig;
+      // Bits 0..part_count−1 only, at least one (part_count ≤ 32 is validated with the meta).
+      const int64_t all_parts = m.part_count >= 32 ? int64_t(0xFFFFFFFFu) : (int64_t(1) << m.part_count) - 1;
+      if (!in_range(p, "config.joints[j].part_mask", j, jc.part_mask, 1, all_parts)) return BlobStatus::kBadPartMask;
+      if (!in_range(p, "config.joints[j].prob_threshold_q15", j, jc.prob_threshold_q15, 0, kProbabilityOneQ15))
+        return BlobStatus::kBadConfig;
     }
-    if (jc.bandwidth_mm < 1 || jc.bandwidth_mm > 2000) return BlobStatus::kBadConfig;
-    if (jc.push_back_mm < -500 || jc.push_back_mm > 500) return BlobStatus::kBadConfig;
-    if (jc.vote_length_mm > kMaxVoteOffsetMm * 2) return BlobStatus::kBadConfig;
+    if (!in_range(p, "config.joints[j].bandwidth_mm", j, jc.bandwidth_mm, 1, kMaxBandwidthMm) ||
+        !in_range(p, "config.joints[j].push_back_mm", j, jc.push_back_mm, -kMaxPushBackMm, kMaxPushBackMm) ||
+        !in_range(p, "config.joints[j].vote_length_mm", j, jc.vote_length_mm, 0, kMaxVoteLengthMm))
+      return BlobStatus::kBadConfig;
   }
-  if (c.near_mm >= c.far_mm) return BlobStatus::kBadConfig;
-  if (c.max_votes_per_joint < 1 || c.max_votes_per_joint > kMaxVotesCap) return BlobStatus::kBadConfig;
-  if (c.max_starts_per_joint < 1 || c.max_starts_per_joint > kMaxStartsCap) return BlobStatus::kBadConfig;
-  if (c.mean_shift_iterations < 1 || c.mean_shift_iterations > kMaxMeanShiftIterations) return BlobStatus::kBadConfig;
-  if (c.max_proposals_per_joint < 1 || c.max_proposals_per_joint > kMaxProposalsCap) return BlobStatus::kBadConfig;
-  if (c.merge_tolerance_mm < 1) return BlobStatus::kBadConfig;
-  if (c.max_evaluated_pixels < 1) return BlobStatus::kBadConfig;
+  if (!in_range(p, "config.far_mm", -1, c.far_mm, 1, kMaxFarMm) ||
+      !in_range(p, "config.near_mm", -1, c.near_mm, 0, int64_t(c.far_mm) - 1) ||
+      !in_range(p, "config.max_votes_per_joint", -1, c.max_votes_per_joint, 1, kMaxVotesCap) ||
+      !in_range(p, "config.max_starts_per_joint", -1, c.max_starts_per_joint, 1, kMaxStartsCap) ||
+      !in_range(p, "config.mean_shift_iterations", -1, c.mean_shift_iterations, 1, kMaxMeanShiftIterations) ||
+      !in_range(p, "config.max_proposals_per_joint", -1, c.max_proposals_per_joint, 1, kMaxProposalsCap) ||
+      !in_range(p, "config.merge_tolerance_mm", -1, c.merge_tolerance_mm, 1, kMaxMergeToleranceMm) ||
+      !in_range(p, "config.max_evaluated_pixels", -1, c.max_evaluated_pixels, 1, kMaxEvaluatedPixels))
+    return BlobStatus::kBadConfig;
   if (c.reserved0 != 0 || c.reserved1 != 0) return BlobStatus::kReservedNotZero;
   return BlobStatus::kOk;
 }
 
-BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out) {
-  if (!data || !out) return BlobStatus::kNullInput;
+BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out, BlobProblem* problem) {
+  if (!out) return BlobStatus::kNullInput;
+  if (size == 0) return BlobStatus::kEmpty;  // before the pointer: an empty buffer may have none
+  if (!data) return BlobStatus::kNullInput;
   if (reinterpret_cast<uintptr_t>(data) % 8 != 0) return BlobStatus::kBadAlignment;
   const uint8_t* bytes = static_cast<const uint8_t*>(data);
   if (size < sizeof(BlobHeader)) return BlobStatus::kTooSmall;
@@ -187,12 +213,12 @@ BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out) {
   const SectionEntry& meta_s = *by_kind[int(SectionKind::kMeta)];
   if (meta_s.size != sizeof(ForestMeta)) return BlobStatus::kBadSectionSize;
   const ForestMeta* meta = reinterpret_cast<const ForestMeta*>(bytes + meta_s.offset);
-  if (BlobStatus s = validate_meta(*meta); s != BlobStatus::kOk) return s;
+  if (BlobStatus s = validate_meta(*meta, problem); s != BlobStatus::kOk) return s;
 
   const SectionEntry& config_s = *by_kind[int(SectionKind::kConfig)];
   if (config_s.size != sizeof(RuntimeConfig)) return BlobStatus::kBadSectionSize;
   const RuntimeConfig* config = reinterpret_cast<const RuntimeConfig*>(bytes + config_s.offset);
-  if (BlobStatus s = validate_config(*meta, *config); s != BlobStatus::kOk) return s;
+  if (BlobStatus s = validate_config(*meta, *config, problem); s != BlobStatus::kOk) return s;
 
   const size_t node_count = size_t(meta->tree_count) * nodes_per_tree(meta->depth);
   const size_t slot_count = size_t(meta->tree_count) * leaves_per_tree(meta->depth);

@@ -52,12 +52,24 @@ enum class BlobStatus : int32_t {
   kBadPartMask,         // joint part mask names a part ≥ part_count
   kBadConfig,           // a runtime config value outside its documented range
   kReservedNotZero,
+  kEmpty,               // zero bytes given
 };
 
 // One line naming the problem, for messages ("payload checksum mismatch").
 const char* blob_status_message(BlobStatus status);
 
+// Which field a refusal is about and the range it must lie in. Filled (when a pointer is given)
+// for the field checks of ForestMeta and RuntimeConfig; `field` stays nullptr for structural
+// statuses, whose message says everything. Strings are static.
+struct BlobProblem {
+  const char* field = nullptr;  // e.g. "config.max_evaluated_pixels", "config.joints[j].bandwidth_mm"
+  int32_t joint = -1;           // the joint j of a per-joint field, else −1
+  int64_t value = 0;            // the value found
+  int64_t min = 0, max = 0;     // the accepted range, inclusive
+};
+
 constexpr int kMaxVoteOffsetMm = 2000;
+static_assert(kMaxVoteLengthMm == 2 * kMaxVoteOffsetMm, "a vote length covers two maximal offsets");
 
 struct LoadedBlob {
   const BlobHeader* header = nullptr;
@@ -80,11 +92,13 @@ struct LoadedBlob {
   }
 };
 
-// Validates `size` bytes at `data` and fills `out` (untouched unless kOk).
-BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out);
+// Validates `size` bytes at `data` and fills `out` (untouched unless kOk). On a field refusal
+// `problem` (optional) names the field, its value and its range.
+BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out, BlobProblem* problem = nullptr);
 
-// Validates a RuntimeConfig against the meta (used by load_blob and by tools that edit configs).
-BlobStatus validate_config(const ForestMeta& meta, const RuntimeConfig& config);
+// Validates a RuntimeConfig against the meta (used by load_blob and by tools that edit configs):
+// every field within the bounds in blob_format.h, which are what the runtime can honour.
+BlobStatus validate_config(const ForestMeta& meta, const RuntimeConfig& config, BlobProblem* problem = nullptr);
 
 uint32_t crc32(const void* data, size_t size, uint32_t crc = 0);
 

@@ -9,6 +9,7 @@
 #include "forest_blob/blob_loader.h"
 #include "runtime/depthpose.h"
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
 
 namespace dp::blob {
 using dp::tools::fail;
@@ -155,24 +156,9 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
 }
 
 void save_blob_file(const std::string& path, const std::vector<uint8_t>& bytes) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) fail("cannot create " + tmp);
-    f.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-    f.flush();
-    if (!f) fail("cannot write " + tmp + " (disk full?)");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) fail("cannot rename " + tmp + " to " + path + ": " + ec.message());
+  tools::write_file_atomic(path, bytes.data(), bytes.size());
 }
 
-std::vector<uint8_t> read_blob_file(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) fail("cannot open blob " + path);
-  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  return bytes;
-}
+std::vector<uint8_t> read_blob_file(const std::string& path) { return tools::read_file_bytes(path, "blob"); }
 
 }  // namespace dp::blob

@@ -1,6 +1,6 @@
 // Blob writer (tools side: may allocate, throws dp::tools::ToolError on invalid contents).
 // Produces byte-identical output for identical input: fixed section order, zeroed padding and
-// reserved fields, no timestamps. The result always passes dp::blob::load_blob().
+// reserved fields, no timestamps. dp::blob::load_blob() always accepts the result.
 #pragma once
 #include <cstdint>
 #include <string>

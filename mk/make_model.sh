@@ -36,7 +36,7 @@ synth demo  "${DEMO_SEED:-415}" "${DEMO_FRAMES:-45}" "$DEMO_CLIPS" --sequence --
 
 step train_bpc "$CLI" train --data "$D/train" --method bpc --trees "${MODEL_TREES:-3}" --depth "${MODEL_DEPTH:-16}" \
      --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --offsets "$OFFSETS" --thresholds "$THRESHOLDS" \
-     --min-samples "$MIN_SAMPLES" --seed 1 --out "$D/bpc.forest"
+     --min-samples "$MIN_SAMPLES" --seed 1 --out "$D/bpc.forest" --resume  # an interrupted run continues
 # OJR: the classification structure cut back to depth 13 (so 16 joints x K=2 vote leaves fit ~6 MB),
 # vote leaves retro-fitted (paper 3.5.2).
 step train_ojr "$CLI" train --data "$D/train" --method ojr --structure "$D/bpc.forest" --structure-depth "$OJR_DEPTH" \

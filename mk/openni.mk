@@ -3,8 +3,11 @@
 # tests and benchmarks find libOpenNI2.so.0 through their rpath $ORIGIN/../openni, so
 # $(BUILD)/openni/ is that directory: a symlink to the system library, the system file-playback
 # driver (libOniFile) and our feed driver — and nothing that scans USB.
-OPENNI_SYSTEM_LIB := $(firstword $(shell dpkg -L libopenni2-0 2>/dev/null | grep '/libOpenNI2\.so\.0$$') /usr/lib/x86_64-linux-gnu/libOpenNI2.so.0)
-ONIFILE_SYSTEM_DRIVER := $(firstword $(shell dpkg -L libopenni2-0 2>/dev/null | grep '/libOniFile\.so\.0$$') /usr/lib/x86_64-linux-gnu/OpenNI2/Drivers/libOniFile.so.0)
+# The native multiarch folder (x86_64-linux-gnu, aarch64-linux-gnu): a path, not a package query,
+# so that no make invocation pays for dpkg.
+NATIVE_LIBDIR := /usr/lib/$(shell uname -m)-linux-gnu
+OPENNI_SYSTEM_LIB := $(NATIVE_LIBDIR)/libOpenNI2.so.0
+ONIFILE_SYSTEM_DRIVER := $(NATIVE_LIBDIR)/OpenNI2/Drivers/libOniFile.so.0
 
 OPENNI_DIR        := $(BUILD)/openni
 OPENNI_LIB_LINK   := $(OPENNI_DIR)/libOpenNI2.so.0

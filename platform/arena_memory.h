@@ -4,7 +4,7 @@
 //
 // Why: the split node copy of a deep forest (31.5 MB for PCL's three depth-20 trees) is read at random
 // on the deep tree levels; on 4 KiB pages those reads also miss the TLB. With 2 MiB pages the forest
-// stage measured 2-4 % less time per node visit (docs/runtime_speed.md, eighth session). The advice
+// stage measured 2-4 % less time per node visit (docs/runtime_speed.md, "Arena memory"). The advice
 // changes nothing but speed: where the kernel's transparent huge pages are off, or the advice is
 // refused, the arena is ordinary pages.
 #pragma once

@@ -95,6 +95,10 @@ class RawSource final : public FrameSource {
     }
     return NextStatus::kEnd;
   }
+  bool rewind() override {
+    position_ = 0;
+    return true;
+  }
 
  private:
   void skip(const std::string& why) {
@@ -135,6 +139,10 @@ class DatasetSource final : public FrameSource {
       return NextStatus::kFrame;
     }
     return NextStatus::kEnd;
+  }
+  bool rewind() override {
+    position_ = 0;
+    return true;
   }
 
  private:

@@ -64,6 +64,10 @@ class FrameSource {
   virtual int64_t frame_count() const { return -1; }
   // See the contract above. `depth_mm` holds width()·height() elements.
   virtual NextStatus next(uint16_t* depth_mm, FrameInfo* info) = 0;
+  // Starts again at the first frame, allocating nothing (raw and dataset sources); the stats keep
+  // counting. False when the source cannot: live sources, and .oni recordings (OpenNI2 2.2's
+  // PlaybackControl::seek crashes; a caller reopens the file instead).
+  virtual bool rewind() { return false; }
   const std::string& last_error() const { return error_; }
   // Last non-fatal problem (a skipped corrupt frame, a lost device), for logs. Empty if none.
   const std::string& last_warning() const { return warning_; }

@@ -3,7 +3,7 @@
 // away next() keeps returning kDeviceLost (sleeping away_sleep_ms per call instead of spinning);
 // when the same camera (same port and id) is back, the source is reopened and frames resume
 // (stats().reconnects). A reopened source must have the same frame size, else kError.
-// The inner source's own kDeviceLost/kNoFrame pass through unchanged.
+// The inner source's own kDeviceLost/kNoFrame are returned unchanged.
 #pragma once
 #include <functional>
 #include <memory>

@@ -13,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include "platform/oni_container.h"
 #include "platform/openni_driver/feed_abi.h"
 #include "platform/openni_source.h"
 #include "tools/common/error.h"
@@ -59,6 +60,17 @@ void wait_until_recorder_settles(const std::string& path) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
+}
+
+// OpenNI2 2.2's recorder ends a recording with ftruncate(file, 2 × its length) (seen with strace:
+// the file position is 109988 after the end record, then ftruncate(fd, 219976)), so every file
+// it writes is twice its content, the second half zeros. Cut the file back to its end record
+// (check_oni_container has checked that only zeros follow it).
+void trim_recording(const std::string& path) {
+  const OniContainerSummary s = check_oni_container(path);
+  if (s.records_end < s.file_bytes && ::truncate(path.c_str(), off_t(s.records_end)) != 0)
+    fail("record: cannot trim " + path + " to its " + std::to_string(s.records_end) + " bytes (" +
+         std::strerror(errno) + ")");
 }
 
 struct Attempt {
@@ -159,21 +171,19 @@ RecordReport record_oni(const SourceFactory& reopen, bool replayable, const std:
     } else {
       fail("record: cannot write " + out_path + " (" + std::strerror(errno) + ")");
     }
-    std::unique_ptr<FrameSource> source = reopen();
-    report.width = source->width();
-    report.height = source->height();
     try {
+      std::unique_ptr<FrameSource> source = reopen();
+      report.width = source->width();
+      report.height = source->height();
       attempt = record_once(*source, path, options);
+      report.attempts = a;
+      if (attempt.served == 0) fail("record: the source delivered no frame; nothing recorded");
+      trim_recording(path);
+      in_file = open_oni_source(path)->frame_count();
     } catch (...) {
-      ::unlink(path.c_str());
+      ::unlink(path.c_str());  // a failed attempt leaves no .partial file behind
       throw;
     }
-    report.attempts = a;
-    if (attempt.served == 0) {
-      ::unlink(path.c_str());
-      fail("record: the source delivered no frame; nothing recorded");
-    }
-    in_file = open_oni_source(path)->frame_count();
     if (in_file == attempt.served) break;
     if (a == attempts) {
       ::unlink(path.c_str());

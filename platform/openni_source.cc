@@ -10,6 +10,7 @@
 #include <mutex>
 #include <thread>
 
+#include "platform/oni_container.h"
 #include "platform/openni_driver/feed_abi.h"
 #include "tools/common/error.h"
 
@@ -70,12 +71,14 @@ void check_depth_mode(const openni::VideoMode& mode, const std::string& what) {
 class OniSource final : public FrameSource {
  public:
   explicit OniSource(const std::string& path) : path_(path) {
-    ensure_openni();
     if (FILE* f = std::fopen(path.c_str(), "rb")) {
       std::fclose(f);
     } else {
       fail("oni:" + path + ": cannot open the file");
     }
+    // libOniFile trusts the lengths in the file: check the container before it reads a byte.
+    const OniContainerSummary container = check_oni_container(path);
+    ensure_openni();
     if (device_.open(path.c_str()) != openni::STATUS_OK)
       fail("oni:" + path + ": not a readable OpenNI2 recording (truncated or corrupt; " + extended_error() + ")");
     if (!device_.isFile()) fail("oni:" + path + ": OpenNI2 did not open it as a recording");
@@ -93,6 +96,10 @@ class OniSource final : public FrameSource {
     own_ = intrinsics_from_fov(width_, height_, stream_.getHorizontalFieldOfView(), stream_.getVerticalFieldOfView());
     total_ = playback->getNumberOfFrames(stream_);
     if (total_ <= 0) fail("oni:" + path + ": the recording holds no depth frame (truncated or corrupt?)");
+    if (total_ != container.depth_frames || (container.width && (container.width != width_ || container.height != height_)))
+      fail("oni:" + path + ": OpenNI2 reads " + std::to_string(total_) + " frames of " + std::to_string(width_) + "x" +
+           std::to_string(height_) + " but the file holds " + std::to_string(container.depth_frames) + " of " +
+           std::to_string(container.width) + "x" + std::to_string(container.height) + " (corrupt recording)");
     if (stream_.start() != openni::STATUS_OK)
       fail("oni:" + path + ": cannot start playback (" + extended_error() + ")");
   }
@@ -142,7 +149,6 @@ class OniSource final : public FrameSource {
     }
     return NextStatus::kEnd;
   }
-
  private:
   static constexpr int kFrameTimeoutMs = 2000;
   std::string path_;

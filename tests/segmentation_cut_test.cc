@@ -159,7 +159,7 @@ TEST(SegmentationCut, AnArmInFrontOfTheBodyIsNotAUserOfItsOwn) {
 
 TEST(SegmentationCut, TheFloorMarginKeepsTheSoles) {
   // A person at 2.5 m: pixels 2..4 cm above the floor are body, not floor (margin 10 mm +
-  // 1 mm/m² · z²; it was 25 mm + 2 mm/m² · z², which removed them).
+  // 1 mm/m² · z²; 25 mm + 2 mm/m² · z² removes them).
   tools::Scene s;
   s.camera.height_m = 1.0f;
   s.camera.pitch_deg = 15.0f;
@@ -249,7 +249,7 @@ TEST(SegmentationCut, AHandReachingOverABoxDoesNotMakeItAPerson) {
   EXPECT_EQ(h.result.user_count, 0);
   SegmenterConfig any = default_segmenter_config(false);
   any.fragment_min_share = 0.0f;
-  any.box_reject_min_share = 0.0f;  // the fifth pass's lid test refuses the union too
+  any.box_reject_min_share = 0.0f;  // the box reject's lid test refuses the union too
   SegmenterHarness a(any);
   ASSERT_EQ(a.run(f), Status::kOk);
   EXPECT_EQ(a.result.user_count, 1) << "the scene should offer the box and the forearm as one person";
@@ -284,7 +284,7 @@ TEST(SegmentationCut, LegsApartCutByTheTopBorderAreAUserByTheirHull) {
   EXPECT_GE(count_pixels(h.labels, f, 1, 1), int(0.9 * truth_pixels(f, 1)));
   EXPECT_EQ(count_pixels(h.labels, f, 1, 0), 0) << "the box is (part of) the user";
 
-  // Without the hull test and the gap rule (cut_gap_min_share, eleventh pass: the floor shows
+  // Without the hull test and the gap rule (cut_gap_min_share: the floor shows
   // between the legs in their lower rows) they are dropped like the box.
   SegmenterConfig off = default_segmenter_config(false);
   off.cut_max_solidity = 0.0f;
@@ -536,7 +536,7 @@ TEST(SegmentationCut, APieceBelowABodyBeyondTheLegRadiusStaysApart) {
 
 namespace {
 
-// Fifth pass (box_split_height_m). A box 1.0 m wide and 0.7 m tall on the floor (truth 0) with
+// box_split_height_m. A box 1.0 m wide and 0.7 m tall on the floor (truth 0) with
 // someone standing against its side (truth 1): one component. The camera 1.2 m high looks
 // slightly down.
 tools::Scene person_against_box() {
@@ -751,7 +751,7 @@ TEST(SegmentationCut, ABoxInFrontOfSomeonesLegsIsNotTheirLegs) {
   EXPECT_EQ(labelled_truth(h.labels, f, 0), 0) << "the box joined the body";
 }
 
-// Eighth pass (cut_fill_border_columns). A box cut by the top border fills its image box; a low
+// cut_fill_border_columns. A box cut by the top border fills its image box; a low
 // box beside it and a little farther back, beyond a depth jump, touches it in the image. Measured
 // over the union's box (widened by the low box and the empty rows above it) the two fill little,
 // like legs.
@@ -840,7 +840,7 @@ tools::Scene steep_camera() {
 
 }  // namespace
 
-// Ninth pass (cut_top_area_fraction): the shins of someone far from a low camera, cut by the top
+// cut_top_area_fraction: the shins of someone far from a low camera, cut by the top
 // border, have less than the person area; their silhouette still tells them from a box.
 TEST(SegmentationCut, ShinsCutByTheTopBorderWithLessThanThePersonAreaAreAUser) {
   tools::Scene s = steep_camera();
@@ -964,7 +964,7 @@ TEST(SegmentationCut, ASmallPieceCutByTheTopBorderFarFromAUserStaysAUser) {
 
 namespace {
 
-// Tenth pass (low_max_lid_share). Someone low over the floor (crouching, on all fours), as four
+// low_max_lid_share. Someone low over the floor (crouching, on all fours), as four
 // steps one behind the other whose tops reach 0.2, 0.4, 0.6 and 0.78 m (feet, knees, hips, head):
 // lower than min_person_height_m, like furniture, but its cells on the floor reach many heights.
 // The camera 1.2 m high looks slightly down.
@@ -1046,7 +1046,7 @@ void add_legs_together(tools::Scene* s, float x, float z, bool apart, uint8_t tr
 
 }  // namespace
 
-// Eleventh pass (cut_gap_min_share): legs cut by the top border, close together, pass the
+// cut_gap_min_share: legs cut by the top border, close together, pass the
 // silhouette test by the rows where the floor shows between them.
 TEST(SegmentationCut, LegsTogetherCutByTheTopBorderAreAUserByTheGapBetweenThem) {
   tools::Scene s = low_camera();
@@ -1097,7 +1097,7 @@ TEST(SegmentationCut, TheSameOutlineWithoutAGapCutByTheTopBorderStaysNoUser) {
   EXPECT_EQ(users_found(capped, tools::render_scene(g)), 0);
 }
 
-// Twelfth pass (cut_hidden_floor_contact_m): legs cut by the top border whose feet a nearer box
+// cut_hidden_floor_contact_m: legs cut by the top border whose feet a nearer box
 // hides stand higher than cut_floor_contact_m above the floor; their downward edges are hidden.
 namespace {
 
@@ -1168,7 +1168,7 @@ TEST(SegmentationCut, ABoxCutByTheTopBorderWithItsBottomHiddenStaysNoUser) {
 
 namespace {
 
-// Thirteenth pass (low_max_solidity). Someone kneeling bent over, seen from the side 2.5 m away by
+// low_max_solidity. Someone kneeling bent over, seen from the side 2.5 m away by
 // the camera of low_body(): the back a flat slab 0.6-0.78 m high over arms and thighs, the head
 // hanging lower in front of the shoulders, the shins flat on the floor behind the knees. Most of
 // its cells reach the back's height (a lid share over low_max_lid_share), but the floor shows
@@ -1238,7 +1238,7 @@ TEST(SegmentationCut, SomeoneBentOverBesideABoxIsNoUserByTheOutline) {
   EXPECT_EQ(users_found(no_split, f), 1);
 }
 
-// Fourteenth pass (pair_bridge_max_m): two people joined by an arm.
+// pair_bridge_max_m: two people joined by an arm.
 namespace {
 
 // Two people 0.9 m apart, 3 m from a camera 1.3 m high; person 1 holds an arm out at shoulder
@@ -1313,7 +1313,7 @@ TEST(SegmentationCut, APersonWithAnArmOnABoxLeavesTheBoxNoUser) {
   // Someone rests a forearm on a 0.8 m box beside them: one component, and the box with the arm on
   // it reaches from the floor to 0.9 m like a standing slice. The arm over the gap lies lower than
   // min_person_height_m, so it is no bridge: the box does not become a user of its own, and the
-  // rule labels no more of it than without it (the box split of the fifth pass leaves the pixels of
+  // rule labels no more of it than without it (the box split leaves the pixels of
   // the cells under the arm with the person either way).
   tools::Scene s;
   s.camera.height_m = 1.3f;
@@ -1338,7 +1338,7 @@ TEST(SegmentationCut, APersonWithAnArmOnABoxLeavesTheBoxNoUser) {
   }
 }
 
-// Fifteenth pass (cut_bottom_low_max_lid_share): someone low over the floor cut by the bottom border.
+// cut_bottom_low_max_lid_share: someone low over the floor cut by the bottom border.
 namespace {
 
 // A camera 1.2 m high looking 10° down and someone kneeling 1.1-1.6 m in front of it, the body

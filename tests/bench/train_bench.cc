@@ -57,7 +57,14 @@ int main() {
   ForestStats stats;
   const auto t1 = std::chrono::steady_clock::now();
   const double c1 = cpu_seconds();
-  const TrainedForest forest = train_forest(set, fo, {}, &stats);
+  ProgressFn levels;
+  if (std::getenv("TRAIN_BENCH_LEVELS"))
+    levels = [](const LevelReport& r) {
+      if (!r.partial && !r.resumed && r.seconds > 0)
+        std::printf("train_bench:   level %2d: %6zu nodes, %.3g evaluations, %.2f s wall = %.2f ns each\n", r.level,
+                    r.frontier_nodes, double(r.feature_evaluations), r.seconds, 1e9 * r.seconds / std::max<double>(1, r.feature_evaluations));
+    };
+  const TrainedForest forest = train_forest(set, fo, levels, &stats);
   const double cpu = cpu_seconds() - c1;
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   const double rate = stats.feature_evaluations / stats.structure_seconds;

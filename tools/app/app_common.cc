@@ -1,5 +1,6 @@
 #include "tools/app/app_common.h"
 
+#include "tools/common/dataset.h"
 #include "tools/common/error.h"
 
 namespace dp::tools {
@@ -15,7 +16,7 @@ platform::SourceOptions source_options_from(const Args& args) {
       v[i] = std::strtof(parts[size_t(i)].c_str(), &end);
       if (*end) fail("--intrinsics: '" + parts[size_t(i)] + "' is not a number");
     }
-    if (!(v[0] > 0) || !(v[1] > 0)) fail("--intrinsics: focal lengths must be positive");
+    check_intrinsics(v[0], v[1], v[2], v[3], "--intrinsics");  // finite, within tools/common/limits.h
     o.has_intrinsics = true;
     o.intrinsics = CameraIntrinsics{v[0], v[1], v[2], v[3]};
   }

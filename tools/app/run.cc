@@ -18,9 +18,11 @@
 #include "platform/hotplug_source.h"
 #include "platform/usb_devices.h"
 #include "runtime/segmentation/segmenter.h"
+#include "tools/segeval/segmenter_config_text.h"
 #include "tools/app/overlay.h"
 #include "tools/common/error.h"
 #include "tools/common/png_io.h"
+#include "tools/common/blob_error.h"
 
 namespace dp::tools {
 
@@ -288,12 +290,14 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   if (options.every < 1) fail("--every must be at least 1");
   // ---- setup: everything the loop needs, allocated once ----
   std::vector<uint8_t> blob_bytes = blob::read_blob_file(options.blob_path);
-  blob::LoadedBlob b;
-  if (blob::BlobStatus s = blob::load_blob(blob_bytes.data(), blob_bytes.size(), &b); s != blob::BlobStatus::kOk)
-    fail(options.blob_path + ": not a usable blob: " + blob::blob_status_message(s));
+  const blob::LoadedBlob b = load_blob_or_fail(blob_bytes, options.blob_path);
   platform::SourceOptions source_options = options.source_options;
   if (options.realtime) source_options.latest_only = true;
   std::unique_ptr<platform::FrameSource> source = platform::open_source(options.source_spec, source_options);
+  if (options.loop < 1) fail("--loop must be at least 1");
+  if (options.loop > 1 && source->live())
+    fail("--loop " + std::to_string(options.loop) + ": " + options.source_spec +
+         " is a live source; only files (raw, dataset, oni) can be played again");
   if (source->live() && options.usb_watch) {
     // With a depth camera on the bus, its disappearance is noticed even when the driver says
     // nothing. (Which camera a /dev/videoN or OpenNI2 URI is cannot be told portably: the first
@@ -344,11 +348,16 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   std::vector<uint8_t> labels, user_mask;
   std::vector<FrameResult> user_results;
   auto seg_result = std::make_unique<SegmentationResult>();
+  if (!segment && !options.segment_config_path.empty())
+    fail("--segment-config " + options.segment_config_path + ": segmentation is off for this source (use --segment on)");
   if (segment) {
+    SegmenterConfig seg_config = default_segmenter_config(sequential);
+    if (!options.segment_config_path.empty())
+      seg_config = load_segmenter_config_file(options.segment_config_path, seg_config);
     const size_t seg_bytes = segmenter_required_bytes(w, h);
     if (!seg_bytes) fail("segmentation cannot run on " + std::to_string(w) + "x" + std::to_string(h) + " frames");
     seg_arena = platform::ArenaMemory(seg_bytes);
-    if (Status s = segmenter.init(default_segmenter_config(sequential), w, h, seg_arena.data(), seg_bytes);
+    if (Status s = segmenter.init(seg_config, w, h, seg_arena.data(), seg_bytes);
         s != Status::kOk)
       fail(std::string("segmenter init: ") + status_message(s));
     labels.assign(size_t(w) * h, 0);
@@ -371,8 +380,10 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
                intrinsics.cy, kernel_isa_name(pipeline.kernel()), kernel_isa_name(pipeline.forest_kernel()), arena_bytes,
                arena.huge_page_advice() ? " (2 MiB pages advised)" : "");
   if (segment)
-    std::fprintf(log, "run: segmentation on (floor, %s, users), arena %zu bytes\n",
-                 sequential ? "background model" : "no background model", segmenter.arena_used_bytes());
+    std::fprintf(log, "run: segmentation on (floor, %s, users), arena %zu bytes, config %s\n",
+                 segmenter.config().background_enabled ? "background model" : "no background model",
+                 segmenter.arena_used_bytes(),
+                 options.segment_config_path.empty() ? "defaults" : options.segment_config_path.c_str());
   summary.segmented = segment;
 
   // ---- the loop: no allocation from here on ----
@@ -380,7 +391,7 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   bool lost = false, paced = false;
   Clock::time_point pace_wall{};
   uint64_t pace_ts = 0;
-  int64_t corrupt_seen = 0;
+  int64_t corrupt_seen = 0, passes_done = 0, earlier_corrupt = 0, earlier_dropped = 0;
   platform::FrameInfo info;
   while (!g_stop && (options.max_frames < 0 || summary.frames_processed < options.max_frames)) {
     const platform::NextStatus status = source->next(depth.data(), &info);
@@ -388,7 +399,26 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
       corrupt_seen = source->stats().corrupt_frames;
       std::fprintf(log, "run: %s\n", source->last_warning().c_str());
     }
-    if (status == platform::NextStatus::kEnd) break;
+    if (status == platform::NextStatus::kEnd) {
+      if (++passes_done < options.loop) {
+        if (!source->rewind()) {
+          // .oni: reopened (the only allocation between passes); its counts carry over.
+          earlier_corrupt += source->stats().corrupt_frames;
+          earlier_dropped += source->stats().dropped_frames;
+          source.reset();
+          source = platform::open_source(options.source_spec, source_options);
+          corrupt_seen = 0;
+          if (source->width() != w || source->height() != h) {
+            summary.source_failed = true;
+            summary.source_error = options.source_spec + " changed its frame size between --loop passes";
+            std::fprintf(log, "run: %s\n", summary.source_error.c_str());
+            break;
+          }
+        }
+        continue;
+      }
+      break;
+    }
     if (status == platform::NextStatus::kError) {
       summary.source_failed = true;
       summary.source_error = source->last_error();
@@ -503,8 +533,8 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   summary.p99_ms = times.quantile(0.99);
   summary.max_ms = times.max();
   const platform::SourceStats& st = source->stats();
-  summary.corrupt += st.corrupt_frames;
-  summary.dropped += st.dropped_frames;
+  summary.corrupt += st.corrupt_frames + earlier_corrupt;
+  summary.dropped += st.dropped_frames + earlier_dropped;
   summary.device_lost = st.device_lost;
   summary.reconnects = st.reconnects;
   std::fprintf(log,
@@ -515,6 +545,13 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
                summary.seconds, summary.fps, summary.p50_ms, summary.p99_ms, summary.max_ms, (long long)summary.overruns,
                (long long)summary.degraded, (long long)summary.capped, (long long)summary.dropped, (long long)summary.corrupt,
                (long long)summary.device_lost, (long long)summary.reconnects);
+  if (summary.frames_processed == 0 && summary.corrupt > 0 && !summary.source_failed && !g_stop) {
+    // Exit 0 with "0 frames processed" would pass for success: every frame was bad.
+    summary.source_failed = true;
+    summary.source_error = options.source_spec + ": none of its frames could be processed (" +
+                           std::to_string(summary.corrupt) + " corrupt or refused; see the messages above)";
+    std::fprintf(log, "run: %s\n", summary.source_error.c_str());
+  }
   if (segment)
     std::fprintf(log, "segmentation: %.2f users per frame on average, at most %d in a frame, %d distinct ids\n",
                  summary.frames_processed ? double(summary.user_frames) / double(summary.frames_processed) : 0.0,

@@ -59,8 +59,10 @@ struct RunOptions {
   int every = 1;                // process every N-th frame of the source
   bool realtime = false;        // pace files at their timestamps; drop frames when late
   int64_t max_frames = -1;      // stop after this many processed frames (−1 = source end)
+  int64_t loop = 1;             // play a file source this many times (rewound at its end; soaks)
   KernelIsa kernel = KernelIsa::kBest;
   SegmentMode segment = SegmentMode::kAuto;
+  std::string segment_config_path;  // SegmenterConfig file over the defaults (empty = defaults)
   BudgetOverrides budget;        // --pixel-budget / --cycle-budget over the blob's config (docs/budget.md)
   // Live sources: watch the USB bus (libusb) for the depth camera leaving and coming back.
   bool usb_watch = true;
@@ -90,8 +92,10 @@ struct RunSummary {
   std::string source_error;
 };
 
-// Runs the loop until the source ends, max_frames, a source error or stop_requested() (SIGINT).
-// Throws ToolError for setup problems (blob, source, overlay directory, kernel).
+// Runs the loop until the source ends (`loop` times), max_frames, a source error or
+// stop_requested() (SIGINT). Throws ToolError for setup problems (blob, source, overlay directory,
+// kernel, --loop on a live source). A source that delivered frames but none processable (every
+// frame corrupt or refused) ends with source_failed and a source_error saying so.
 RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log);
 
 

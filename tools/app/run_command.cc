@@ -8,6 +8,7 @@
 #include "tools/common/args.h"
 #include "tools/common/budget_options.h"
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
 
 namespace dp::tools {
 
@@ -23,7 +24,7 @@ static KernelIsa parse_kernel(const std::string& name) {
 
 static int run_run(int argc, char** argv) {
   std::vector<std::string> options = kSourceOptionNames;
-  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--kernel", "--segment",
+  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--loop", "--kernel", "--segment", "--segment-config",
                                     kBudgetOptionNames[0], kBudgetOptionNames[1]});
   Args args(argc, argv,
             std::string("usage: depthpose run --blob BLOB --source SRC [--json] [--overlay DIR] [--every N]\n"
@@ -42,11 +43,15 @@ static int run_run(int argc, char** argv) {
                 "  --realtime           replay files at their recorded pace, dropping frames when late\n"
                 "                       (live sources always deliver the newest frame)\n"
                 "  --frames N           stop after N processed frames\n"
+                "  --loop N             play a file source N times (rewound at its end): soak runs (docs/app.md)\n"
                 "  --kernel K           forest kernel: scalar, avx2, avx512 or best (default best)\n" +
                 std::string(kBudgetOptionsUsage) +
                 "  --segment MODE       on, off or auto (default): find the people first (floor, background model,\n"
                 "                       users with stable ids; docs/segmentation.md) and report joints per user.\n"
                 "                       auto = on for live sources and .oni files, off for raw files and datasets\n"
+                "  --segment-config FILE  SegmenterConfig settings over the defaults: key = value lines (# comments)\n"
+                "                       or a JSON object; an unknown key or a bad or out-of-range value is an error\n"
+                "                       (keys, ranges: docs/segmentation.md)\n"
                 "  --no-usb-watch       live sources: do not watch the USB bus for the camera leaving/returning\n",
             options, {"--json", "--quiet", "--realtime", "--all-proposals", "--no-usb-watch"});
   if (args.help_requested()) {
@@ -66,6 +71,8 @@ static int run_run(int argc, char** argv) {
   o.realtime = args.flag("--realtime");
   o.max_frames = args.get_int("--frames", -1);
   if (args.has("--frames") && o.max_frames < 1) fail("--frames must be at least 1");
+  o.loop = args.get_int("--loop", 1);
+  if (o.loop < 1) fail("--loop must be at least 1");
   o.kernel = parse_kernel(args.get("--kernel", "best"));
   o.usb_watch = !args.flag("--no-usb-watch");
   o.budget = budget_overrides_from_args(args);
@@ -74,11 +81,13 @@ static int run_run(int argc, char** argv) {
   else if (segment == "on") o.segment = SegmentMode::kOn;
   else if (segment == "off") o.segment = SegmentMode::kOff;
   else fail("--segment wants on, off or auto, got '" + segment + "'");
+  o.segment_config_path = args.get("--segment-config", "");
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
   RunSummary s = run_app(o, stdout, stderr);
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
+  check_output_stream();  // --json > /dev/full, a full disk: exit 1, not 0
   return s.source_failed ? 1 : 0;
 }
 

@@ -1,6 +1,7 @@
 // Subcommands of build/bin/depthpose register themselves with a static DP_REGISTER_COMMAND in
 // their own .cc file; tools/cli/main.cc dispatches by name. No central table to edit.
 #pragma once
+#include <cstdio>
 
 namespace dp::cli {
 
@@ -23,6 +24,12 @@ const Command* find_command(const char* name);
 // Number of registered commands and access in name order.
 int command_count();
 const Command& command_at(int index);
+
+// Runs `command` and turns anything it throws into one line on `err` ("depthpose NAME: error:
+// ...") and exit code 1: a ToolError's message as is, running out of memory as a sentence naming
+// the limits (never a bare "std::bad_alloc"). Then checks that standard output was written
+// completely (a full disk or /dev/full is an error, exit 1). main() uses it; tests call it.
+int run_command_reporting(const Command& command, int argc, char** argv, std::FILE* err);
 
 }  // namespace dp::cli
 

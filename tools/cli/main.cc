@@ -2,7 +2,6 @@
 // tools into one clear line on stderr and a non-zero exit.
 #include <cstdio>
 #include <cstring>
-#include <exception>
 
 #include "tools/cli/command.h"
 
@@ -28,10 +27,5 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "depthpose: unknown command '%s' (see depthpose --help)\n", argv[1]);
     return 2;
   }
-  try {
-    return command->run(argc - 1, argv + 1);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "depthpose %s: error: %s\n", command->name, e.what());
-    return 1;
-  }
+  return dp::cli::run_command_reporting(*command, argc - 1, argv + 1, stderr);
 }

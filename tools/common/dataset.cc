@@ -1,26 +1,69 @@
 #include "tools/common/dataset.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "tools/common/body_model.h"
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
+#include "tools/common/limits.h"
 
 namespace dp::tools {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-std::string slurp(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) fail("cannot open " + path);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
+
+std::string number(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
 }
+
+// A JSON number as a double, or ToolError naming `where` and `field`.
+double json_number(const json& v, const std::string& where, const std::string& field) {
+  if (!v.is_number()) fail(where + ": " + field + " is not a number");
+  return v.get<double>();
+}
+
 }  // namespace
+
+JointTruth joint_truth_from_values(double x, double y, double z, bool visible, const std::string& where) {
+  const double values[3] = {x, y, z};
+  for (int k = 0; k < 3; ++k)
+    if (!(std::fabs(values[k]) <= limits::kMaxJointCoordinateM))
+      fail(where + ": joint coordinate " + "xyz"[k] + " = " + number(values[k]) + " m is not within ±" +
+           number(limits::kMaxJointCoordinateM) + " m");
+  return JointTruth{float(x), float(y), float(z), visible};
+}
+
+JointTruth joint_truth_from_json(const json& e, const std::string& where) {
+  if (!e.is_array() || e.size() != 4) fail(where + ": a joint must be [x,y,z,visible]");
+  const double x = json_number(e[0], where, "joint x"), y = json_number(e[1], where, "joint y"),
+               z = json_number(e[2], where, "joint z");
+  bool visible;
+  if (e[3].is_boolean()) visible = e[3].get<bool>();
+  else visible = json_number(e[3], where, "joint visible flag") != 0;
+  return joint_truth_from_values(x, y, z, visible, where);
+}
+
+void check_intrinsics(double fx, double fy, double cx, double cy, const std::string& where) {
+  const double f[2] = {fx, fy};
+  for (int k = 0; k < 2; ++k)
+    if (!(f[k] >= limits::kMinFocalPx && f[k] <= limits::kMaxFocalPx))
+      fail(where + ": " + (k ? "fy" : "fx") + " = " + number(f[k]) + " px is outside " + number(limits::kMinFocalPx) +
+           ".." + number(limits::kMaxFocalPx) + " px");
+  const double c[2] = {cx, cy};
+  for (int k = 0; k < 2; ++k)
+    if (!(std::fabs(c[k]) <= limits::kMaxPrincipalPointPx))
+      fail(where + ": " + (k ? "cy" : "cx") + " = " + number(c[k]) + " px is not within ±" +
+           number(limits::kMaxPrincipalPointPx) + " px");
+}
 
 Dataset open_dataset(const std::string& dir) {
   Dataset ds;
@@ -29,7 +72,7 @@ Dataset open_dataset(const std::string& dir) {
   if (!fs::is_directory(dir)) fail("dataset directory " + dir + " does not exist");
   json m;
   try {
-    m = json::parse(slurp(meta_path));
+    m = json::parse(read_file_text(meta_path, "dataset meta.json"));
   } catch (const json::exception& e) {
     fail(meta_path + ": malformed JSON: " + e.what());
   }
@@ -59,12 +102,12 @@ Dataset open_dataset(const std::string& dir) {
   }
   if (ds.meta.width <= 0 || ds.meta.height <= 0 || ds.meta.width > 8192 || ds.meta.height > 8192)
     fail(meta_path + ": implausible image size " + std::to_string(ds.meta.width) + "x" + std::to_string(ds.meta.height));
-  if (!(ds.meta.fx > 0) || !(ds.meta.fy > 0)) fail(meta_path + ": focal lengths must be positive");
+  check_intrinsics(ds.meta.fx, ds.meta.fy, ds.meta.cx, ds.meta.cy, meta_path);
   ds.has_parts = fs::is_directory(dir + "/parts");
 
   const std::string frames_path = dir + "/frames.jsonl";
-  std::ifstream f(frames_path);
-  if (!f) fail("cannot open " + frames_path);
+  const std::string text = read_file_text(frames_path, "frames.jsonl");
+  std::istringstream f(text);
   std::string line;
   size_t line_no = 0;
   while (std::getline(f, line)) {
@@ -82,20 +125,17 @@ Dataset open_dataset(const std::string& dir) {
       r.id = j.at("id").get<std::string>();
       if (r.id.empty() || r.id.find('/') != std::string::npos || r.id.find("..") != std::string::npos)
         fail(where + ": bad frame id '" + r.id + "'");
+      if (!j.is_object()) fail(where + ": a frame line must be a JSON object");
+      if (!j.contains("joints") && !ds.meta.joints.empty())
+        fail(where + ": no \"joints\" (meta.json names " + std::to_string(ds.meta.joints.size()) +
+             " joints; every frame must give them, [x,y,z,visible] each)");
       if (j.contains("joints")) {
         const json& js = j.at("joints");
+        if (!js.is_array()) fail(where + ": \"joints\" is not an array");
         if (js.size() != ds.meta.joints.size())
           fail(where + ": has " + std::to_string(js.size()) + " joints, meta.json names " +
                std::to_string(ds.meta.joints.size()));
-        for (const json& e : js) {
-          if (!e.is_array() || e.size() != 4) fail(where + ": a joint must be [x,y,z,visible]");
-          JointTruth t;
-          t.x = e[0].get<float>();
-          t.y = e[1].get<float>();
-          t.z = e[2].get<float>();
-          t.visible = e[3].is_boolean() ? e[3].get<bool>() : e[3].get<double>() != 0;
-          r.joints.push_back(t);
-        }
+        for (const json& e : js) r.joints.push_back(joint_truth_from_json(e, where));
       }
       json extra = j;
       extra.erase("id");
@@ -128,7 +168,20 @@ ImageU8 Dataset::load_parts(size_t i) const {
     fail("frame " + frames[i].id + ": " + p + " is " + std::to_string(img.width) + "x" +
          std::to_string(img.height) + ", meta.json says " + std::to_string(meta.width) + "x" +
          std::to_string(meta.height));
+  const int parts = part_label_count();
+  for (size_t k = 0; k < img.pixels.size(); ++k) {
+    const int label = img.pixels[k];
+    if (label >= parts && label != kNotBodyLabel)
+      fail("frame " + frames[i].id + ": " + p + " pixel (" + std::to_string(k % size_t(img.width)) + ", " +
+           std::to_string(k / size_t(img.width)) + ") has part label " + std::to_string(label) +
+           "; labels are 0.." + std::to_string(parts - 1) + " (meta.json parts) or " +
+           std::to_string(kNotBodyLabel) + " (not body)");
+  }
   return img;
+}
+
+int Dataset::part_label_count() const {
+  return meta.parts.empty() ? kMaxPartLabels : int(std::min<size_t>(meta.parts.size(), size_t(kMaxPartLabels)));
 }
 
 void create_dataset(const std::string& dir, const DatasetMeta& meta, bool with_parts) {

@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "tools/common/png_io.h"
 
 namespace dp::tools {
@@ -45,14 +47,31 @@ struct Dataset {
   std::string depth_path(size_t i) const { return dir + "/depth/" + frames[i].id + ".png"; }
   std::string parts_path(size_t i) const { return dir + "/parts/" + frames[i].id + ".png"; }
   // Load one frame's images; throws ToolError naming the file and frame when the PNG is missing,
-  // corrupt, or not meta.width x meta.height.
+  // corrupt, or not meta.width x meta.height, and (parts) when a label is neither a part of
+  // meta.parts (0..part_label_count()−1) nor 255 (not body).
   ImageU16 load_depth(size_t i) const;
   ImageU8 load_parts(size_t i) const;
+  // Part labels a parts image may hold besides 255: meta.parts.size(), or kMaxPartLabels when
+  // meta.json names no parts.
+  int part_label_count() const;
 };
 
+constexpr int kMaxPartLabels = 32;  // = blob::kMaxParts: labels 0..31
+
+// A ground-truth joint from its values: ToolError naming `where` unless |x|, |y|, |z| are within
+// limits::kMaxJointCoordinateM (NaN and infinities are refused).
+JointTruth joint_truth_from_values(double x, double y, double z, bool visible, const std::string& where);
+// The same from a JSON [x,y,z,visible] (visible a boolean or a number, nonzero = visible).
+JointTruth joint_truth_from_json(const nlohmann::json& joint, const std::string& where);
+
+// Camera intrinsics in pixels: ToolError naming `where` and the field unless fx, fy lie within
+// limits::kMinFocalPx..kMaxFocalPx and |cx|, |cy| ≤ limits::kMaxPrincipalPointPx.
+void check_intrinsics(double fx, double fy, double cx, double cy, const std::string& where);
+
 // Reads meta.json and frames.jsonl (not the PNGs). Throws ToolError on a missing file, a bad
-// format/version, a malformed line (naming its line number), or a joint count that disagrees with
-// meta.joints.
+// format/version, intrinsics outside limits, a malformed line (naming its line number), a line
+// without "joints" when meta.json names joints, a joint count that disagrees with meta.joints, or
+// a joint coordinate outside limits (tools/common/limits.h).
 Dataset open_dataset(const std::string& dir);
 
 // Writers. create_dataset makes DIR, DIR/depth, DIR/parts and writes meta.json.

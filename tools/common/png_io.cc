@@ -7,6 +7,8 @@
 #include <fstream>
 
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
+#include "tools/common/limits.h"
 
 namespace dp::tools {
 namespace {
@@ -23,15 +25,9 @@ void read_callback(png_structp png, png_bytep out, png_size_t length) {
   r->pos += length;
 }
 
-std::vector<uint8_t> read_file_bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) fail("cannot open " + path);
-  return std::vector<uint8_t>((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-}
-
 // Decodes a greyscale PNG with the wanted bit depth into rows of `bytes_per_pixel`.
 void decode_grey(const std::string& path, int want_depth, int& w, int& h, std::vector<uint8_t>& raw) {
-  std::vector<uint8_t> data = read_file_bytes(path);
+  std::vector<uint8_t> data = read_file_bytes(path, "PNG");
   if (data.size() < 8 || png_sig_cmp(data.data(), 0, 8)) fail(path + ": not a PNG file");
   png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
@@ -43,6 +39,20 @@ void decode_grey(const std::string& path, int want_depth, int& w, int& h, std::v
     fail(path + ": corrupt or truncated PNG");
   }
   png_set_read_fn(png, &reader, read_callback);
+  // libpng refuses larger IHDR dimensions itself (in png_read_info, before any row is allocated);
+  // the check below says which limit in words.
+  png_set_user_limits(png, limits::kMaxImageDimension, limits::kMaxImageDimension);
+  if (data.size() >= 24 && std::memcmp(data.data() + 12, "IHDR", 4) == 0) {
+    const auto be32 = [&](size_t at) {
+      return uint32_t(data[at]) << 24 | uint32_t(data[at + 1]) << 16 | uint32_t(data[at + 2]) << 8 | data[at + 3];
+    };
+    const uint32_t dw = be32(16), dh = be32(20);
+    if (dw > uint32_t(limits::kMaxImageDimension) || dh > uint32_t(limits::kMaxImageDimension)) {
+      png_destroy_read_struct(&png, &info, nullptr);
+      fail(path + ": PNG header declares " + std::to_string(dw) + "x" + std::to_string(dh) +
+           " pixels; images are limited to " + std::to_string(limits::kMaxImageDimension) + " per side (docs/limits.md)");
+    }
+  }
   png_read_info(png, info);
   int depth = png_get_bit_depth(png, info);
   int colour = png_get_color_type(png, info);
@@ -92,10 +102,7 @@ std::vector<uint8_t> encode(const uint8_t* pixels, int w, int h, int depth, int 
 }
 
 void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) fail("cannot create " + path);
-  size_t n = std::fwrite(bytes.data(), 1, bytes.size(), f);
-  if (std::fclose(f) != 0 || n != bytes.size()) fail("cannot write " + path + " (disk full?)");
+  write_file_atomic(path, bytes.data(), bytes.size());  // never a half-written PNG
 }
 
 void check_size(int w, int h, size_t n, size_t channels) {

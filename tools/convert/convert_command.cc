@@ -9,6 +9,7 @@
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
 #include "tools/common/error.h"
+#include "tools/common/limits.h"
 #include "tools/convert/forest_convert.h"
 #include "tools/convert/pcl_import.h"
 #include "tools/train/forest_file.h"
@@ -24,7 +25,7 @@ const char* const kUsage =
     "  --from-pcl: imports PCL people-detector trees (bzip2 ASCII, read in place) as a 25-part BPC blob.\n"
     "  --out BLOB       blob to write (byte-identical for identical input)\n"
     "  --max-size WxH   largest frame the blob's arena size is computed for (default 640x480)\n"
-    "  --check-frames N sample frames for the leaf check (default 12, 0 = skip)\n";
+    "  --check-frames N sample frames for the leaf check (default 12, 0 = skip, at most 256)\n";
 
 int convert_trained(const Args& args) {
   if (args.positional().size() != 1) fail("convert: give exactly one FOREST file\n" + args.usage());
@@ -40,6 +41,9 @@ int convert_trained(const Args& args) {
   options.max_width = w;
   options.max_height = h;
   const long long check_frames = args.get_int("--check-frames", 12);
+  if (check_frames < 0 || check_frames > limits::kMaxCheckFrames)
+    fail("convert: --check-frames " + std::to_string(check_frames) + " is outside 0.." +
+         std::to_string(limits::kMaxCheckFrames) + " sample frames (docs/limits.md)");
   const train::TrainedForest forest = train::read_forest(in);
   QuantizationReport rep;
   const std::vector<uint8_t> bytes = blob::write_blob(convert_forest(forest, options, in, &rep));

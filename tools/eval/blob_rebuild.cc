@@ -4,6 +4,7 @@
 #include <string>
 
 #include "tools/common/error.h"
+#include "tools/common/blob_error.h"
 
 namespace dp::tools {
 
@@ -35,8 +36,9 @@ blob::BlobContents contents_from_blob(const blob::LoadedBlob& b) {
 }
 
 std::vector<uint8_t> blob_with_config(const blob::LoadedBlob& b, const blob::RuntimeConfig& config) {
-  if (blob::BlobStatus s = blob::validate_config(*b.meta, config); s != blob::BlobStatus::kOk)
-    fail(std::string("runtime config refused: ") + blob::blob_status_message(s));
+  blob::BlobProblem problem;
+  if (blob::BlobStatus s = blob::validate_config(*b.meta, config, &problem); s != blob::BlobStatus::kOk)
+    fail("runtime config refused: " + blob_error_message(s, problem));
   blob::BlobContents c = contents_from_blob(b);
   c.config = config;
   return blob::write_blob(c);

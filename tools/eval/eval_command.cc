@@ -8,6 +8,7 @@
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
 #include "tools/eval/evaluator.h"
 #include "tools/eval/plots.h"
 #include "tools/eval/report.h"
@@ -80,14 +81,13 @@ static int run_eval(int argc, char** argv) {
     nlohmann::json j = report_to_json(r);
     j["blob"] = a.get("--blob");
     j["data"] = a.get("--data");
-    std::ofstream f(path);
-    f << j.dump(2) << "\n";
-    if (!f) fail("cannot write " + path);
+    write_file_atomic(path, j.dump(2) + "\n");  // a failed write leaves no truncated JSON
     std::printf("wrote %s\n", path.c_str());
   }
   if (a.has("--plots")) {
     for (const std::string& p : write_eval_plots(r, a.get("--plots"))) std::printf("wrote %s\n", p.c_str());
   }
+  check_output_stream();  // the report on stdout: a full disk or /dev/full is an error
   return 0;
 }
 

@@ -12,6 +12,7 @@
 #include "tools/common/body_model.h"
 #include "tools/common/error.h"
 #include "tools/info/info.h"
+#include "tools/common/blob_error.h"
 
 namespace dp::tools {
 
@@ -88,8 +89,7 @@ struct EvalSession::PreparedFrame {
 EvalSession::EvalSession(std::vector<uint8_t> bytes, std::string blob_label, const std::string& dataset_dir,
                          const EvalOptions& options)
     : bytes_(std::move(bytes)), blob_label_(std::move(blob_label)), options_(options) {
-  if (blob::BlobStatus s = blob::load_blob(bytes_.data(), bytes_.size(), &blob_); s != blob::BlobStatus::kOk)
-    fail(blob_label_ + ": " + blob::blob_status_message(s));
+  blob_ = load_blob_or_fail(bytes_, blob_label_);
   dataset_ = open_dataset(dataset_dir);
   frame_count_ = long(dataset_.frames.size());
   if (options_.max_frames > 0) frame_count_ = std::min(frame_count_, options_.max_frames);
@@ -356,8 +356,9 @@ std::vector<CachedFrame> EvalSession::cache_forest() {
 
 std::vector<std::optional<double>> EvalSession::joint_ap_from_cache(const std::vector<CachedFrame>& cache,
                                                                      const blob::RuntimeConfig& config, int threads) {
-  if (blob::BlobStatus s = blob::validate_config(*blob_.meta, config); s != blob::BlobStatus::kOk)
-    fail(std::string("tuned config refused: ") + blob::blob_status_message(s));
+  blob::BlobProblem problem;
+  if (blob::BlobStatus s = blob::validate_config(*blob_.meta, config, &problem); s != blob::BlobStatus::kOk)
+    fail("tuned config refused: " + blob_error_message(s, problem));
   const long n = long(cache.size());
   threads = std::max(1, std::min<int>(threads, int(std::max(1L, n))));
   std::vector<FrameResult> results(static_cast<size_t>(n));

@@ -21,6 +21,13 @@ std::string num(double v, int decimals) {
 }
 std::string ap_text(const std::optional<double>& v) { return v ? num(*v, 3) : "N/A"; }
 
+// A plot coordinate as a pixel: far-off or non-finite values (a truth joint or proposal far outside
+// the image) land well off the canvas instead of overflowing the int conversion.
+int to_pixel(double v) {
+  constexpr double kOff = 1e6;
+  return v > -kOff && v < kOff ? int(v) : -int(kOff);
+}
+
 // A rectangular plotting area mapping data (x, y) to pixels; y grows upwards.
 struct Axes {
   Canvas& c;
@@ -34,13 +41,13 @@ struct Axes {
       const double x = xmin + (xmax - xmin) * i / xticks;
       c.line(px(x), top, px(x), bottom, kGrey);
       const std::string t = num(x, decimals);
-      c.text(int(px(x)) - Canvas::text_width(t) / 2, bottom + 4, t, kDark);
+      c.text(to_pixel(px(x)) - Canvas::text_width(t) / 2, bottom + 4, t, kDark);
     }
     for (int i = 0; i <= yticks; ++i) {
       const double y = ymin + (ymax - ymin) * i / yticks;
       c.line(left, py(y), right, py(y), kGrey);
       const std::string t = num(y, decimals);
-      c.text(left - 4 - Canvas::text_width(t), int(py(y)) - 3, t, kDark);
+      c.text(left - 4 - Canvas::text_width(t), to_pixel(py(y)) - 3, t, kDark);
     }
     c.rect(left, top, right, bottom, kBlack);
     c.text((left + right) / 2 - Canvas::text_width(xlabel) / 2, bottom + 14, xlabel, kBlack);
@@ -106,7 +113,7 @@ void plot_ap_vs_dtp(const EvalReport& r, const std::string& path, std::vector<st
       ys.push_back(*r.map_vs_dtp[g]);
     }
   a.polyline(xs, ys, kBlack, 3);
-  for (size_t i = 0; i < xs.size(); ++i) c.fill_rect(int(a.px(xs[i])) - 2, int(a.py(ys[i])) - 2, int(a.px(xs[i])) + 2, int(a.py(ys[i])) + 2, kBlack);
+  for (size_t i = 0; i < xs.size(); ++i) c.fill_rect(to_pixel(a.px(xs[i])) - 2, to_pixel(a.py(ys[i])) - 2, to_pixel(a.px(xs[i])) + 2, to_pixel(a.py(ys[i])) + 2, kBlack);
   c.fill_rect(575, 44 + 12 * n + 6, 585, 48 + 12 * n + 6, kBlack);
   c.text(590, 44 + 12 * n + 4, "MAP", kBlack);
   save(c, path, written);
@@ -169,7 +176,7 @@ void plot_overlay(const EvalReport& r, const OverlayFrame& o, const std::string&
   for (size_t k = 0; k < o.proposals.size(); ++k) {
     const Rgb col = palette_colour(int(k));
     const JointSamples::Truth& t = o.truth[k];
-    c.cross(int(t.position.x * scale), int(t.position.y * scale), 4, t.visible ? kWhite : kGrey);
+    c.cross(to_pixel(double(t.position.x) * scale), to_pixel(double(t.position.y) * scale), 4, t.visible ? kWhite : kGrey);
     for (const ScoredPoint& p : o.proposals[k]) {
       const double rad = 2.0 + 10.0 * (max_conf > 0 ? std::sqrt(p.confidence / max_conf) : 0.0);
       c.circle(p.position.x * scale, p.position.y * scale, rad * scale / 1.5, kBlack, 4);

@@ -61,9 +61,12 @@ Rgb Canvas::at(int x, int y) const {
 }
 
 void Canvas::line(double x0, double y0, double x1, double y1, Rgb c, int thickness) {
+  // Non-finite or absurd coordinates (a far-off proposal or truth): nothing sensible to draw, and
+  // converting them to int would overflow.
+  constexpr double kFar = 1e6;
+  if (!(std::fabs(x0) < kFar && std::fabs(y0) < kFar && std::fabs(x1) < kFar && std::fabs(y1) < kFar)) return;
   const double len = std::max(std::fabs(x1 - x0), std::fabs(y1 - y0));
   const int steps = std::max(1, int(std::ceil(len)));
-  if (!(len < 1e6)) return;  // non-finite or absurd: nothing sensible to draw
   const int lo = -(thickness - 1) / 2, hi = thickness / 2;
   for (int s = 0; s <= steps; ++s) {
     const double t = double(s) / steps;

@@ -9,6 +9,7 @@
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
 #include "tools/eval/blob_rebuild.h"
 #include "tools/eval/evaluator.h"
 #include "tools/eval/tune.h"
@@ -95,10 +96,9 @@ static int run_tune(int argc, char** argv) {
     }
     j["joints"] = joints;
     j["nsub"] = r.config.max_votes_per_joint;
-    std::ofstream f(a.get("--json"));
-    f << j.dump(2) << "\n";
-    if (!f) fail("cannot write " + a.get("--json"));
+    write_file_atomic(a.get("--json"), j.dump(2) + "\n");
   }
+  check_output_stream();
   return 0;
 }
 

@@ -10,6 +10,7 @@
 #include "tools/common/args.h"
 #include "tools/common/error.h"
 #include "tools/info/info.h"
+#include "tools/common/blob_error.h"
 
 namespace dp::tools {
 
@@ -73,9 +74,10 @@ void describe_blob(const blob::LoadedBlob& b, FILE* out) {
 bool load_blob_or_explain(const std::string& path, std::vector<uint8_t>& bytes, blob::LoadedBlob* out,
                           std::string* problem) {
   bytes = blob::read_blob_file(path);
-  const blob::BlobStatus s = blob::load_blob(bytes.data(), bytes.size(), out);
+  blob::BlobProblem field;
+  const blob::BlobStatus s = blob::load_blob(bytes.data(), bytes.size(), out, &field);
   if (s == blob::BlobStatus::kOk) return true;
-  *problem = path + ": " + blob::blob_status_message(s);
+  *problem = path + ": " + blob_error_message(s, field);
   return false;
 }
 
@@ -110,9 +112,10 @@ static int run_info(int argc, char** argv) {
         if (d(path, bytes)) return 0;
   }
   blob::LoadedBlob b;
-  const blob::BlobStatus s = blob::load_blob(bytes.data(), bytes.size(), &b);
+  blob::BlobProblem problem;
+  const blob::BlobStatus s = blob::load_blob(bytes.data(), bytes.size(), &b, &problem);
   if (s != blob::BlobStatus::kOk) {
-    std::fprintf(stderr, "depthpose info: %s: invalid blob: %s\n", path.c_str(), blob::blob_status_message(s));
+    std::fprintf(stderr, "depthpose info: %s: invalid blob: %s\n", path.c_str(), blob_error_message(s, problem).c_str());
     return 1;
   }
   describe_blob(b, stdout);

@@ -113,3 +113,137 @@ RenderedScene render_scene(const Scene& s) {
 }
 
 }  // namespace dp::tools
+
+namespace dp::tools {
+
+namespace {
+
+// splitmix64: a fixed integer sequence (the same on every platform and standard library).
+struct SceneRng {
+  uint64_t state;
+  uint64_t next() {
+    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  float uniform(float lo, float hi) { return lo + (hi - lo) * float(double(next() >> 11) * 0x1.0p-53); }
+  int integer(int lo, int hi) { return lo + int(next() % uint64_t(hi - lo + 1)); }
+};
+
+enum class Posture { kStanding, kCrouching, kLying, kBentOver };
+
+// One body at world (x, z), facing the camera, from boxes and cylinders tagged `truth`.
+void add_person(Scene* s, float x, float z, float height, Posture posture, float arm_out_m, uint8_t truth) {
+  const float k = height / 1.75f;
+  switch (posture) {
+    case Posture::kStanding: {
+      const float hip = 0.85f * k, shoulder = 1.45f * k;
+      s->cylinders.push_back({x - 0.1f * k, z, 0.07f * k, 0.0f, hip, truth});
+      s->cylinders.push_back({x + 0.1f * k, z, 0.07f * k, 0.0f, hip, truth});
+      s->cylinders.push_back({x, z, 0.17f * k, hip - 0.02f, shoulder, truth});
+      s->cylinders.push_back({x, z, 0.1f * k, shoulder, height, truth});
+      // Arms: down at the sides, one possibly held out sideways at shoulder height.
+      s->boxes.push_back({x - 0.27f * k, x - 0.19f * k, hip, shoulder - 0.02f, z - 0.04f, z + 0.04f, truth});
+      if (arm_out_m > 0.0f)
+        s->boxes.push_back({x + 0.17f * k, x + 0.17f * k + arm_out_m, shoulder - 0.1f, shoulder - 0.02f, z - 0.04f,
+                            z + 0.04f, truth});
+      else
+        s->boxes.push_back({x + 0.19f * k, x + 0.27f * k, hip, shoulder - 0.02f, z - 0.04f, z + 0.04f, truth});
+      break;
+    }
+    case Posture::kCrouching: {
+      s->boxes.push_back({x - 0.2f * k, x + 0.2f * k, 0.0f, 0.45f * k, z - 0.15f, z + 0.2f, truth});
+      s->cylinders.push_back({x, z + 0.05f, 0.17f * k, 0.4f * k, 0.85f * k, truth});
+      s->cylinders.push_back({x, z + 0.05f, 0.1f * k, 0.85f * k, 1.05f * k, truth});
+      break;
+    }
+    case Posture::kLying: {
+      s->boxes.push_back({x - 0.9f * k, x + 0.7f * k, 0.0f, 0.25f * k, z - 0.18f, z + 0.18f, truth});
+      s->cylinders.push_back({x + 0.8f * k, z, 0.1f * k, 0.0f, 0.22f * k, truth});
+      if (arm_out_m > 0.0f) s->boxes.push_back({x, x + 0.08f, 0.25f * k, 0.8f * k, z - 0.04f, z + 0.04f, truth});
+      break;
+    }
+    case Posture::kBentOver: {
+      s->cylinders.push_back({x - 0.1f * k, z, 0.07f * k, 0.0f, 0.8f * k, truth});
+      s->cylinders.push_back({x + 0.1f * k, z, 0.07f * k, 0.0f, 0.8f * k, truth});
+      s->boxes.push_back({x - 0.2f * k, x + 0.2f * k, 0.75f * k, 1.0f * k, z - 0.7f * k, z + 0.05f, truth});
+      s->cylinders.push_back({x, z - 0.75f * k, 0.1f * k, 0.7f * k, 0.95f * k, truth});
+      break;
+    }
+  }
+}
+
+}  // namespace
+
+Scene random_scene(uint32_t seed, int frame, int width, int height) {
+  SceneRng rng{0xD1B54A32D192ED03ull ^ (uint64_t(seed) * 0x9E3779B97F4A7C15ull)};
+  Scene s;
+  s.camera.width = width;
+  s.camera.height = height;
+  s.camera.height_m = rng.uniform(0.5f, 2.3f);
+  s.camera.pitch_deg = rng.uniform(-5.0f, 35.0f);
+  s.camera.roll_deg = rng.uniform(-8.0f, 8.0f);
+  if (rng.integer(0, 2) > 0) s.wall_z = rng.uniform(4.5f, 7.0f);
+  const int people = rng.integer(1, 4);
+  for (int p = 0; p < people; ++p) {
+    const int kind = rng.integer(0, 9);
+    const Posture posture = kind < 6 ? Posture::kStanding
+                            : kind == 6 ? Posture::kCrouching
+                            : kind == 7 ? Posture::kLying
+                                        : Posture::kBentOver;
+    // Some people close to the camera (cut by the borders), most at 1.5–5 m.
+    const bool close = rng.integer(0, 5) == 0;
+    const float z0 = close ? rng.uniform(0.7f, 1.3f) : rng.uniform(1.5f, 5.0f);
+    const float x0 = rng.uniform(-0.5f, 0.5f) * z0 * 1.1f;
+    const float vx = rng.uniform(-0.12f, 0.12f), vz = rng.uniform(-0.06f, 0.06f);
+    const float arm = rng.integer(0, 3) == 0 ? rng.uniform(0.3f, 0.7f) : 0.0f;
+    const float tall = rng.uniform(1.45f, 1.95f);
+    float z = z0 + vz * float(frame);
+    if (z < 0.6f) z = 0.6f;
+    add_person(&s, x0 + vx * float(frame), z, tall, posture, arm, uint8_t(p + 1));
+  }
+  const int clutter = rng.integer(2, 7);
+  for (int c = 0; c < clutter; ++c) {
+    const float z = rng.uniform(1.2f, 6.0f);
+    const float x = rng.uniform(-0.6f, 0.6f) * z;
+    const float tall = rng.uniform(0.3f, 0.8f);
+    if (rng.integer(0, 2) == 0) {
+      s.cylinders.push_back({x, z, rng.uniform(0.12f, 0.3f), 0.0f, tall, 0});
+    } else {
+      const float half_w = rng.uniform(0.15f, 0.6f), half_d = rng.uniform(0.15f, 0.5f);
+      s.boxes.push_back({x - half_w, x + half_w, 0.0f, tall, z - half_d, z + half_d, 0});
+    }
+  }
+  return s;
+}
+
+void add_depth_noise(RenderedScene* scene, uint32_t seed, int frame) {
+  SceneRng rng{0x2545F4914F6CDD1Dull ^ (uint64_t(seed) << 20) ^ uint64_t(uint32_t(frame))};
+  const int w = scene->width, h = scene->height;
+  for (int v = 0; v < h; ++v) {
+    uint16_t* row = scene->depth_mm.data() + size_t(v) * w;
+    for (int u = 0; u < w; ++u) {
+      const uint64_t r = rng.next();
+      if (row[u] == 0) continue;
+      if (r % 100 == 0) {
+        row[u] = 0;
+        continue;
+      }
+      // Jitter of up to ±0.2 % of the depth.
+      const int32_t jitter = int32_t((r >> 8) % 401) - 200;
+      const int32_t z = int32_t(row[u]) + int32_t(int64_t(row[u]) * jitter / 100000);
+      row[u] = uint16_t(z < 1 ? 1 : z > 65535 ? 65535 : z);
+    }
+    // Dropout runs where the depth jumps (occluding edges cast shadows without readings).
+    for (int u = 1; u < w; ++u) {
+      const int32_t a = row[u - 1], b = row[u];
+      if (a == 0 || b == 0 || (a - b < 200 && b - a < 200)) continue;
+      const int run = int(rng.next() % 4);
+      for (int k = 0; k < run && u + k < w; ++k) row[u + k] = 0;
+      u += run;
+    }
+  }
+}
+
+}  // namespace dp::tools

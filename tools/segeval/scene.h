@@ -52,3 +52,19 @@ void floor_plane_in_camera(const SceneCamera& camera, float normal[3], float* d)
 void world_to_camera(const SceneCamera& camera, const float world[3], float camera_point[3]);
 
 }  // namespace dp::tools
+
+namespace dp::tools {
+
+// A seeded family of scenes for regression checks of the segmenter (tests/segmentation_golden_*):
+// seed → camera (height 0.5–2.3 m, pitch −5..35°, roll −8..8°, sometimes a back wall), 1–4 people
+// built from parts (legs, torso, head, arms; standing, crouching, lying or bent over; some with an
+// arm held out, some close enough to be cut by an image border), 2–7 boxes and bins 0.3–0.8 m tall.
+// `frame` moves the people along straight lines (0.03–0.12 m per frame), so a sequence exercises
+// tracking and the background model. Same seed and frame, same scene, on every platform (integer
+// generator; no library random numbers).
+Scene random_scene(uint32_t seed, int frame, int width = 320, int height = 240);
+// Sensor-like defects, deterministic in (seed, frame): ±0.2 % depth jitter, 1 % of readings
+// dropped and short horizontal dropout runs along depth edges.
+void add_depth_noise(RenderedScene* scene, uint32_t seed, int frame);
+
+}  // namespace dp::tools

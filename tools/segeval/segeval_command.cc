@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -17,9 +16,12 @@
 #include "tools/common/body_model.h"
 #include "tools/common/dataset.h"
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
 #include "tools/common/png_io.h"
 #include "tools/eval/metrics.h"
 #include "tools/info/info.h"
+#include "tools/segeval/segmentation_digest.h"
+#include "tools/segeval/segmenter_config_text.h"
 
 namespace dp::tools {
 namespace {
@@ -42,22 +44,15 @@ static const char* const kUsage =
     "  --min-visible-area A  a third detection rate over people with >= A m^2 of body surface in view\n"
     "                         (default 0.05, about a head and neck; a person showing less is not expected)\n"
     "  --dump DIR             write DIR/NNNNNN.png per frame: depth in grey, users in colour, missed body red\n"
+    "  --digest OUT.txt       one line per frame: frame id and a 64-bit digest of everything the segmenter\n"
+    "                         output (labels, users, floor, counts, flags; not the cycles), to compare two builds\n"
     "  --per-frame OUT.jsonl  one line per frame: people (pixels, visible joints, box, border, matched user, IoU),\n"
     "                         users (pixels, body pixels, top, matched person), missed and extra pixels by height\n"
-    "  --set K=V,...          override SegmenterConfig numbers: min_person_height_m, min_person_area_m2,\n"
-    "                         max_person_width_m, floor_margin_mm, join_mm, join_mm_per_m, fragment_join_mm,\n"
-    "                         fragment_radius_m, fragment_pair_radius_m, cut_max_fill, cut_max_solidity, cut_solidity_max_hidden,\n"
-    "                         cut_fill_border_columns,\n"
-    "                         hidden_area_fraction, hidden_gap_mm, hidden_min_edge, hidden_pair_radius_m, hidden_legs_radius_m,\n"
-    "                         hidden_legs_max_gap_m, hidden_legs_max_ratio, cut_floor_contact_m,\n"
-    "                         cut_bottom_area_fraction, cut_bottom_low_max_lid_share, cut_side_area_fraction, cut_top_area_fraction, cut_gap_min_share, cut_gap_max_fill,\n"
-    "                         cut_hidden_floor_contact_m, pair_bridge_max_m,\n"
-    "                         low_max_lid_share, low_min_height_m, low_max_solidity, low_outline_max_lid_share, low_outline_box_split,\n"
-    "                         fragment_min_share, absorb_radius_m, head_radius_m, legs_radius_m, box_split_height_m,\n"
-    "                         box_split_min_share, box_split_cell_m, box_split_min_dist_m,\n"
-    "                         box_reject_min_share,\n"
-    "                         floor_margin_per_m2_mm, floor_min_inlier_fraction, floor_min_extent_m, floor_samples,\n"
-    "                         floor_iterations";
+    "  --segment-config FILE  SegmenterConfig settings (key = value lines or a JSON object; strict: an unknown\n"
+    "                         key or a bad or out-of-range value is an error), over the defaults\n"
+    "  --set K=V,...          override SegmenterConfig fields after --segment-config (same keys and checks)\n"
+    "  --print-config-table   print the SegmenterConfig table (key, type, default, range, unit, meaning) as\n"
+    "                         Markdown, as in docs/segmentation.md, and exit";
 
 struct Person {
   std::vector<JointTruth> joints;
@@ -71,16 +66,17 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
   std::vector<Person> out;
   const json extra = json::parse(r.extra_json.empty() ? "{}" : r.extra_json);
   if (extra.contains("people")) {
+    const std::string frame = ds.dir + "/frames.jsonl frame " + r.id;
+    if (!extra["people"].is_array()) fail(frame + ": \"people\" is not an array");
     for (const json& p : extra["people"]) {
+      const std::string where = frame + " person " + std::to_string(out.size() + 1);
+      if (!p.is_object() || !p.contains("joints") || !p["joints"].is_array())
+        fail(where + ": no \"joints\" array");
+      if (p["joints"].size() != ds.meta.joints.size())
+        fail(where + ": has " + std::to_string(p["joints"].size()) + " joints, meta.json names " +
+             std::to_string(ds.meta.joints.size()));
       Person person;
-      for (const json& j : p.at("joints")) {
-        JointTruth t;
-        t.x = j.at(0).get<float>();
-        t.y = j.at(1).get<float>();
-        t.z = j.at(2).get<float>();
-        t.visible = j.at(3).is_boolean() ? j.at(3).get<bool>() : j.at(3).get<int>() != 0;
-        person.joints.push_back(t);
-      }
+      for (const json& j : p["joints"]) person.joints.push_back(joint_truth_from_json(j, where));
       out.push_back(std::move(person));
     }
   } else {
@@ -92,10 +88,26 @@ std::vector<Person> people_of(const Dataset& ds, size_t i) {
 }
 
 int run_segeval(int argc, char** argv) {
-  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame"}, {"--live", "--forest-once"});
+  Args a(argc, argv, kUsage, {"--data", "--blob", "--frames", "--json", "--dtp", "--min-visible-joints", "--min-visible-area", "--dump", "--set", "--per-frame", "--digest", "--segment-config"},
+         {"--live", "--forest-once", "--print-config-table"});
   if (a.help_requested()) {
     std::printf("%s\n", a.usage().c_str());
     return 0;
+  }
+  if (a.flag("--print-config-table")) {
+    std::printf("%s", segmenter_config_table_markdown().c_str());
+    return 0;
+  }
+  // The config first: a bad file or --set fails before any data is read.
+  SegmenterConfig cfg = default_segmenter_config(a.flag("--live"));
+  if (a.has("--segment-config")) cfg = load_segmenter_config_file(a.get("--segment-config"), cfg);
+  if (a.has("--set")) {
+    for (const std::string& kv : split_list(a.get("--set"))) {
+      const size_t eq = kv.find('=');
+      if (eq == std::string::npos) fail("--set wants K=V, got '" + kv + "'");
+      set_segmenter_config_field(&cfg, kv.substr(0, eq), kv.substr(eq + 1), "--set");
+    }
+    check_segmenter_config_constraints(cfg, "--set");
   }
   const std::string dir = a.get("--data");
   const Dataset ds = open_dataset(dir);
@@ -109,70 +121,6 @@ int run_segeval(int argc, char** argv) {
   const int w = ds.meta.width, h = ds.meta.height;
   const CameraIntrinsics intr{float(ds.meta.fx), float(ds.meta.fy), float(ds.meta.cx), float(ds.meta.cy)};
 
-  SegmenterConfig cfg = default_segmenter_config(a.flag("--live"));
-  if (a.has("--set")) {
-    for (const std::string& kv : split_list(a.get("--set"))) {
-      const size_t eq = kv.find('=');
-      if (eq == std::string::npos) fail("--set wants K=V, got '" + kv + "'");
-      const std::string k = kv.substr(0, eq);
-      const double v = std::atof(kv.c_str() + eq + 1);
-      if (k == "min_person_height_m") cfg.min_person_height_m = float(v);
-      else if (k == "min_person_area_m2") cfg.min_person_area_m2 = float(v);
-      else if (k == "max_person_width_m") cfg.max_person_width_m = float(v);
-      else if (k == "floor_margin_mm") cfg.floor_margin_mm = float(v);
-      else if (k == "join_mm") cfg.join_mm = float(v);
-      else if (k == "join_mm_per_m") cfg.join_mm_per_m = float(v);
-      else if (k == "fragment_join_mm") cfg.fragment_join_mm = float(v);
-      else if (k == "fragment_radius_m") cfg.fragment_radius_m = float(v);
-      else if (k == "fragment_pair_radius_m") cfg.fragment_pair_radius_m = float(v);
-      else if (k == "cut_max_fill") cfg.cut_max_fill = float(v);
-      else if (k == "cut_max_solidity") cfg.cut_max_solidity = float(v);
-      else if (k == "hidden_area_fraction") cfg.hidden_area_fraction = float(v);
-      else if (k == "hidden_gap_mm") cfg.hidden_gap_mm = float(v);
-      else if (k == "hidden_min_edge") cfg.hidden_min_edge = int32_t(v);
-      else if (k == "hidden_pair_radius_m") cfg.hidden_pair_radius_m = float(v);
-      else if (k == "hidden_legs_radius_m") cfg.hidden_legs_radius_m = float(v);
-      else if (k == "hidden_legs_max_gap_m") cfg.hidden_legs_max_gap_m = float(v);
-      else if (k == "hidden_legs_max_ratio") cfg.hidden_legs_max_ratio = float(v);
-      else if (k == "cut_solidity_max_hidden") cfg.cut_solidity_max_hidden = float(v);
-      else if (k == "cut_fill_border_columns") cfg.cut_fill_border_columns = int32_t(v);
-      else if (k == "tracked_area_fraction") cfg.tracked_area_fraction = float(v);
-      else if (k == "fragment_min_share") cfg.fragment_min_share = float(v);
-      else if (k == "absorb_radius_m") cfg.absorb_radius_m = float(v);
-      else if (k == "head_radius_m") cfg.head_radius_m = float(v);
-      else if (k == "legs_radius_m") cfg.legs_radius_m = float(v);
-      else if (k == "box_split_height_m") cfg.box_split_height_m = float(v);
-      else if (k == "box_split_min_share") cfg.box_split_min_share = float(v);
-      else if (k == "box_split_cell_m") cfg.box_split_cell_m = float(v);
-      else if (k == "box_split_min_dist_m") cfg.box_split_min_dist_m = float(v);
-      else if (k == "box_reject_min_share") cfg.box_reject_min_share = float(v);
-      else if (k == "cut_bottom_area_fraction") cfg.cut_bottom_area_fraction = float(v);
-      else if (k == "cut_bottom_low_max_lid_share") cfg.cut_bottom_low_max_lid_share = float(v);
-      else if (k == "cut_side_area_fraction") cfg.cut_side_area_fraction = float(v);
-      else if (k == "cut_floor_contact_m") cfg.cut_floor_contact_m = float(v);
-      else if (k == "cut_top_area_fraction") cfg.cut_top_area_fraction = float(v);
-      else if (k == "low_max_lid_share") cfg.low_max_lid_share = float(v);
-      else if (k == "low_min_height_m") cfg.low_min_height_m = float(v);
-      else if (k == "low_outline_max_lid_share") cfg.low_outline_max_lid_share = float(v);
-      else if (k == "low_max_solidity") cfg.low_max_solidity = float(v);
-      else if (k == "low_outline_box_split") cfg.low_outline_box_split = int32_t(v);
-      else if (k == "cut_gap_min_share") cfg.cut_gap_min_share = float(v);
-      else if (k == "cut_gap_max_fill") cfg.cut_gap_max_fill = float(v);
-      else if (k == "cut_hidden_floor_contact_m") cfg.cut_hidden_floor_contact_m = float(v);
-      else if (k == "pair_bridge_max_m") cfg.pair_bridge_max_m = float(v);
-      else if (k == "floor_margin_per_m2_mm") cfg.floor_margin_per_m2_mm = float(v);
-      else if (k == "floor_min_inlier_fraction") cfg.floor_min_inlier_fraction = float(v);
-      else if (k == "floor_min_extent_m") cfg.floor_min_extent_m = float(v);
-      else if (k == "floor_samples") cfg.floor_samples = int32_t(v);
-      else if (k == "camera_height_min_m") cfg.camera_height_min_m = float(v);
-      else if (k == "floor_retry_iterations") cfg.floor_retry_iterations = int32_t(v);
-      else if (k == "floor_wide_inlier_fraction") cfg.floor_wide_inlier_fraction = float(v);
-      else if (k == "floor_wide_extent_m") cfg.floor_wide_extent_m = float(v);
-      else if (k == "floor_far_mm") cfg.floor_far_mm = uint16_t(v);
-      else if (k == "floor_iterations") cfg.floor_iterations = int32_t(v);
-      else fail("--set: unknown key '" + k + "'");
-    }
-  }
   Segmenter seg;
   const size_t seg_bytes = segmenter_required_bytes(w, h);
   const platform::ArenaMemory seg_arena(seg_bytes);
@@ -209,11 +157,9 @@ int run_segeval(int argc, char** argv) {
 
   std::vector<uint8_t> labels(size_t(w) * h), own_mask(size_t(w) * h);
   const bool forest_per_user = !a.flag("--forest-once");
-  std::ofstream per_frame;
-  if (a.has("--per-frame")) {
-    per_frame.open(a.get("--per-frame"));
-    if (!per_frame) fail(a.get("--per-frame") + ": cannot write");
-  }
+  std::unique_ptr<AtomicOutputFile> per_frame, digest_out;
+  if (a.has("--per-frame")) per_frame = std::make_unique<AtomicOutputFile>(a.get("--per-frame"));
+  if (a.has("--digest")) digest_out = std::make_unique<AtomicOutputFile>(a.get("--digest"));
   double inter_total = 0, union_total = 0, iou_sum = 0;
   long people_total = 0, people_found = 0, findable_total = 0, findable_found = 0, false_users = 0;
   long sizable_total = 0, sizable_found = 0;
@@ -257,6 +203,11 @@ int run_segeval(int argc, char** argv) {
     seg_wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     seg_cycles += double(r.total_cycles);
     for (int s = 0; s < kSegStageCount; ++s) stage_cycles[size_t(s)] += double(r.stage_cycles[s]);
+    if (digest_out) {
+      char hex[17];
+      std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(segmentation_digest(r, w, h, w)));
+      digest_out->write(ds.frames[size_t(i)].id + " " + hex + "\n");
+    }
 
     if (a.has("--dump")) {
       ImageRgb img;
@@ -314,7 +265,7 @@ int run_segeval(int argc, char** argv) {
     }
     long false_here = 0;
     for (int u = 0; u < nu; ++u) false_here += person_of_user[size_t(u)] < 0;
-    if (per_frame.is_open()) {
+    if (per_frame) {
       // Diagnostics: where the IoU goes. Missed body pixels and extra user pixels by height above
       // the segmenter's floor (when it has one): < 5 cm, 5..15 cm, higher (or no floor).
       json line;
@@ -391,7 +342,7 @@ int run_segeval(int argc, char** argv) {
                                             ? overlap[size_t(u) * np + size_t(person_of_user[size_t(u)])] : 0}});
       }
       line["users"] = us;
-      per_frame << line.dump() << "\n";
+      per_frame->write(line.dump() + "\n");
     }
     false_users += false_here;
     frames_with_false += false_here > 0;
@@ -532,12 +483,10 @@ int run_segeval(int argc, char** argv) {
     std::printf("    over the people found only      segmented %.4f, ground-truth mask %.4f, difference %+.4f\n",
                 f_seg.value_or(0), f_gt.value_or(0), f_seg.value_or(0) - f_gt.value_or(0));
   }
-  if (a.has("--json")) {
-    const std::string path = a.get("--json");
-    std::ofstream f(path);
-    if (!f) fail(path + ": cannot write");
-    f << out.dump(2) << "\n";
-  }
+  if (per_frame) per_frame->commit();
+  if (digest_out) digest_out->commit();
+  if (a.has("--json")) write_file_atomic(a.get("--json"), out.dump(2) + "\n");
+  check_output_stream();
   return 0;
 }
 

@@ -1,35 +1,101 @@
 #include "tools/synth/motion.h"
 
+#include <zlib.h>
+
 #include <cctype>
+#include <charconv>
 #include <cstdlib>
-#include <fstream>
 #include <map>
 #include <sstream>
+#include <string_view>
 
 #include "tools/common/error.h"
+#include "tools/synth/skeleton_naming.h"
 
 namespace dp::synth {
 using dp::tools::fail;
 
+MocapText read_mocap_text(const std::string& path) {
+  MocapText t;
+  t.path = path;
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (!f) fail("cannot open " + path);
+  gzbuffer(f, 1 << 17);
+  char chunk[1 << 16];
+  for (;;) {
+    const int n = gzread(f, chunk, sizeof chunk);
+    if (n < 0) {
+      int code = 0;
+      const std::string why = gzerror(f, &code);
+      gzclose_r(f);
+      fail(path + ": corrupt or truncated gzip data (" + why + ")");
+    }
+    if (n == 0) break;
+    if (t.bytes.size() + size_t(n) > kMaxMocapFileBytes) {
+      gzclose_r(f);
+      fail(path + ": larger than " + std::to_string(kMaxMocapFileBytes >> 20) + " MiB decompressed (kMaxMocapFileBytes)");
+    }
+    t.bytes.append(chunk, size_t(n));
+  }
+  int code = 0;
+  const std::string why = gzerror(f, &code);
+  // A gzip stream cut short reads as end of file with Z_BUF_ERROR pending.
+  const int closed = gzclose_r(f);
+  if (code != Z_OK || closed != Z_OK)
+    fail(path + ": corrupt or truncated gzip data (" + (code != Z_OK ? why : std::string("unexpected end of file")) + ")");
+  t.ends_with_line_break = !t.bytes.empty() && t.bytes.back() == '\n';
+  return t;
+}
+
 namespace {
 
 struct LineReader {
-  std::string path;
-  std::ifstream in;
+  MocapText text;
+  size_t pos = 0;
   int line_no = 0;
-  explicit LineReader(const std::string& p) : path(p), in(p) {
-    if (!in) fail("cannot open " + path);
+  bool terminated = true;  // the line last returned ended with a line break
+  explicit LineReader(const std::string& p) : text(read_mocap_text(p)) {}
+  bool next(std::string_view& line) {
+    const std::string& b = text.bytes;
+    if (pos >= b.size()) return false;
+    size_t e = b.find('\n', pos);
+    terminated = e != std::string::npos;
+    if (!terminated) e = b.size();
+    line = std::string_view(b).substr(pos, e - pos);
+    pos = e + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    return true;
   }
   bool next(std::string& line) {
-    if (!std::getline(in, line)) return false;
-    ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::string_view v;
+    if (!next(v)) return false;
+    line.assign(v);
     return true;
   }
   [[noreturn]] void error(const std::string& what) const {
-    fail(path + ":" + std::to_string(line_no) + ": " + what);
+    fail(text.path + ":" + std::to_string(line_no) + ": " + what);
   }
 };
+
+// Whitespace-separated fields of a line, as views into it.
+void split_fields(std::string_view line, std::vector<std::string_view>& out) {
+  out.clear();
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+    size_t j = i;
+    while (j < line.size() && line[j] != ' ' && line[j] != '\t') ++j;
+    if (j > i) out.push_back(line.substr(i, j - i));
+    i = j;
+  }
+}
+
+bool parse_number(std::string_view text, double& v) {
+  if (!text.empty() && text[0] == '+') text.remove_prefix(1);
+  const auto r = std::from_chars(text.data(), text.data() + text.size(), v);
+  return !text.empty() && r.ec == std::errc() && r.ptr == text.data() + text.size() && std::isfinite(v);
+}
 
 std::vector<std::string> tokens_of(const std::string& line) {
   std::vector<std::string> out;
@@ -39,10 +105,9 @@ std::vector<std::string> tokens_of(const std::string& line) {
   return out;
 }
 
-double to_number(const LineReader& r, const std::string& text) {
-  char* end = nullptr;
-  double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end || !std::isfinite(v)) r.error("expected a number, got '" + text + "'");
+double to_number(const LineReader& r, std::string_view text) {
+  double v = 0;
+  if (!parse_number(text, v)) r.error("expected a number, got '" + std::string(text) + "'");
   return v;
 }
 
@@ -101,7 +166,8 @@ std::string rig_name_for_asf_bone(const std::string& asf_name) {
   return it == asf_to_rig().end() ? std::string() : it->second;
 }
 
-MotionClip load_asf_amc(const std::string& asf_path, const std::string& amc_path, int frame_stride) {
+MotionClip load_asf_amc(const std::string& asf_path, const std::string& amc_path, int frame_stride,
+                        long expected_frames) {
   if (frame_stride < 1) fail("frame stride must be >= 1");
   std::vector<AsfBone> bones;
   std::map<std::string, int> by_name;
@@ -237,11 +303,25 @@ MotionClip load_asf_amc(const std::string& asf_path, const std::string& amc_path
       if (bones[i].parent < 0) fail(asf_path + ": bone '" + bones[i].name + "' is not in the hierarchy");
   }
 
+  // The body needs these bones; toes, hands and fingers may be missing (they follow).
+  {
+    std::string missing;
+    for (const char* need : {"root", "lowerback", "upperback", "thorax", "lowerneck", "upperneck", "head",
+                             "lclavicle", "lhumerus", "lradius", "lwrist", "lhipjoint", "lfemur", "ltibia", "lfoot",
+                             "rclavicle", "rhumerus", "rradius", "rwrist", "rhipjoint", "rfemur", "rtibia", "rfoot"}) {
+      bool found = false;
+      for (const AsfBone& b : bones) found = found || lower(b.name) == need;
+      if (!found) missing += (missing.empty() ? "" : ", ") + std::string(need);
+    }
+    if (!missing.empty())
+      fail(asf_path + ": ASF skeleton lacks bones " + missing + " (CMU bone names expected)");
+  }
   MotionClip clip;
   {
     std::string stem = amc_path.substr(amc_path.find_last_of('/') + 1);
     clip.name = stem.substr(0, stem.find('.'));
   }
+  clip.skeleton = "cmu-asf";
   clip.frame_stride = frame_stride;
   std::vector<int> segment_of(bones.size(), -1);
   for (size_t i = 0; i < bones.size(); ++i) {
@@ -253,11 +333,22 @@ MotionClip load_asf_amc(const std::string& asf_path, const std::string& amc_path
   }
 
   LineReader r(amc_path);
-  std::string line;
+  std::string_view line;
+  std::vector<std::string_view> t;
   std::vector<std::vector<double>> values(bones.size());
-  int current_frame = -1;
+  std::vector<char> seen(bones.size(), 0);
+  long current_frame = -1;
+  int frame_line = 0;
+  // A frame must list every bone that has degrees of freedom, once: a file cut inside its last
+  // frame otherwise yields missing bones at zero rotation.
   auto finish_frame = [&]() {
     if (current_frame < 0) return;
+    std::string missing;
+    for (size_t b = 0; b < bones.size(); ++b)
+      if (!bones[b].channel_kind.empty() && !seen[b]) missing += (missing.empty() ? "" : " ") + bones[b].name;
+    if (!missing.empty())
+      fail(amc_path + ": frame " + std::to_string(current_frame) + " (line " + std::to_string(frame_line) +
+           ") lacks bones " + missing + " (file truncated inside a frame?)");
     clip.source_frame_count++;
     if ((clip.source_frame_count - 1) % frame_stride != 0) return;
     std::vector<Mat3> world(bones.size());
@@ -277,37 +368,57 @@ MotionClip load_asf_amc(const std::string& asf_path, const std::string& amc_path
     clip.frames.push_back(std::move(seg));
   };
   bool header = true;
+  bool unterminated_data = false;
   while (r.next(line)) {
-    auto t = tokens_of(line);
+    split_fields(line, t);
     if (t.empty() || t[0][0] == '#') continue;
+    unterminated_data = !r.terminated;
     if (t[0][0] == ':') {
-      if (!header) r.error("keyword '" + t[0] + "' after the first frame");
+      if (!header) r.error("keyword '" + std::string(t[0]) + "' after the first frame");
       continue;
     }
     header = false;
     if (t.size() == 1 && std::isdigit(static_cast<unsigned char>(t[0][0]))) {
       finish_frame();
-      current_frame = int(to_number(r, t[0]));
+      const double number = to_number(r, t[0]);
+      if (number != std::floor(number) || number > 1e9) r.error("bad frame number '" + std::string(t[0]) + "'");
+      current_frame = long(number);
+      frame_line = r.line_no;
       for (auto& v : values) v.clear();
+      std::fill(seen.begin(), seen.end(), 0);
       continue;
     }
     if (current_frame < 0) r.error("bone values before the first frame number");
-    auto b = by_name.find(t[0]);
-    if (b == by_name.end()) r.error("unknown bone '" + t[0] + "' (not in " + asf_path + ")");
+    const std::string in_frame = "frame " + std::to_string(current_frame) + ": ";
+    const std::string name(t[0]);
+    auto b = by_name.find(name);
+    if (b == by_name.end()) r.error(in_frame + "unknown bone '" + name + "' (not in " + asf_path + ")");
     const AsfBone& bone = bones[b->second];
+    if (seen[b->second]) r.error(in_frame + "bone '" + name + "' listed twice");
+    seen[b->second] = 1;
     if (t.size() - 1 != bone.channel_kind.size())
-      r.error("bone '" + t[0] + "' has " + std::to_string(t.size() - 1) + " values, the skeleton declares " +
-              std::to_string(bone.channel_kind.size()));
+      r.error(in_frame + "bone '" + name + "' has " + std::to_string(t.size() - 1) +
+              " values, the skeleton declares " + std::to_string(bone.channel_kind.size()));
     std::vector<double>& v = values[b->second];
     v.clear();
-    for (size_t i = 1; i < t.size(); ++i) v.push_back(to_number(r, t[i]));
+    for (size_t i = 1; i < t.size(); ++i) {
+      double x = 0;
+      if (!parse_number(t[i], x)) r.error(in_frame + "expected a number, got '" + std::string(t[i]) + "'");
+      v.push_back(x);
+    }
   }
   finish_frame();
   if (clip.frames.empty()) fail(amc_path + ": no frames");
+  if (expected_frames >= 0 && clip.source_frame_count != expected_frames)
+    fail(amc_path + ": " + std::to_string(clip.source_frame_count) + " frames, the clip index declares " +
+         std::to_string(expected_frames));
+  if (unterminated_data && expected_frames < 0)
+    fail(amc_path + ": frame " + std::to_string(current_frame) +
+         ": the last line has no line break, so the file looks truncated inside its last frame");
   return clip;
 }
 
-MotionClip load_bvh(const std::string& path, int frame_stride) {
+MotionClip load_bvh(const std::string& path, int frame_stride, long expected_frames) {
   if (frame_stride < 1) fail("frame stride must be >= 1");
   struct Joint {
     std::string name;
@@ -357,6 +468,8 @@ MotionClip load_bvh(const std::string& path, int frame_stride) {
     const std::string& k = tok[p].first;
     if (k == "ROOT" || k == "JOINT") {
       if ((k == "ROOT") != stack.empty()) err(p, k == "ROOT" ? "ROOT inside a joint" : "JOINT outside ROOT");
+      if (k == "ROOT" && !joints.empty()) err(p, "a second ROOT (one skeleton per file)");
+      if (joints.size() >= 1000) err(p, "more than 1000 joints");
       Joint j;
       j.name = need(p + 1);
       j.parent = stack.empty() ? -1 : stack.back();
@@ -418,6 +531,52 @@ MotionClip load_bvh(const std::string& path, int frame_stride) {
   if (!stack.empty() || pending_end_site) err(p, "unbalanced braces in HIERARCHY");
   if (joints.empty()) err(p, "no joints");
 
+  // Which rig bone each source joint drives (skeleton_naming.h), and the rest-pose geometry.
+  std::vector<std::string> names;
+  for (const Joint& j : joints) names.push_back(j.name);
+  const SkeletonNaming& naming = recognise_bvh_skeleton(names, path);
+  auto find_joint = [&](const char* name) {
+    for (size_t i = 0; i < joints.size(); ++i)
+      if (lower(joints[i].name) == lower(name)) return int(i);
+    return -1;
+  };
+  std::vector<Vec3> rest_pos(joints.size());
+  for (size_t i = 0; i < joints.size(); ++i)
+    rest_pos[i] = joints[i].parent < 0 ? Vec3{} : rest_pos[joints[i].parent] + joints[i].offset;
+  struct Drive {
+    int source = -1;
+    int tail = -1;       // joint index; -1 = first child / End Site offset; -2 = no direction
+    Vec3 rest_direction; // unit, or zero when undefined
+  };
+  MotionClip clip;
+  std::vector<Drive> drives;
+  for (const JointMapEntry& e : naming.entries) {
+    Drive d;
+    d.source = e.joint[0] == 0 ? 0 : find_joint(e.joint);
+    const bool no_direction = e.tail[0] == '-' && e.tail[1] == 0;
+    d.tail = no_direction ? -2 : e.tail[0] == 0 ? -1 : find_joint(e.tail);
+    if (d.source < 0 || (e.tail[0] != 0 && !no_direction && d.tail < 0)) continue;  // optional, absent
+    if (d.tail >= 0) {
+      d.rest_direction = (rest_pos[d.tail] - rest_pos[d.source]).normalized();
+    } else if (d.tail == -1 && joints[d.source].has_child) {
+      d.rest_direction = joints[d.source].first_child_offset.normalized();
+    }
+    if (d.rest_direction.norm() < 0.5) d.tail = -2;  // zero-length bone: no direction
+    drives.push_back(d);
+    clip.segments.push_back(e.rig_bone);
+    clip.rest_directions.push_back(lower(e.rig_bone) == "hips" ? Vec3{} : d.rest_direction);
+  }
+  // The body must face +z with its left at +x, as the rig does; a mirrored or turned rest pose
+  // would swap sides silently.
+  {
+    const int l = clip.segment_index("LeftUpLeg"), rr = clip.segment_index("RightUpLeg");
+    const int la = clip.segment_index("LeftArm"), ra = clip.segment_index("RightArm");
+    if (l < 0 || rr < 0 || la < 0 || ra < 0) fail(path + ": skeleton map lacks legs or arms");
+    if (!(rest_pos[drives[l].source].x > rest_pos[drives[rr].source].x) ||
+        !(rest_pos[drives[la].source].x > rest_pos[drives[ra].source].x))
+      fail(path + ": rest pose has its left joints at -x (mirrored or turned skeleton); expected y up, facing +z, left at +x");
+  }
+
   int frame_count = -1;
   double frame_time = 0;
   while (r.next(line)) {
@@ -425,7 +584,9 @@ MotionClip load_bvh(const std::string& path, int frame_stride) {
     if (t.empty()) continue;
     if (t[0] == "Frames:") {
       if (t.size() != 2) r.error("Frames: needs a count");
-      frame_count = int(to_number(r, t[1]));
+      const double n = to_number(r, t[1]);
+      if (n < 0 || n > 1e8 || n != std::floor(n)) r.error("bad frame count '" + t[1] + "'");
+      frame_count = int(n);
     } else if (t[0] == "Frame" && t.size() == 3 && t[1] == "Time:") {
       frame_time = to_number(r, t[2]);
       break;
@@ -434,33 +595,34 @@ MotionClip load_bvh(const std::string& path, int frame_stride) {
     }
   }
   if (frame_count < 0 || !(frame_time > 0)) r.error("missing or bad 'Frames:' / 'Frame Time:'");
+  if (expected_frames >= 0 && frame_count != expected_frames)
+    fail(path + ": 'Frames: " + std::to_string(frame_count) + "' but the clip index declares " +
+         std::to_string(expected_frames));
 
-  MotionClip clip;
   {
     std::string stem = path.substr(path.find_last_of('/') + 1);
     clip.name = stem.substr(0, stem.find('.'));
   }
+  clip.skeleton = naming.name;
   clip.source_frame_rate = 1.0 / frame_time;
   clip.frame_stride = frame_stride;
-  std::vector<int> segment_of(joints.size(), -1);
-  for (size_t i = 0; i < joints.size(); ++i) {
-    segment_of[i] = int(clip.segments.size());
-    clip.segments.push_back(joints[i].name);
-    clip.rest_directions.push_back(i == 0 || !joints[i].has_child ? Vec3{} : joints[i].first_child_offset.normalized());
-  }
-  std::vector<double> row;
-  while (r.next(line)) {
-    auto t = tokens_of(line);
+  std::vector<double> row(static_cast<size_t>(channel_total));
+  std::vector<std::string_view> t;
+  std::vector<Mat3> world(joints.size());
+  std::vector<Vec3> pos(joints.size());
+  std::string_view view;
+  while (r.next(view)) {
+    split_fields(view, t);
     if (t.empty()) continue;
     if (int(t.size()) != channel_total)
       r.error("frame has " + std::to_string(t.size()) + " values, the hierarchy declares " + std::to_string(channel_total));
+    if (!r.terminated)
+      r.error("the last frame row has no line break, so the file looks truncated inside frame " +
+              std::to_string(clip.source_frame_count + 1));
     clip.source_frame_count++;
     if (clip.source_frame_count > frame_count) r.error("more frames than 'Frames: " + std::to_string(frame_count) + "'");
     if ((clip.source_frame_count - 1) % frame_stride != 0) continue;
-    row.clear();
-    for (auto& s : t) row.push_back(to_number(r, s));
-    std::vector<Mat3> world(joints.size());
-    std::vector<Mat3> seg(clip.segments.size());
+    for (size_t c = 0; c < t.size(); ++c) row[c] = to_number(r, t[c]);
     for (size_t i = 0; i < joints.size(); ++i) {  // parents precede children in BVH order
       const Joint& j = joints[i];
       Mat3 local;
@@ -471,7 +633,18 @@ MotionClip load_bvh(const std::string& path, int frame_stride) {
         local = local * (kind == 3 ? rot_x(a) : kind == 4 ? rot_y(a) : rot_z(a));
       }
       world[i] = j.parent < 0 ? local : world[j.parent] * local;
-      seg[segment_of[i]] = world[i];
+      pos[i] = j.parent < 0 ? Vec3{} : pos[j.parent] + world[j.parent] * j.offset;
+    }
+    std::vector<Mat3> seg(drives.size());
+    for (size_t s = 0; s < drives.size(); ++s) {
+      const Drive& d = drives[s];
+      Mat3 q = world[d.source];
+      if (d.tail >= 0 && joints[d.tail].parent != d.source) {
+        // The tail lies beyond joints the rig lacks: swing onto where it actually is.
+        const Vec3 actual = pos[d.tail] - pos[d.source];
+        if (actual.norm() > 1e-9) q = rotation_between(q * d.rest_direction, actual) * q;
+      }
+      seg[s] = q;
     }
     clip.frames.push_back(std::move(seg));
   }

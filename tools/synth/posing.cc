@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <queue>
 
 #include "tools/common/error.h"
 
@@ -246,7 +247,7 @@ double pose_distance(const JointSet& a, const JointSet& b) {
   return m;
 }
 
-std::vector<size_t> furthest_neighbour_selection(const std::vector<JointSet>& items, double min_distance) {
+std::vector<size_t> furthest_neighbour_selection_reference(const std::vector<JointSet>& items, double min_distance) {
   std::vector<size_t> selected;
   if (items.empty()) return selected;
   std::vector<double> nearest(items.size(), std::numeric_limits<double>::infinity());
@@ -274,6 +275,145 @@ std::vector<size_t> furthest_neighbour_selection(const std::vector<JointSet>& it
     }
     if (!(best_d >= min_distance)) break;
     next = best;
+  }
+  return selected;
+}
+
+std::vector<size_t> furthest_neighbour_selection(const std::vector<JointSet>& items, double min_distance) {
+  std::vector<size_t> selected;
+  const size_t n = items.size();
+  if (n == 0) return selected;
+  // Every nearest-distance is at most r, the current maximum, so a new centre s can only lower
+  // the items within r of it. d(i, s) >= |x_i - x_s| for any one coordinate of any joint, so a
+  // grid over three coordinates (the most variable ones, from three different joints) finds
+  // those items without scanning the pool.
+  struct KeyAxis {
+    int joint, axis;
+  };
+  std::vector<KeyAxis> key;
+  {
+    std::vector<std::pair<double, int>> variance;  // (variance, joint * 3 + axis)
+    for (int j = 0; j < dp::tools::kJointCount; ++j)
+      for (int ax = 0; ax < 3; ++ax) {
+        double sum = 0, sum2 = 0;
+        for (const JointSet& it : items) {
+          const double v = ax == 0 ? it[j].x : ax == 1 ? it[j].y : it[j].z;
+          sum += v;
+          sum2 += v * v;
+        }
+        variance.push_back({sum2 / double(n) - (sum / double(n)) * (sum / double(n)), j * 3 + ax});
+      }
+    std::sort(variance.begin(), variance.end(), [](const auto& a, const auto& b) {
+      return a.first != b.first ? a.first > b.first : a.second < b.second;
+    });
+    for (const auto& [var, code] : variance) {
+      bool joint_used = false;
+      for (const KeyAxis& k : key) joint_used = joint_used || k.joint == code / 3;
+      if (!joint_used) key.push_back({code / 3, code % 3});
+      if (key.size() == 3) break;
+    }
+  }
+  auto key_value = [&](size_t i, int k) {
+    const Vec3& p = items[i][key[size_t(k)].joint];
+    return key[size_t(k)].axis == 0 ? p.x : key[size_t(k)].axis == 1 ? p.y : p.z;
+  };
+  const double cell = std::max(min_distance, 0.01);
+  struct Cell {
+    int x, y, z;
+    std::vector<uint32_t> members;
+  };
+  std::vector<Cell> cells;
+  std::map<std::array<int, 3>, size_t> cell_of;
+  std::vector<std::array<int, 3>> coords(n);
+  for (size_t i = 0; i < n; ++i) {
+    const std::array<int, 3> c = {int(std::floor(key_value(i, 0) / cell)), int(std::floor(key_value(i, 1) / cell)),
+                                  int(std::floor(key_value(i, 2) / cell))};
+    coords[i] = c;
+    auto it = cell_of.find(c);
+    if (it == cell_of.end()) {
+      it = cell_of.emplace(c, cells.size()).first;
+      cells.push_back({c[0], c[1], c[2], {}});
+    }
+    cells[it->second].members.push_back(uint32_t(i));
+  }
+  // Pool copy in cell order (a cell's members are contiguous in memory), joints ordered from the
+  // most variable down, so the early-out below usually stops at the first joint. The maximum over
+  // joints does not depend on their order: distances are exactly those of the plain scan.
+  std::vector<int> joint_order(dp::tools::kJointCount);
+  {
+    std::vector<std::pair<double, int>> spread;
+    for (int j = 0; j < dp::tools::kJointCount; ++j) {
+      Vec3 mean;
+      for (const JointSet& it : items) mean += it[j];
+      mean = mean * (1.0 / double(n));
+      double var = 0;
+      for (const JointSet& it : items) var += (it[j] - mean).dot(it[j] - mean);
+      spread.push_back({-var, j});
+    }
+    std::sort(spread.begin(), spread.end());
+    for (int j = 0; j < dp::tools::kJointCount; ++j) joint_order[size_t(j)] = spread[size_t(j)].second;
+  }
+  std::vector<JointSet> packed(n);
+  std::vector<uint32_t> packed_index(n);  // packed slot -> item
+  std::vector<uint32_t> slot_of(n);       // item -> packed slot
+  {
+    size_t slot = 0;
+    for (Cell& k : cells) {
+      for (uint32_t& i : k.members) {
+        for (int j = 0; j < dp::tools::kJointCount; ++j) packed[slot][size_t(j)] = items[i][size_t(joint_order[size_t(j)])];
+        packed_index[slot] = i;
+        slot_of[i] = uint32_t(slot);
+        i = uint32_t(slot++);
+      }
+    }
+  }
+  std::vector<double> nearest(n, std::numeric_limits<double>::infinity());  // by packed slot
+  // Max-heap of (nearest distance, -index): the largest distance, then the smallest index, as
+  // the plain scan picks. Entries go stale when an item's distance drops; they are skipped.
+  using Entry = std::pair<double, int64_t>;
+  std::priority_queue<Entry> heap;
+  auto update = [&](size_t slot, const JointSet& s) {
+    double& m = nearest[slot];
+    if (!(m > 0)) return;
+    double d2max = 0;
+    const double m2 = m * m;
+    const JointSet& it = packed[slot];
+    for (size_t j = 0; j < s.size() && d2max < m2; ++j) {
+      const Vec3 e = it[j] - s[j];
+      d2max = std::max(d2max, e.dot(e));
+    }
+    if (d2max < m2) {
+      m = std::sqrt(d2max);
+      heap.push({m, -int64_t(packed_index[slot])});
+    }
+  };
+  size_t next = 0;
+  double radius = std::numeric_limits<double>::infinity();
+  for (;;) {
+    selected.push_back(next);
+    nearest[slot_of[next]] = 0;
+    const JointSet s = packed[slot_of[next]];
+    const int reach = std::isfinite(radius) ? int(std::ceil(radius / cell)) : -1;
+    const double box_cells = reach < 0 ? 1e300 : std::pow(2.0 * reach + 1, 3);
+    const std::array<int, 3>& c = coords[next];
+    if (reach < 0 || box_cells > double(cells.size())) {
+      for (const Cell& k : cells)
+        if (reach < 0 || (std::abs(k.x - c[0]) <= reach && std::abs(k.y - c[1]) <= reach && std::abs(k.z - c[2]) <= reach))
+          for (uint32_t i : k.members) update(i, s);
+    } else {
+      for (int dx = -reach; dx <= reach; ++dx)
+        for (int dy = -reach; dy <= reach; ++dy)
+          for (int dz = -reach; dz <= reach; ++dz) {
+            auto it = cell_of.find({c[0] + dx, c[1] + dy, c[2] + dz});
+            if (it != cell_of.end())
+              for (uint32_t i : cells[it->second].members) update(i, s);
+          }
+    }
+    while (!heap.empty() && heap.top().first != nearest[slot_of[size_t(-heap.top().second)]]) heap.pop();
+    if (heap.empty() || !(heap.top().first >= min_distance)) break;
+    radius = heap.top().first;
+    next = size_t(-heap.top().second);
+    heap.pop();
   }
   return selected;
 }

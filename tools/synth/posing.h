@@ -35,7 +35,7 @@ BodyPose retarget_frame(const HumanAssets& assets, const Skeleton& rest, const M
 
 // Posed bone heads/tails (Hips head fixed at its rest position).
 Skeleton pose_skeleton(const HumanAssets& assets, const Skeleton& rest, const BodyPose& pose);
-// The 16 joints (definitions in the issue / docs/dataset_format.md) on a posed skeleton.
+// The 16 joints (kJointNames order; the rig point each one is: posing.cc) on a posed skeleton.
 JointSet joints_of(const HumanAssets& assets, const Skeleton& posed);
 
 // Linear blend skinning of the body vertices (first kBodyVertexCount of `shaped`). `out` is
@@ -52,7 +52,12 @@ std::vector<uint8_t> vertex_part_labels(const HumanAssets& assets);
 // farthest (d = max over joints of Euclidean distance) from everything selected, until that
 // distance is below `min_distance`. Returns the selected indices in selection order. Every
 // unselected item is then within min_distance of a selected one.
+// Runs in about (poses kept) x (poses within the current radius) distance tests: a grid over the
+// most variable joint bounds which poses a new selection can move closer (docs/synthetic_data.md
+// has the time on the full CMU pool). Gives exactly the selection of the plain O(N x kept) scan,
+// furthest_neighbour_selection_reference, which the tests compare it with.
 std::vector<size_t> furthest_neighbour_selection(const std::vector<JointSet>& items, double min_distance);
+std::vector<size_t> furthest_neighbour_selection_reference(const std::vector<JointSet>& items, double min_distance);
 double pose_distance(const JointSet& a, const JointSet& b);
 
 struct PoseLibrary {

@@ -4,7 +4,10 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <atomic>
 #include <filesystem>
+#include <mutex>
+#include <thread>
 #include <nlohmann/json.hpp>
 
 #include "tools/common/body_model.h"
@@ -27,10 +30,6 @@ double age_control_from_years(double years) {
   return std::min(1.0, 0.5 + 0.5 * (years - 25) / 65.0);
 }
 
-bool ends_with(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
 void sample_shape(Rng& rng, const SynthConfig& c, ShapeControls& s) {
   s.gender = rng.uniform();
   s.age = age_control_from_years(rng.uniform(c.age_min_years, c.age_max_years));
@@ -48,40 +47,43 @@ void sample_shape(Rng& rng, const SynthConfig& c, ShapeControls& s) {
 }  // namespace
 
 std::vector<MotionClip> load_clips(const std::string& assets_dir, const std::vector<std::string>& selection,
-                                   int frame_stride) {
-  const std::string root = assets_dir + "/mocap/cmu";
-  std::vector<std::string> names = selection;
-  std::vector<MotionClip> clips;
-  if (names.empty()) {
-    if (!fs::is_directory(root)) fail("mocap directory " + root + " does not exist (pass --assets ../shared/assets)");
-    for (auto& e : fs::directory_iterator(root))
-      if (e.is_directory()) names.push_back(e.path().filename().string());
-    std::sort(names.begin(), names.end());
-    if (names.empty()) fail(root + " holds no subjects");
+                                   int frame_stride, const std::string& splits_path,
+                                   std::vector<ClipEntry>* entries_out) {
+  const std::string mocap = assets_dir + "/mocap";
+  std::vector<ClipEntry> entries;
+  if (selection.empty()) {
+    // The original 28-clip corpus (mocap/cmu): the default before the index existed.
+    for (ClipEntry& e : read_clip_index(mocap))
+      if (e.path.rfind(mocap + "/cmu/", 0) == 0) entries.push_back(std::move(e));
+    if (entries.empty()) fail(mocap + "/cmu holds no clips");
+  } else {
+    entries = select_clips(mocap, selection, splits_path);
   }
-  for (const std::string& name : names) {
-    if (ends_with(name, ".bvh")) {
-      clips.push_back(load_bvh(name, frame_stride));
-      continue;
+  // Clips parse independently: one worker per core.
+  std::vector<MotionClip> clips(entries.size());
+  std::atomic<size_t> next{0};
+  std::mutex error_mutex;
+  std::string error;
+  auto worker = [&]() {
+    for (;;) {
+      const size_t i = next.fetch_add(1);
+      if (i >= entries.size()) return;
+      try {
+        clips[i] = load_clip(entries[i], frame_stride);
+      } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (error.empty()) error = e.what();
+        next.store(entries.size());
+        return;
+      }
     }
-    const std::string subject = name.substr(0, 2);
-    const std::string dir = root + "/" + subject;
-    if (subject.size() != 2 || !fs::is_directory(dir))
-      fail("unknown clip '" + name + "': no subject directory " + dir);
-    const std::string asf = dir + "/" + subject + ".asf";
-    if (name.size() == 2) {
-      std::vector<std::string> amcs;
-      for (auto& e : fs::directory_iterator(dir))
-        if (ends_with(e.path().string(), ".amc")) amcs.push_back(e.path().string());
-      std::sort(amcs.begin(), amcs.end());
-      if (amcs.empty()) fail(dir + " holds no .amc clips");
-      for (auto& amc : amcs) clips.push_back(load_asf_amc(asf, amc, frame_stride));
-    } else {
-      const std::string amc = dir + "/" + name + ".amc";
-      if (!fs::exists(amc)) fail("unknown clip '" + name + "': " + amc + " does not exist");
-      clips.push_back(load_asf_amc(asf, amc, frame_stride));
-    }
-  }
+  };
+  const size_t threads = std::min<size_t>(entries.size(), std::max(1u, std::thread::hardware_concurrency()));
+  std::vector<std::thread> pool;
+  for (size_t t = 0; t < threads; ++t) pool.emplace_back(worker);
+  for (auto& t : pool) t.join();
+  if (!error.empty()) fail(error);
+  if (entries_out) *entries_out = std::move(entries);
   return clips;
 }
 
@@ -94,11 +96,21 @@ Synthesizer::Synthesizer(const std::string& assets_dir, const SynthConfig& confi
   intrinsics_.fx = intrinsics_.fy = config_.focal_640 * config_.width / 640.0;
   assets_ = load_human_assets(assets_dir);
   vertex_labels_ = vertex_part_labels(assets_);
-  std::vector<MotionClip> clips = load_clips(assets_dir, config_.clips, config_.pose_frame_stride);
-  for (auto& c : clips) clip_names_.push_back(c.name);
-  // A sequence walks through the clips frame by frame: no pruning, clip order kept.
-  library_ = build_pose_library(assets_, clips, config_.sequence ? 0.0 : config_.pose_min_distance_m,
-                                /*keep_order=*/config_.sequence);
+  std::vector<ClipEntry> entries;
+  std::vector<MotionClip> clips =
+      load_clips(assets_dir, config_.clips, config_.pose_frame_stride, config_.splits_path, &entries);
+  std::vector<std::string> categories;
+  for (size_t i = 0; i < clips.size(); ++i) {
+    clip_names_.push_back(clips[i].name);
+    categories.push_back(entries[i].category);
+  }
+  if (config_.sequence) {
+    // A sequence walks through the clips frame by frame: no pruning, clip order kept.
+    library_ = build_pose_library(assets_, clips, 0.0, /*keep_order=*/true);
+  } else {
+    library_ = build_pose_pool(assets_, clips, categories, config_.pose_variation, config_.pose_min_distance_m,
+                               &pool_report_);
+  }
   if (library_.poses.empty()) fail("no poses from the selected clips");
 }
 
@@ -445,6 +457,12 @@ dp::tools::DatasetMeta Synthesizer::dataset_meta() const {
   if (config_.people > 1) extra["people"] = config_.people;
   if (config_.clutter > 0) extra["clutter"] = config_.clutter;
   if (config_.sequence) extra["sequence"] = true;
+  if (config_.pose_variation.any() && !config_.sequence)
+    extra["pose_variation"] = {{"mirror", config_.pose_variation.mirror},
+                               {"noise_copies", config_.pose_variation.noise_copies},
+                               {"recombined_per_pose", config_.pose_variation.recombined_per_pose},
+                               {"noise_scale", config_.pose_variation.noise_scale},
+                               {"seed", config_.pose_variation.seed}};
   m.extra_json = extra.dump();
   return m;
 }

@@ -18,8 +18,10 @@
 
 #include "tools/common/dataset.h"
 #include "tools/common/png_io.h"
+#include "tools/synth/clip_index.h"
 #include "tools/synth/depth_noise.h"
 #include "tools/synth/human_model.h"
+#include "tools/synth/pose_pool.h"
 #include "tools/synth/posing.h"
 #include "tools/synth/rasterizer.h"
 
@@ -37,11 +39,14 @@ struct SynthConfig {
   // clip order, unpruned) and draws fresh sensor noise. A recording-like sequence for trackers.
   bool sequence = false;
   NoiseConfig noise;
-  // Clips: "02" (all clips of subject 02), "02_01" (one clip), or a path to a .bvh file. Empty =
-  // every ASF/AMC clip under assets/mocap/cmu.
+  // Clips (clip_index.h): "02" (all clips of subject 02), "02_01" (one clip), "all" (every clip
+  // of mocap/clips.tsv), "split:train|validation|test" (splits_path), or a path to a .bvh/.amc
+  // file (plain or .gz). Empty = the clips under assets/mocap/cmu.
   std::vector<std::string> clips;
+  std::string splits_path = kDefaultSplitsPath;
   int pose_frame_stride = 4;         // sample every 4th mocap frame (30 Hz of 120 Hz) before pruning
   double pose_min_distance_m = 0.05; // D_pose of the furthest-neighbour pruning
+  PoseVariation pose_variation;      // synthetic poses added before pruning (pose_pool.h); none by default
   double mirror_probability = 0.5;
   // Scene ranges (see docs/synthetic_data.md).
   double distance_min_m = 1.2, distance_max_m = 4.0;     // camera to body, along the floor
@@ -115,6 +120,7 @@ class Synthesizer {
   const Intrinsics& intrinsics() const { return intrinsics_; }
   const HumanAssets& assets() const { return assets_; }
   const PoseLibrary& pose_library() const { return library_; }
+  const PosePoolReport& pose_pool_report() const { return pool_report_; }
   const std::vector<uint8_t>& vertex_labels() const { return vertex_labels_; }
   const std::vector<std::string>& clip_names() const { return clip_names_; }
 
@@ -142,12 +148,16 @@ class Synthesizer {
   HumanAssets assets_;
   std::vector<uint8_t> vertex_labels_;
   PoseLibrary library_;
+  PosePoolReport pool_report_;
   std::vector<std::string> clip_names_;
 };
 
-// Loads the clips named by config.clips (see SynthConfig::clips) from assets_dir/mocap/cmu.
+// Loads the clips named by config.clips (see SynthConfig::clips and clip_index.h) from
+// assets_dir/mocap, in parallel; an empty selection means the clips under mocap/cmu. entries_out
+// (optional) receives each clip's index entry (category, split), in the same order.
 std::vector<MotionClip> load_clips(const std::string& assets_dir, const std::vector<std::string>& selection,
-                                   int frame_stride);
+                                   int frame_stride, const std::string& splits_path = kDefaultSplitsPath,
+                                   std::vector<ClipEntry>* entries_out = nullptr);
 
 // Part colours (31 distinct RGB) for figures and previews; index kNoLabel = black.
 void part_colour(uint8_t part, uint8_t rgb[3]);

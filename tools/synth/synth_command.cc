@@ -1,5 +1,6 @@
 // `depthpose synth`: writes a synthetic dataset (layout v1, docs/dataset_format.md) rendered from
 // the MakeHuman body and CMU motion; see docs/synthetic_data.md.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -29,7 +30,10 @@ const char* kUsage =
     "  --frames N          number of frames\n"
     "  --seed S            random seed (default 1); same arguments + seed = identical dataset\n"
     "  --width W --height H  image size (default 320x240; 640x480 works; fx=fy=525*W/640)\n"
-    "  --clips LIST        comma list: subject (02), clip (02_01) or path.bvh (default: all)\n"
+    "  --clips LIST        comma list: subject (02), clip (02_01), all (every clip of mocap/clips.tsv),\n"
+    "                      split:train|validation|test (see --splits), or a .bvh/.amc file (plain or\n"
+    "                      .gz); default: the 28 clips under mocap/cmu\n"
+    "  --splits FILE       held-out splits table (default tools/synth/splits.tsv)\n"
     "  --threads N         worker threads (default: all cores); output does not depend on it\n"
     "  --preview FILE.png  contact sheet of the first frames (depth | parts | joints)\n"
     "  --rotation DEG      body yaw uniform in [-DEG, DEG] (default 60; 180 or 360 = any)\n"
@@ -43,9 +47,16 @@ const char* kUsage =
     "  --no-noise          clean depth (no shadows, dropouts, quantization)\n"
     "  --pose-distance M   D_pose of the pose pruning in metres (default 0.05)\n"
     "  --pose-stride N     use every N-th mocap frame before pruning (default 4)\n"
+    "  --pose-pool KIND    clips (default): the sampled mocap frames; varied: plus their mirror images,\n"
+    "                      one rotation-noise copy each within the mocap's joint limits and 0.5\n"
+    "                      upper/lower-body recombinations per pose (docs/synthetic_data.md)\n"
+    "  --pose-seed S       seed of the pose variation (default 1)\n"
+    "  --pool-report       print the pose pool per CMU category (before/after pruning, times)\n"
+    "  --pool-sheet FILE.png  one row of pruned-pool poses per kind (real, mirror, noise, recombined)\n"
     "  --ages A-B          age range in years (default 13-75)\n"
     "  --parts-figure PREFIX  write PREFIX_front.png and PREFIX_back.png (labelled body, docs/parts.md)\n"
-    "  --pose-sheet FILE.png  contact sheet of pose-library samples (to check retargeting)\n";
+    "  --pose-sheet FILE.png  one row of posed bodies per skeleton naming of the selected clips\n"
+    "                      (first frame, then frames spread over its clips): checks retargeting\n";
 
 std::string format_seconds(double s) {
   char buf[32];
@@ -64,8 +75,8 @@ int run_synth(int argc, char** argv) {
   dp::tools::Args args(argc, argv, kUsage,
                        {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
-                        "--pose-sheet", "--people", "--clutter"},
-                       {"--floor", "--no-noise", "--sequence"});
+                        "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed", "--pool-sheet"},
+                       {"--floor", "--no-noise", "--sequence", "--pool-report"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
     return 0;
@@ -85,6 +96,16 @@ int run_synth(int argc, char** argv) {
   if (!(config.pose_min_distance_m >= 0)) fail("--pose-distance must be >= 0");
   if (!(config.rotation_deg >= 0)) fail("--rotation must be >= 0");
   if (args.has("--clips")) config.clips = dp::tools::split_list(args.get("--clips"));
+  config.splits_path = args.get("--splits", kDefaultSplitsPath);
+  const std::string pool_kind = args.get("--pose-pool", "clips");
+  if (pool_kind == "varied") {
+    config.pose_variation.mirror = true;
+    config.pose_variation.noise_copies = 1;
+    config.pose_variation.recombined_per_pose = 0.5;
+  } else if (pool_kind != "clips") {
+    fail("--pose-pool must be clips or varied, got '" + pool_kind + "'");
+  }
+  config.pose_variation.seed = uint64_t(args.get_int("--pose-seed", 1));
   if (args.has("--ages")) {
     const std::string a = args.get("--ages");
     char* end = nullptr;
@@ -96,7 +117,9 @@ int run_synth(int argc, char** argv) {
       fail("--ages wants A-B with 1 <= A <= B <= 90, got '" + a + "'");
   }
   const std::string assets = args.get("--assets", "../shared/assets");
-  const bool figures_only = (args.has("--parts-figure") || args.has("--pose-sheet")) && !args.has("--out");
+  const bool figures_only =
+      (args.has("--parts-figure") || args.has("--pose-sheet") || args.has("--pool-sheet") || args.flag("--pool-report")) &&
+      !args.has("--out");
 
   const auto t0 = std::chrono::steady_clock::now();
   Synthesizer synth(assets, config);
@@ -105,6 +128,8 @@ int run_synth(int argc, char** argv) {
                synth.clip_names().size(), synth.pose_library().candidate_count, synth.pose_library().poses.size(),
                config.pose_min_distance_m * 1000, load_s);
 
+  if (args.flag("--pool-report"))
+    std::printf("%s", format_pose_pool_report(synth.pose_pool_report(), config.pose_min_distance_m).c_str());
   if (args.has("--parts-figure")) {
     const std::string prefix = args.get("--parts-figure");
     const BodyPose pose = rest_pose(synth.assets());
@@ -113,21 +138,74 @@ int run_synth(int argc, char** argv) {
     std::fprintf(stderr, "synth: wrote %s_front.png and %s_back.png\n", prefix.c_str(), prefix.c_str());
   }
   if (args.has("--pose-sheet")) {
-    const int cols = 8, rows = 4, cw = 160, ch = 240;
+    // One row per skeleton naming among the selected clips: its first frame (the rest pose of a
+    // BVH conversion, where one exists), then frames spread evenly over all its clips. Left parts
+    // and right parts have different colours (docs/parts.md), so a limb retargeted onto the wrong
+    // bone or side shows at a glance.
+    const std::vector<MotionClip> clips = load_clips(assets, config.clips, config.pose_frame_stride, config.splits_path);
+    std::vector<std::string> namings;
+    for (const MotionClip& c : clips)
+      if (std::find(namings.begin(), namings.end(), c.skeleton) == namings.end()) namings.push_back(c.skeleton);
+    const int cols = 8, cw = 160, ch = 240;
+    const int rows = int(namings.size());
     dp::tools::ImageRgb sheet;
     sheet.resize(cols * cw, rows * ch);
-    const size_t n = synth.pose_library().poses.size();
-    for (int i = 0; i < cols * rows; ++i) {
-      const size_t pi = (n * size_t(i)) / size_t(cols * rows);
-      dp::tools::ImageRgb cell = synth.render_parts_figure(synth.pose_library().poses[pi], 20, cw, ch);
-      for (int y = 0; y < ch; ++y)
-        for (int x = 0; x < cw; ++x) {
-          const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
-          sheet.set((i % cols) * cw + x, (i / cols) * ch + y, c[0], c[1], c[2]);
-        }
+    const Skeleton rest = measure_skeleton(synth.assets(), synth.assets().base_vertices);
+    for (int row = 0; row < rows; ++row) {
+      std::vector<std::pair<const MotionClip*, size_t>> frames;
+      for (const MotionClip& c : clips)
+        if (c.skeleton == namings[size_t(row)])
+          for (size_t k = 0; k < c.frames.size(); ++k) frames.push_back({&c, k});
+      std::fprintf(stderr, "synth: pose sheet row %d: %s (%zu frames)\n", row + 1, namings[size_t(row)].c_str(),
+                   frames.size());
+      for (int i = 0; i < cols; ++i) {
+        const size_t at = i == 0 ? 0 : frames.size() * size_t(2 * i - 1) / size_t(2 * (cols - 1));
+        const BodyPose pose = retarget_frame(synth.assets(), rest, *frames[at].first, frames[at].second);
+        dp::tools::ImageRgb cell = synth.render_parts_figure(pose, 20, cw, ch);
+        for (int y = 0; y < ch; ++y)
+          for (int x = 0; x < cw; ++x) {
+            const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
+            sheet.set(i * cw + x, row * ch + y, c[0], c[1], c[2]);
+          }
+      }
     }
     dp::tools::write_png_rgb(args.get("--pose-sheet"), sheet);
     std::fprintf(stderr, "synth: wrote %s\n", args.get("--pose-sheet").c_str());
+  }
+  if (args.has("--pool-sheet")) {
+    // One row per pose kind in the pruned pool (real, mirror, noise, recombined): poses spread
+    // evenly over that kind's entries, to check that synthetic variation stays human.
+    const PoseLibrary& lib = synth.pose_library();
+    auto kind_of = [](const std::string& origin) {
+      if (origin.find('+') != std::string::npos) return 3;
+      if (origin.find(" noise ") != std::string::npos) return 2;
+      if (origin.find(" mirror") != std::string::npos) return 1;
+      return 0;
+    };
+    std::vector<std::vector<size_t>> by_kind(4);
+    for (size_t i = 0; i < lib.poses.size(); ++i) by_kind[size_t(kind_of(lib.origin[i]))].push_back(i);
+    std::vector<int> kinds;
+    for (int k = 0; k < 4; ++k)
+      if (!by_kind[size_t(k)].empty()) kinds.push_back(k);
+    const int cols = 8, cw = 160, ch = 240;
+    dp::tools::ImageRgb sheet;
+    sheet.resize(cols * cw, int(kinds.size()) * ch);
+    for (size_t row = 0; row < kinds.size(); ++row) {
+      const std::vector<size_t>& members = by_kind[size_t(kinds[row])];
+      std::fprintf(stderr, "synth: pool sheet row %zu: %s (%zu poses)\n", row + 1, pose_kind_name(PoseKind(kinds[row])),
+                   members.size());
+      for (int i = 0; i < cols; ++i) {
+        const size_t pick = members[members.size() * size_t(2 * i + 1) / size_t(2 * cols)];
+        dp::tools::ImageRgb cell = synth.render_parts_figure(lib.poses[pick], 20, cw, ch);
+        for (int y = 0; y < ch; ++y)
+          for (int x = 0; x < cw; ++x) {
+            const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
+            sheet.set(i * cw + x, int(row) * ch + y, c[0], c[1], c[2]);
+          }
+      }
+    }
+    dp::tools::write_png_rgb(args.get("--pool-sheet"), sheet);
+    std::fprintf(stderr, "synth: wrote %s\n", args.get("--pool-sheet").c_str());
   }
   if (figures_only) return 0;
 

@@ -13,6 +13,7 @@
 
 #include "runtime/fixed_point.h"
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
 
 namespace dp::train {
 using nlohmann::json;
@@ -330,20 +331,11 @@ TrainedForest parse_forest(const uint8_t* data, size_t size, const std::string& 
 
 void write_forest(const std::string& path, const TrainedForest& forest) {
   const std::vector<uint8_t> bytes = serialize_forest(forest);
-  const std::string tmp = path + ".part";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) fail("cannot create " + tmp);
-    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    if (!out) fail("cannot write " + tmp);
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("cannot rename " + tmp + " to " + path);
+  tools::write_file_atomic(path, bytes.data(), bytes.size());  // temporary file removed on failure
 }
 
 TrainedForest read_forest(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail("cannot open trained forest " + path);
-  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::vector<uint8_t> bytes = tools::read_file_bytes(path, "trained forest");
   return parse_forest(bytes.data(), bytes.size(), path);
 }
 

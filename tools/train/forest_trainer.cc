@@ -1,12 +1,55 @@
 #include "tools/train/forest_trainer.h"
 
 #include <chrono>
+#include <cstdio>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "tools/common/error.h"
+#include "tools/train/checkpoint.h"
 
 namespace dp::train {
 using tools::fail;
+
+std::string forest_options_json(const ForestOptions& options, size_t trees) {
+  const TreeParams& t = options.tree;
+  nlohmann::json j;
+  j["method"] = options.method;
+  j["trees"] = trees;
+  j["objective"] = t.objective == Objective::kClassification ? "classification" : "regression";
+  j["depth"] = t.max_depth;
+  j["offsets"] = t.offset_candidates;
+  j["thresholds"] = t.threshold_candidates;
+  j["max_offset_pxm"] = t.max_offset_pxm;
+  j["min_samples"] = t.min_samples;
+  j["rho_m"] = t.rho_m;
+  j["seed"] = t.seed;
+  j["pixels_per_image"] = options.pixels_per_image;
+  j["images_per_tree"] = options.images_per_tree;
+  if (t.proposal) {
+    uint64_t h = 0xCBF29CE484222325ull;
+    auto mix = [&](int64_t v) { h = (h ^ static_cast<uint64_t>(v)) * 0x100000001B3ull; };
+    for (const auto* list : {&t.proposal->first, &t.proposal->second}) {
+      mix(static_cast<int64_t>(list->size()));
+      for (const auto& o : *list) mix(o[0] * 65536 + o[1]);
+    }
+    mix(static_cast<int64_t>(t.proposal->uniform_fraction * 1e9));
+    mix(t.proposal->jitter_pxm);
+    char b[20];
+    std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(h));
+    j["proposal"] = b;
+  } else {
+    j["proposal"] = "uniform";
+  }
+  if (options.method == "ojr") {
+    j["nres"] = options.leaf.reservoir;
+    j["bandwidth_m"] = options.leaf.bandwidth_m;
+    j["votes_per_leaf"] = options.leaf.votes_per_joint;
+    j["vote_length_m"] = options.leaf.vote_length_m;
+    j["leaf_seed"] = options.leaf.seed;
+  }
+  return j.dump();
+}
 
 TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options, const ProgressFn& progress,
                            ForestStats* stats_out) {
@@ -33,6 +76,19 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
   if (options.structure && options.structure->reference_focal_px != set.reference_focal_px)
     fail("retro-fitting: the training set's reference focal length differs from the structure's");
 
+  TrainingCheckpoint checkpoint;
+  const bool checkpointing = !options.checkpoint_path.empty() && !options.structure;
+  if (checkpointing) {
+    checkpoint.options_json = forest_options_json(options, tree_count);
+    checkpoint.data_digest = training_data_digest(set);
+    if (options.resume && std::ifstream(options.checkpoint_path).good()) {
+      TrainingCheckpoint found = read_checkpoint(options.checkpoint_path);
+      check_checkpoint_matches(found, checkpoint.options_json, checkpoint.data_digest, options.checkpoint_path);
+      if (found.trees.size() > tree_count) fail("checkpoint " + options.checkpoint_path + " holds more trees than the run");
+      checkpoint.trees = std::move(found.trees);
+    }
+  }
+
   const size_t image_bytes = set.image_bytes();
   for (size_t t = 0; t < tree_count; ++t) {
     std::vector<TrainingPixel> pixels = set.tree_pixels[t];
@@ -48,7 +104,19 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
       ranges = group_by_leaf(set, tree, pixels, options.tree.threads);
       stats.peak_bytes = std::max(stats.peak_bytes, tree_pixels * (sizeof(TrainingPixel) * 2 + 4));
     } else {
-      GrownTree grown = grow_tree(set, std::move(pixels), static_cast<int>(t), options.tree, progress);
+      // A copy: level_done overwrites checkpoint.trees[t] while grow_tree still reads the resume state.
+      const GrowthState resume_state = t < checkpoint.trees.size() ? checkpoint.trees[t] : GrowthState{};
+      const GrowthState* resume = t < checkpoint.trees.size() ? &resume_state : nullptr;
+      LevelDoneFn level_done;
+      if (checkpointing)
+        level_done = [&](const GrowthState& state) {
+          checkpoint.trees.resize(t + 1);
+          checkpoint.trees[t] = state;
+          write_checkpoint(options.checkpoint_path, checkpoint);
+          if (options.after_checkpoint) options.after_checkpoint(static_cast<int>(t), state.levels_done);
+        };
+      GrownTree grown =
+          grow_tree(set, std::move(pixels), static_cast<int>(t), options.tree, progress, resume, level_done);
       tree = std::move(grown.tree);
       pixels = std::move(grown.pixels);
       ranges = std::move(grown.leaf_ranges);

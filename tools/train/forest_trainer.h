@@ -4,6 +4,7 @@
 #pragma once
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "tools/train/forest_file.h"
 #include "tools/train/leaf_models.h"
@@ -19,7 +20,19 @@ struct ForestOptions {
   const TrainedForest* structure = nullptr;  // retro-fit leaves onto this forest's trees
   int pixels_per_image = 0;            // recorded in the configuration only
   int images_per_tree = 0;             // recorded in the configuration only
+  // Checkpoints (checkpoint.h), for grown forests only (retro-fitting is not checkpointed):
+  // written after every level of every tree when checkpoint_path is set. With `resume` and an
+  // existing checkpoint, growth continues from it (refused when its options or data differ); a
+  // missing checkpoint starts from the beginning.
+  std::string checkpoint_path;
+  bool resume = false;
+  // Called after each checkpoint is written (tree, levels done). Tests throw from it to stop a run.
+  std::function<void(int tree, int levels_done)> after_checkpoint;
 };
+
+// The options that determine the forest, as a JSON object (what a checkpoint must match):
+// everything in ForestOptions except threads, checkpointing and hooks; the proposal by digest.
+std::string forest_options_json(const ForestOptions& options, size_t trees);
 
 struct ForestStats {
   double structure_seconds = 0, leaf_seconds = 0;

@@ -1,6 +1,7 @@
 // `depthpose train`: command-line front end of forest_trainer.h. docs/training.md is the manual.
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <thread>
@@ -37,6 +38,9 @@ constexpr const char* kUsage =
     "  --proposal FILE        mixture proposal: offsets drawn near FILE's chosen ones (90%) or uniform (10%)\n"
     "  --seed S               random seed (default 1); the forest is the same for any --threads\n"
     "  --threads N            worker threads (default: all cores)\n"
+    "  --checkpoint FILE      checkpoint written after every level (default: --out FILE + .checkpoint;\n"
+    "                         removed once the forest is written)\n"
+    "  --resume               continue from the checkpoint (same options and data; none = start over)\n"
     "  --quiet                no progress on stderr\n";
 
 std::string format_duration(double s) {
@@ -55,8 +59,8 @@ int run_train(int argc, char** argv) {
                    {"--data", "--method", "--trees", "--depth", "--out", "--objective", "--pixels-per-image",
                     "--images-per-tree", "--offsets", "--thresholds", "--max-offset", "--reference-focal",
                     "--min-samples", "--rho", "--nres", "--bandwidth", "--votes-per-leaf", "--vote-length",
-                    "--structure", "--structure-depth", "--proposal", "--seed", "--threads"},
-                   {"--quiet"});
+                    "--structure", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint"},
+                   {"--quiet", "--resume"});
   if (args.help_requested()) {
     std::cout << kUsage;
     return 0;
@@ -138,11 +142,27 @@ int run_train(int argc, char** argv) {
     fo.leaf.vote_length_m.push_back(static_cast<float>(x));
   }
 
+  fo.checkpoint_path = args.get("--checkpoint", out_path + ".checkpoint");
+  fo.resume = args.flag("--resume");
+  if (structure && (args.has("--checkpoint") || fo.resume))
+    tools::fail("--checkpoint/--resume apply to grown forests; retro-fitting (--structure) is not checkpointed");
+  if (!quiet && fo.resume && !structure)
+    std::fprintf(stderr, "train: %s\n",
+                 std::ifstream(fo.checkpoint_path).good()
+                     ? ("resuming from checkpoint " + fo.checkpoint_path).c_str()
+                     : ("no checkpoint at " + fo.checkpoint_path + ", starting from the beginning").c_str());
+
   const int trees = static_cast<int>(set.tree_pixels.size());
   const int depth = fo.tree.max_depth;
-  double done_seconds = 0;  // finished trees
+  double done_seconds = 0;  // trees grown (not replayed) to the end in this run
+  int done_trees = 0;
   ProgressFn progress = [&](const LevelReport& r) {
     if (quiet) return;
+    if (r.resumed) {
+      std::fprintf(stderr, "train: tree %d/%d: levels 0..%d replayed from the checkpoint in %s\n", r.tree + 1, trees,
+                   r.level, format_duration(r.tree_seconds).c_str());
+      return;
+    }
     if (r.partial) {
       const double level_left = r.done > 0 ? r.seconds * (1 - r.done) / r.done : 0;
       std::fprintf(stderr, "train: tree %d/%d level %2d/%d: %3.0f%% of the split search, %s (level ETA %s)\n",
@@ -152,18 +172,22 @@ int run_train(int argc, char** argv) {
     }
     const double per_level = r.tree_seconds / (r.level + 1);
     const double tree_left = per_level * std::max(0, depth - r.level - 1);
-    const double per_tree = r.tree == 0 ? per_level * depth : done_seconds / r.tree;
+    const double per_tree = done_trees == 0 ? per_level * depth : done_seconds / done_trees;
     const double eta = tree_left + per_tree * (trees - r.tree - 1);
     std::fprintf(stderr,
                  "train: tree %d/%d level %2d/%d: %zu nodes, %zu split, %.2fM px, %.2f G evals, %s (tree %s, ETA <= %s)\n",
                  r.tree + 1, trees, r.level, depth, r.frontier_nodes, r.split_nodes, r.active_pixels / 1e6,
                  r.feature_evaluations / 1e9, format_duration(r.seconds).c_str(),
                  format_duration(r.tree_seconds).c_str(), format_duration(eta).c_str());
-    if (r.split_nodes == 0 || r.level + 1 == depth) done_seconds += r.tree_seconds;
+    if (r.split_nodes == 0 || r.level + 1 == depth) {
+      done_seconds += r.tree_seconds;
+      ++done_trees;
+    }
   };
   ForestStats stats;
   TrainedForest forest = train_forest(set, fo, progress, &stats);
   write_forest(out_path, forest);
+  if (!structure) std::remove(fo.checkpoint_path.c_str());  // the forest supersedes it
   if (!quiet) {
     size_t nodes = 0, leaves = 0;
     for (const TrainedTree& t : forest.trees) {

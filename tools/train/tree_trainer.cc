@@ -1,11 +1,12 @@
 #include "tools/train/tree_trainer.h"
 
-#include <emmintrin.h>
+#include <immintrin.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <climits>
+#include <cstdlib>
 #include <cmath>
 #include <exception>
 #include <mutex>
@@ -57,12 +58,10 @@ struct NLogN {
     for (int i = 1; i < kNLogNTable; ++i) v[i] = i * std::log(double(i));
   }
 };
-const NLogN& nlogn_table() {
-  static const NLogN t;
-  return t;
-}
+// Built at program start (before main, so no guard check in the scoring loops).
+const NLogN kNLogN;
 inline double nlogn(uint32_t n) {
-  return n < uint32_t(kNLogNTable) ? nlogn_table().v[n] : double(n) * std::log(double(n));
+  return n < uint32_t(kNLogNTable) ? kNLogN.v[n] : double(n) * std::log(double(n));
 }
 
 }  // namespace
@@ -114,26 +113,32 @@ OffsetProposal OffsetProposal::from_forest(const TrainedForest& forest) {
 
 namespace {
 
-constexpr int kBlock = 256;          // pixels decoded at once, reused for a block of candidates
 constexpr int kMaxThresholds = 255;  // padded search table of 256 entries
+constexpr int kBlock = kMaxThresholds;  // pixels of a node's threshold sample
+// Upper bound on one work item's classification histogram cells (uint32): 64k = 256 KiB, half of
+// this machine's 512 KiB L2 per core, leaving the rest for the probe images' lines.
+constexpr size_t kItemHistogramEntries = 65536;
+// Pixels per range item at least, near the root (see grow_tree): enough that an item's fixed cost
+// (zeroing and summing its partial histogram) stays small next to its feature evaluations.
+constexpr uint32_t kMinRangePixels = 4096;
+// Upper bound on a candidate group's histogram cells near the root: 256k = 1 MiB per range item;
+// a pixel's increments stay within its class's bins × candidates block (≤ 64 KiB at 31 classes).
+constexpr size_t kRangeHistogramEntries = 262144;
 
 struct Candidate {
   int32_t du1, dv1, du2, dv2;
   int thresholds;        // unique, sorted
   int search_top;        // half the padded table size
   int32_t table[kMaxThresholds + 1];  // thresholds, then INT32_MAX
-  alignas(16) int16_t splat[kMaxThresholds][8];  // each threshold in all 8 lanes (SIMD binning)
 };
 
-// Per-block decoded pixels (structure of arrays).
+// A node's threshold sample, decoded (structure of arrays).
 struct Block {
   int count = 0;
   const uint16_t* image[kBlock];
   int32_t width[kBlock], height[kBlock], u[kBlock], v[kBlock], scale[kBlock];
   int32_t depth[kBlock];  // the pixel's own probe value
-  uint8_t label[kBlock];  // compact label of the node
-  alignas(16) int16_t feature[kBlock];  // |feature| ≤ 32766 fits int16
-  alignas(16) int16_t bin[kBlock];
+  int16_t feature[kBlock];  // |feature| ≤ 32766 fits int16
 };
 
 // probe_depth() without branches: off-image probes load element 0 and then select the background
@@ -175,16 +180,133 @@ inline int32_t feature_of_pixel(const TrainingSet& set, const TrainingPixel& p, 
                        c.du2, c.dv2);
 }
 
-// Bin = number of thresholds below the feature, 8 pixels at a time: a linear scan of the sorted
-// thresholds with SIMD compares (no branches, no dependent loads; lanes past count are ignored).
-void block_bins(Block& b, const Candidate& c) {
-  for (int i = 0; i < b.count; i += 8) {
-    const __m128i f = _mm_load_si128(reinterpret_cast<const __m128i*>(b.feature + i));
-    __m128i count = _mm_setzero_si128();
-    for (int t = 0; t < c.thresholds; ++t)
-      count = _mm_sub_epi16(count, _mm_cmpgt_epi16(f, _mm_load_si128(reinterpret_cast<const __m128i*>(c.splat[t]))));
-    _mm_store_si128(reinterpret_cast<__m128i*>(b.bin + i), count);
+// The candidates of one work item in structure-of-arrays form for the pixel-major kernel: offsets
+// per candidate, thresholds transposed ([threshold][candidate]) and padded with kNoThreshold, the
+// count padded to a multiple of kLanes with inert candidates (zero offsets, no thresholds).
+constexpr int kLanes = 16;                    // int16 lanes of an AVX2 register
+constexpr int16_t kNoThreshold = 32767;       // above every feature (|feature| ≤ 32766)
+struct CandidateLanes {
+  int count = 0, padded = 0, thresholds = 0;  // thresholds = the most any candidate has
+  std::vector<int32_t> du1, dv1, du2, dv2;
+  std::vector<int16_t> table;                 // thresholds × padded
+};
+
+void make_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
+  l.count = static_cast<int>(candidates.size());
+  l.padded = (l.count + kLanes - 1) / kLanes * kLanes;
+  l.thresholds = 0;
+  for (const Candidate& c : candidates) l.thresholds = std::max(l.thresholds, c.thresholds);
+  for (auto* v : {&l.du1, &l.dv1, &l.du2, &l.dv2}) v->assign(l.padded, 0);
+  l.table.assign(size_t(l.thresholds) * l.padded, kNoThreshold);
+  for (int c = 0; c < l.count; ++c) {
+    const Candidate& cand = candidates[c];
+    l.du1[c] = cand.du1;
+    l.dv1[c] = cand.dv1;
+    l.du2[c] = cand.du2;
+    l.dv2[c] = cand.dv2;
+    for (int t = 0; t < cand.thresholds; ++t) l.table[size_t(t) * l.padded + c] = static_cast<int16_t>(cand.table[t]);
   }
+}
+
+// A training image as the kernel reads it.
+struct ImageRef {
+  const uint16_t* probe;
+  int32_t width, height;
+};
+
+// Features and bins of every candidate at one pixel (same values as dp::depth_feature and
+// block_bins). Pixel-major: the pixel's neighbourhood stays in L1 while all candidates probe it,
+// and consecutive pixels of a node mostly come from the same image (pixels stay in image order).
+// A unary candidate (δ2 = 0) probes the pixel itself (offset 0 rounds to 0), which is its depth.
+// Off-image probes load element 0 and OR in 0x7FFF: probe values are ≤ 32767, so the result is
+// the background constant 32767 without a branch or select.
+// Writes bin[0, l.padded); `feature` is scratch of l.padded entries. `l` is shared by threads
+// (read only); feature and bin are the calling thread's.
+inline void pixel_features(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v, int32_t s,
+                           int16_t* feature, int16_t* bin) {
+  static_assert(kBackgroundDepthMm == 0x7FFF, "the OR trick needs the background to be all ones");
+  const uint32_t w = static_cast<uint32_t>(im.width), h = static_cast<uint32_t>(im.height);
+  for (int c = 0; c < l.padded; ++c) {
+    const int32_t u1 = u + probe_offset_px(l.du1[c], s), v1 = v + probe_offset_px(l.dv1[c], s);
+    const int32_t u2 = u + probe_offset_px(l.du2[c], s), v2 = v + probe_offset_px(l.dv2[c], s);
+    const int32_t in1 = -int32_t((static_cast<uint32_t>(u1) < w) & (static_cast<uint32_t>(v1) < h));
+    const int32_t in2 = -int32_t((static_cast<uint32_t>(u2) < w) & (static_cast<uint32_t>(v2) < h));
+    const int32_t d1 = im.probe[(v1 * im.width + u1) & in1] | (~in1 & 0x7FFF);
+    const int32_t d2 = im.probe[(v2 * im.width + u2) & in2] | (~in2 & 0x7FFF);
+    feature[c] = static_cast<int16_t>(d1 - d2);
+  }
+  for (int c = 0; c < l.padded; c += 8) {
+    const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(feature + c));
+    __m128i count = _mm_setzero_si128();
+    const int16_t* t = l.table.data() + c;
+    for (int k = 0; k < l.thresholds; ++k, t += l.padded)
+      count = _mm_sub_epi16(count, _mm_cmpgt_epi16(f, _mm_loadu_si128(reinterpret_cast<const __m128i*>(t))));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(bin + c), count);
+  }
+}
+
+// One probe for 8 candidates (offset rows du, dv) at a pixel; see pixel_features_avx2.
+struct ProbeAvx2 {
+  __m256i vs, vu, vv, w, w1, h1, half, background, low16, ones;
+  const int* base;
+};
+__attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const ProbeAvx2& q, const int32_t* du,
+                                                                          const int32_t* dv) {
+  const __m256i pu = _mm256_add_epi32(
+      q.vu, _mm256_srai_epi32(
+                _mm256_add_epi32(_mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(du)), q.vs), q.half),
+                kScaleShift));
+  const __m256i pv = _mm256_add_epi32(
+      q.vv, _mm256_srai_epi32(
+                _mm256_add_epi32(_mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(dv)), q.vs), q.half),
+                kScaleShift));
+  // Sign bit set iff u < 0, v < 0, u > w − 1 or v > h − 1.
+  const __m256i outside =
+      _mm256_or_si256(_mm256_or_si256(pu, pv), _mm256_or_si256(_mm256_sub_epi32(q.w1, pu), _mm256_sub_epi32(q.h1, pv)));
+  const __m256i index = _mm256_add_epi32(_mm256_mullo_epi32(pv, q.w), pu);
+  const __m256i g = _mm256_mask_i32gather_epi32(q.background, q.base, index, _mm256_xor_si256(outside, q.ones), 2);
+  return _mm256_and_si256(g, q.low16);
+}
+
+// The same as pixel_features, 8 candidates per AVX2 instruction for the offsets and bounds and
+// 16 for the binning; probes are masked gathers of 32-bit words at the element's address whose low
+// half is the element (little-endian; masked-off lanes keep the background). A gather may read the
+// 2 bytes after an image's last element: heap blocks are allocated in 16-byte units, so they are
+// inside the allocation's rounding or the allocator's next header, never unmapped.
+__attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
+                                                         int32_t v, int32_t s, int16_t*, int16_t* bin) {
+  ProbeAvx2 q;
+  q.vs = _mm256_set1_epi32(s);
+  q.vu = _mm256_set1_epi32(u);
+  q.vv = _mm256_set1_epi32(v);
+  q.w = _mm256_set1_epi32(im.width);
+  q.w1 = _mm256_set1_epi32(im.width - 1);
+  q.h1 = _mm256_set1_epi32(im.height - 1);
+  q.half = _mm256_set1_epi32(kScaleOneQ13 >> 1);
+  q.background = _mm256_set1_epi32(kBackgroundDepthMm);
+  q.low16 = _mm256_set1_epi32(0xFFFF);
+  q.ones = _mm256_set1_epi32(-1);
+  q.base = reinterpret_cast<const int*>(im.probe);
+  for (int c = 0; c < l.padded; c += 16) {
+    const __m256i f0 = _mm256_sub_epi32(probe_avx2(q, &l.du1[c], &l.dv1[c]), probe_avx2(q, &l.du2[c], &l.dv2[c]));
+    const __m256i f1 =
+        _mm256_sub_epi32(probe_avx2(q, &l.du1[c + 8], &l.dv1[c + 8]), probe_avx2(q, &l.du2[c + 8], &l.dv2[c + 8]));
+    // packs interleaves 128-bit halves: [f0 0-3, f1 0-3, f0 4-7, f1 4-7] → reorder the quadwords.
+    const __m256i f = _mm256_permute4x64_epi64(_mm256_packs_epi32(f0, f1), 0xD8);
+    __m256i count = _mm256_setzero_si256();
+    const int16_t* t = l.table.data() + c;
+    for (int k = 0; k < l.thresholds; ++k, t += l.padded)
+      count = _mm256_sub_epi16(count, _mm256_cmpgt_epi16(f, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t))));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(bin + c), count);
+  }
+}
+
+// AVX2 when the CPU has it (same results: integer arithmetic throughout, tested against the
+// forests of the scalar version).
+using PixelFeaturesFn = void (*)(const CandidateLanes&, const ImageRef&, int32_t, int32_t, int32_t, int16_t*, int16_t*);
+PixelFeaturesFn pick_pixel_features() {
+  if (std::getenv("DEPTHPOSE_TRAIN_NO_AVX2") == nullptr && __builtin_cpu_supports("avx2")) return pixel_features_avx2;
+  return pixel_features;
 }
 
 struct NodeInfo {
@@ -205,9 +327,10 @@ struct Best {
 };
 
 struct Scratch {
-  Block block{};   // zeroed: SIMD lanes past a block's count read defined values
   Block sample{};
   std::vector<Candidate> candidates;
+  CandidateLanes lanes;
+  std::vector<int16_t> feature, bin;  // one pixel's features and bins per candidate (pixel_features)
   std::vector<uint32_t> counts;   // classification histograms
   std::vector<double> sums;       // regression histograms
   std::vector<float> offsets;     // regression: block pixels × joints × {w, dx, dy, dz}
@@ -217,11 +340,16 @@ struct Scratch {
 
 class Grower {
  public:
+  struct CandidateGroup;
   Grower(const TrainingSet& set, std::vector<TrainingPixel>& pixels, int tree, const TreeParams& params)
       : set_(set), px_(pixels), tree_(tree), p_(params) {
     joints_ = static_cast<int>(set.joint_names.size());
     chunk_ = p_.objective == Objective::kClassification ? 16 : 4;
+    features_ = pick_pixel_features();
+    images_.reserve(set.images.size());
+    for (const TrainingImage& im : set.images) images_.push_back({im.probe.data(), im.width, im.height});
     scratch_.resize(std::max(1, p_.threads));
+    groups_.resize(std::max(1, p_.threads));
   }
 
   void pixel_offsets(const TrainingPixel& p, float* out) const {
@@ -323,29 +451,107 @@ class Grower {
     while (padded < c.thresholds + 1) padded *= 2;
     for (int i = c.thresholds; i < padded; ++i) c.table[i] = INT32_MAX;
     c.search_top = padded / 2;
-    for (int t = 0; t < c.thresholds; ++t)
-      for (int lane = 0; lane < 8; ++lane) c.splat[t][lane] = static_cast<int16_t>(c.table[t]);
-  }
-
-  void decode_block(const NodeInfo& node, uint32_t begin, uint32_t end, Block& b) const {
-    b.count = static_cast<int>(end - begin);
-    for (int i = 0; i < b.count; ++i) {
-      const TrainingPixel& p = px_[begin + i];
-      const TrainingImage& im = set_.images[p.image];
-      b.image[i] = im.probe.data();
-      b.width[i] = im.width;
-      b.height[i] = im.height;
-      b.u[i] = p.u;
-      b.v[i] = p.v;
-      b.scale[i] = p.scale_q13;
-      b.depth[i] = p.depth_mm;
-      b.label[i] = node.class_of[p.label];
-    }
   }
 
   // Evaluates candidates [c0, c1) of `node`; returns the best.
+  // Candidates [c0, c1) of `node`, prepared once (offsets, thresholds, SIMD lanes) and shared by
+  // the work items that accumulate their histograms over parts of the node's pixels.
+  struct CandidateGroup {
+    int c0 = 0, c1 = 0, bins = 1;
+    std::vector<Candidate> candidates;
+    CandidateLanes lanes;
+    size_t histogram_cells(const NodeInfo& node) const { return size_t(node.classes) * bins * (c1 - c0); }
+  };
+
+  void prepare_group(const NodeInfo& node, int c0, int c1, CandidateGroup& g, int thread) {
+    Scratch& s = scratch_[thread];
+    g.c0 = c0;
+    g.c1 = c1;
+    g.candidates.resize(c1 - c0);
+    decode_sample(node, s.sample);
+    for (int c = 0; c < c1 - c0; ++c) make_candidate(node, c0 + c, s.sample, g.candidates[c]);
+    g.bins = 1;
+    for (const Candidate& c : g.candidates) g.bins = std::max(g.bins, c.thresholds + 1);
+    make_lanes(g.candidates, g.lanes);
+  }
+
+  // Classification: adds pixels [begin, end) of `node` to `counts`, cells [class][bin][candidate]
+  // (histogram_cells of them): a pixel's increments for all candidates fall in its class's
+  // bins × candidates block (a few kB, L1-resident). Integer counts: partial histograms over
+  // disjoint pixel ranges sum to the same cells in any order (threads here; processes later).
+  void accumulate(const NodeInfo& node, const CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts,
+                  int thread) {
+    const int nc = g.c1 - g.c0;
+    const size_t class_stride = size_t(g.bins) * nc;
+    const CandidateLanes& l = g.lanes;
+    Scratch& s = scratch_[thread];
+    s.feature.resize(l.padded);
+    s.bin.resize(l.padded);
+    int16_t* bin = s.bin.data();
+    for (uint32_t i = begin; i < end; ++i) {
+      const TrainingPixel& p = px_[i];
+      features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), bin);
+      uint32_t* h = counts + node.class_of[p.label] * class_stride;
+      for (int c = 0; c < nc; ++c) ++h[bin[c] * nc + c];
+    }
+  }
+
+  // Classification: the best (candidate, threshold) of a group from its complete histogram.
+  Best score_group(const NodeInfo& node, const CandidateGroup& g, const uint32_t* counts,
+                   std::vector<uint32_t>& cum) const {
+    const int k = node.classes, nc = g.c1 - g.c0, bins = g.bins;
+    const uint32_t n = node.end - node.begin;
+    Best best;
+    cum.resize(k);
+    for (int c = 0; c < nc; ++c) {
+      const Candidate& cand = g.candidates[c];
+      const uint32_t* h = counts + c;
+      std::fill(cum.begin(), cum.end(), 0u);
+      uint32_t left = 0;
+      for (int t = 0; t < cand.thresholds; ++t) {
+        uint32_t in_bin = 0;
+        for (int j = 0; j < k; ++j) {
+          const uint32_t cell = h[(size_t(j) * bins + t) * nc];
+          cum[j] += cell;
+          in_bin += cell;
+        }
+        left += in_bin;
+        if (left == 0) continue;
+        const uint32_t right = n - left;
+        if (right == 0) break;
+        // An empty bin leaves every count, hence the score, as at the previous threshold, which
+        // cannot win a strict comparison against itself.
+        if (in_bin == 0) continue;
+        double wl = nlogn(left), wr = nlogn(right);
+        for (int j = 0; j < k; ++j) {
+          wl -= nlogn(cum[j]);
+          wr -= nlogn(node.totals[j] - cum[j]);
+        }
+        const double score = (wl + wr) / n;
+        if (score < best.score) {
+          best.score = score;
+          best.candidate = g.c0 + c;
+          best.du1 = cand.du1;
+          best.dv1 = cand.dv1;
+          best.du2 = cand.du2;
+          best.dv2 = cand.dv2;
+          best.threshold = cand.table[t];
+        }
+      }
+    }
+    return best;
+  }
+
+  // Evaluates candidates [c0, c1) of `node` over all its pixels; returns the best.
   Best evaluate(const NodeInfo& node, int c0, int c1, int thread) {
     Scratch& s = scratch_[thread];
+    if (p_.objective == Objective::kClassification) {
+      CandidateGroup& g = groups_[thread];
+      prepare_group(node, c0, c1, g, thread);
+      s.counts.assign(g.histogram_cells(node), 0);
+      accumulate(node, g, node.begin, node.end, s.counts.data(), thread);
+      return score_group(node, g, s.counts.data(), s.cum);
+    }
     const int nc = c1 - c0;
     s.candidates.resize(nc);
     decode_sample(node, s.sample);
@@ -354,96 +560,32 @@ class Grower {
     for (const Candidate& c : s.candidates) bins = std::max(bins, c.thresholds + 1);
     const uint32_t n = node.end - node.begin;
     Best best;
-    if (p_.objective == Objective::kClassification) {
-      const int k = node.classes;
-      // Four interleaved copies of each histogram, so that runs of pixels falling in the same
-      // cell do not serialize on store-to-load forwarding; summed before scoring.
-      const size_t stride = size_t(bins) * k;
-      s.counts.assign(size_t(nc) * 4 * stride, 0);
-      for (uint32_t b0 = node.begin; b0 < node.end; b0 += kBlock) {
-        decode_block(node, b0, std::min<uint32_t>(node.end, b0 + kBlock), s.block);
-        Block& b = s.block;
-        const int count = b.count;
-        for (int c = 0; c < nc; ++c) {
-          const Candidate& cand = s.candidates[c];
-          uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
-          block_features(b, cand);
-          block_bins(b, cand);
-          int i = 0;
-          for (; i + 4 <= count; i += 4) {
-            ++h[b.bin[i] * k + b.label[i]];
-            ++h[stride + b.bin[i + 1] * k + b.label[i + 1]];
-            ++h[2 * stride + b.bin[i + 2] * k + b.label[i + 2]];
-            ++h[3 * stride + b.bin[i + 3] * k + b.label[i + 3]];
-          }
-          for (; i < count; ++i) ++h[b.bin[i] * k + b.label[i]];
-        }
-      }
-      for (int c = 0; c < nc; ++c) {
-        uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
-        for (size_t j = 0; j < stride; ++j) h[j] += h[stride + j] + h[2 * stride + j] + h[3 * stride + j];
-      }
-      s.cum.resize(k);
-      for (int c = 0; c < nc; ++c) {
-        const Candidate& cand = s.candidates[c];
-        const uint32_t* h = s.counts.data() + size_t(c) * 4 * stride;
-        std::fill(s.cum.begin(), s.cum.end(), 0u);
-        uint32_t left = 0;
-        for (int t = 0; t < cand.thresholds; ++t) {
-          for (int j = 0; j < k; ++j) {
-            s.cum[j] += h[t * k + j];
-            left += h[t * k + j];
-          }
-          if (left == 0) continue;
-          const uint32_t right = n - left;
-          if (right == 0) break;
-          double wl = nlogn(left), wr = nlogn(right);
-          for (int j = 0; j < k; ++j) {
-            wl -= nlogn(s.cum[j]);
-            wr -= nlogn(node.totals[j] - s.cum[j]);
-          }
-          const double score = (wl + wr) / n;
-          if (score < best.score) {
-            best.score = score;
-            best.candidate = c0 + c;
-            best.du1 = cand.du1;
-            best.dv1 = cand.dv1;
-            best.du2 = cand.du2;
-            best.dv2 = cand.dv2;
-            best.threshold = cand.table[t];
-          }
-        }
-      }
-    } else {
+    {
       const int J = joints_;
       const size_t row = size_t(J) * 5;
       s.sums.assign(size_t(nc) * bins * row, 0.0);
       s.counts.assign(size_t(nc) * bins, 0);
-      s.offsets.resize(size_t(kBlock) * J * 4);
-      for (uint32_t b0 = node.begin; b0 < node.end; b0 += kBlock) {
-        const uint32_t b1 = std::min<uint32_t>(node.end, b0 + kBlock);
-        decode_block(node, b0, b1, s.block);
-        Block& b = s.block;
-        for (int i = 0; i < b.count; ++i) pixel_offsets(px_[b0 + i], s.offsets.data() + size_t(i) * J * 4);
+      s.offsets.resize(size_t(J) * 4);
+      make_lanes(s.candidates, s.lanes);
+      const CandidateLanes& l = s.lanes;
+      s.feature.resize(l.padded);
+      s.bin.resize(l.padded);
+      for (uint32_t i = node.begin; i < node.end; ++i) {
+        const TrainingPixel& p = px_[i];
+        features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
+        pixel_offsets(p, s.offsets.data());
+        const float* o = s.offsets.data();
         for (int c = 0; c < nc; ++c) {
-          const Candidate& cand = s.candidates[c];
-          double* h = s.sums.data() + size_t(c) * bins * row;
-          uint32_t* pixel_bins = s.counts.data() + size_t(c) * bins;
-          block_features(b, cand);
-          block_bins(b, cand);
-          for (int i = 0; i < b.count; ++i) {
-            const int bin = b.bin[i];
-            ++pixel_bins[bin];
-            double* hb = h + bin * row;
-            const float* o = s.offsets.data() + size_t(i) * J * 4;
-            for (int j = 0; j < J; ++j) {
-              const double w = o[4 * j], dx = o[4 * j + 1], dy = o[4 * j + 2], dz = o[4 * j + 3];
-              hb[5 * j] += w;
-              hb[5 * j + 1] += dx;
-              hb[5 * j + 2] += dy;
-              hb[5 * j + 3] += dz;
-              hb[5 * j + 4] += dx * dx + dy * dy + dz * dz;
-            }
+          const int bin = s.bin[c];
+          ++s.counts[size_t(c) * bins + bin];
+          double* hb = s.sums.data() + (size_t(c) * bins + bin) * row;
+          for (int j = 0; j < J; ++j) {
+            const double w = o[4 * j], dx = o[4 * j + 1], dy = o[4 * j + 2], dz = o[4 * j + 3];
+            hb[5 * j] += w;
+            hb[5 * j + 1] += dx;
+            hb[5 * j + 2] += dy;
+            hb[5 * j + 3] += dz;
+            hb[5 * j + 4] += dx * dx + dy * dy + dz * dz;
           }
         }
       }
@@ -496,7 +638,19 @@ class Grower {
     s.sq += h[4];
   }
 
-  int chunk() const { return chunk_; }
+  // Candidates per candidate group (work item) of `node` on a level with `splittable` nodes to
+  // search. More candidates per group means each pixel's neighbourhood, once in cache, serves more
+  // probes. Classification groups hold as many as keep the group's histogram within
+  // kItemHistogramEntries (L2-resident), or kRangeHistogramEntries near the root (fewer than 8
+  // nodes per thread), where groups are shared among threads by pixel ranges instead (grow_tree).
+  // The chosen split does not depend on it (ties go to the lowest candidate across groups).
+  int chunk_for(const NodeInfo& node, size_t splittable) const {
+    if (p_.objective != Objective::kClassification) return chunk_;
+    const size_t cap = splittable < size_t(8 * std::max(1, p_.threads)) ? kRangeHistogramEntries : kItemHistogramEntries;
+    const size_t bins = size_t(std::min<uint32_t>(node.end - node.begin, p_.threshold_candidates)) + 1;
+    const size_t fit = cap / (bins * std::max(1, node.classes));
+    return static_cast<int>(std::max<size_t>(chunk_, fit / kLanes * kLanes));
+  }
 
   size_t scratch_bytes() const {
     size_t b = 0;
@@ -513,7 +667,10 @@ class Grower {
   TreeParams p_;
   int joints_ = 0;
   int chunk_ = 16;
+  std::vector<ImageRef> images_;
+  PixelFeaturesFn features_ = pixel_features;
   std::vector<Scratch> scratch_;
+  std::vector<CandidateGroup> groups_;  // per thread, for evaluate()
 };
 
 struct GrowNode {
@@ -526,7 +683,8 @@ struct GrowNode {
 }  // namespace
 
 GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, int tree_index,
-                    const TreeParams& params, const ProgressFn& progress) {
+                    const TreeParams& params, const ProgressFn& progress, const GrowthState* resume,
+                    const LevelDoneFn& level_done) {
   const auto tree_start = std::chrono::steady_clock::now();
   if (pixels.empty()) fail("tree " + std::to_string(tree_index) + ": no training pixels");
   if (params.max_depth < 1 || params.max_depth > kMaxForestDepth)
@@ -548,10 +706,32 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
   nodes.push_back({0, 0, static_cast<uint32_t>(pixels.size())});
   std::vector<size_t> frontier = {0};
   const int threads = std::max(1, params.threads);
+  const int replay_levels = resume ? resume->levels_done : 0;
+  size_t range_peak_bytes = 0;  // candidate groups and partial histograms of the range levels
+  size_t replay_next = 0;  // next decision of resume->nodes (heap order = breadth-first order)
+  if (resume) out.feature_evaluations = resume->feature_evaluations;
   for (int level = 0; !frontier.empty(); ++level) {
     const auto level_start = std::chrono::steady_clock::now();
-    std::vector<NodeInfo> info(frontier.size());
-    for (size_t f = 0; f < frontier.size(); ++f) {
+    if (level < replay_levels) {
+      // Replay: the frontier is in heap order (children are appended in their parents' order),
+      // and so are the recorded decisions of this level.
+      for (size_t f = 0; f < frontier.size(); ++f) {
+        GrowNode& g = nodes[frontier[f]];
+        if (replay_next >= resume->nodes.size() || resume->nodes[replay_next].heap != g.heap)
+          fail("checkpoint: tree " + std::to_string(tree_index) + " has no decision for node " +
+               std::to_string(g.heap) + " at level " + std::to_string(level) +
+               " (the checkpoint belongs to other data or options)");
+        const DecidedNode& d = resume->nodes[replay_next++];
+        g.leaf = d.leaf;
+        g.du1 = d.du1;
+        g.dv1 = d.dv1;
+        g.du2 = d.du2;
+        g.dv2 = d.dv2;
+        g.threshold = d.threshold;
+      }
+    }
+    std::vector<NodeInfo> info(level < replay_levels ? 0 : frontier.size());
+    for (size_t f = 0; f < info.size(); ++f) {
       const GrowNode& g = nodes[frontier[f]];
       info[f].heap = g.heap;
       info[f].begin = g.begin;
@@ -566,6 +746,8 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
     };
     std::vector<Item> items;
     std::vector<size_t> first_item(info.size() + 1, 0);
+    size_t splittable = 0;
+    for (const NodeInfo& n : info) splittable += n.splittable;
     uint64_t evaluations = 0;
     size_t active = 0;
     for (size_t f = 0; f < info.size(); ++f) {
@@ -573,15 +755,57 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       if (!info[f].splittable) continue;
       active += info[f].end - info[f].begin;
       evaluations += uint64_t(info[f].end - info[f].begin) * params.offset_candidates;
-      for (int c = 0; c < params.offset_candidates; c += grower.chunk())
-        items.push_back({static_cast<uint32_t>(f), c, std::min(params.offset_candidates, c + grower.chunk())});
+      const int chunk = grower.chunk_for(info[f], splittable);
+      for (int c = 0; c < params.offset_candidates; c += chunk)
+        items.push_back({static_cast<uint32_t>(f), c, std::min(params.offset_candidates, c + chunk)});
     }
     first_item[info.size()] = items.size();
     std::vector<Best> results(items.size());
     std::atomic<size_t> items_done{0};
     auto last_beat = std::chrono::steady_clock::now();
-    parallel_for(items.size(), threads, [&](size_t i, int thread) {
-      results[i] = grower.evaluate(info[items[i].node], items[i].c0, items[i].c1, thread);
+    // Near the root (few nodes, many pixels each) a node's pixels are dealt out in ranges: each
+    // work item accumulates the histograms of a whole candidate group over one range, so every
+    // pixel's neighbourhood is loaded once for all the group's candidates, and the integer partial
+    // histograms are summed per group before scoring. Deeper, items are (node, candidate chunk)
+    // over all the node's pixels. Both give the same counts, hence the same splits.
+    const bool by_ranges = params.objective == Objective::kClassification && splittable > 0 &&
+                           splittable < size_t(8 * threads) && level >= replay_levels;
+    std::vector<Grower::CandidateGroup> groups(by_ranges ? items.size() : 0);
+    struct RangeItem {
+      uint32_t group, begin, end;
+    };
+    std::vector<RangeItem> ranges;
+    std::vector<std::vector<uint32_t>> partial;
+    if (by_ranges) {
+      parallel_for(items.size(), threads, [&](size_t i, int thread) {
+        grower.prepare_group(info[items[i].node], items[i].c0, items[i].c1, groups[i], thread);
+      });
+      const size_t wanted = size_t(16 * threads);
+      for (size_t i = 0; i < items.size(); ++i) {
+        const NodeInfo& node = info[items[i].node];
+        const uint32_t n = node.end - node.begin;
+        const uint32_t pieces = static_cast<uint32_t>(std::clamp<size_t>(
+            (wanted + items.size() - 1) / items.size(), 1, std::max<uint32_t>(1, n / kMinRangePixels)));
+        for (uint32_t r = 0; r < pieces; ++r)
+          ranges.push_back({static_cast<uint32_t>(i), node.begin + uint32_t(uint64_t(n) * r / pieces),
+                            node.begin + uint32_t(uint64_t(n) * (r + 1) / pieces)});
+      }
+      partial.resize(ranges.size());
+      size_t level_bytes = 0;
+      for (size_t i = 0; i < items.size(); ++i) level_bytes += groups[i].histogram_cells(info[items[i].node]) * 4 + sizeof(Candidate) * groups[i].candidates.size();
+      for (const RangeItem& r : ranges) level_bytes += groups[r.group].histogram_cells(info[items[r.group].node]) * 4;
+      range_peak_bytes = std::max(range_peak_bytes, level_bytes);
+    }
+    const size_t work = by_ranges ? ranges.size() : items.size();
+    parallel_for(work, threads, [&](size_t i, int thread) {
+      if (by_ranges) {
+        const RangeItem& r = ranges[i];
+        const NodeInfo& node = info[items[r.group].node];
+        partial[i].assign(groups[r.group].histogram_cells(node), 0);
+        grower.accumulate(node, groups[r.group], r.begin, r.end, partial[i].data(), thread);
+      } else {
+        results[i] = grower.evaluate(info[items[i].node], items[i].c0, items[i].c1, thread);
+      }
       const size_t done = items_done.fetch_add(1) + 1;
       if (thread == 0 && progress) {
         const auto now = std::chrono::steady_clock::now();
@@ -591,7 +815,7 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
           r.tree = tree_index;
           r.level = level;
           r.partial = true;
-          r.done = double(done) / items.size();
+          r.done = double(done) / work;
           r.seconds = std::chrono::duration<double>(now - level_start).count();
           r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
           progress(r);
@@ -599,7 +823,24 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       }
     });
 
+    if (by_ranges) {
+      std::vector<size_t> first_range(items.size() + 1, ranges.size());
+      for (size_t i = ranges.size(); i-- > 0;) first_range[ranges[i].group] = i;
+      parallel_for(items.size(), threads, [&](size_t g, int) {
+        std::vector<uint32_t>& sum = partial[first_range[g]];
+        for (size_t i = first_range[g] + 1; i < first_range[g + 1]; ++i) {
+          for (size_t j = 0; j < sum.size(); ++j) sum[j] += partial[i][j];
+          std::vector<uint32_t>().swap(partial[i]);
+        }
+        std::vector<uint32_t> cum;
+        results[g] = grower.score_group(info[items[g].node], groups[g], sum.data(), cum);
+      });
+    }
+
     std::vector<size_t> splitting;
+    if (level < replay_levels)
+      for (size_t f : frontier)
+        if (!nodes[f].leaf) splitting.push_back(f);
     for (size_t f = 0; f < info.size(); ++f) {
       Best best;
       for (size_t i = first_item[f]; i < first_item[f + 1]; ++i)
@@ -647,6 +888,18 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       nodes.push_back({2 * g.heap + 2, mid, g.end});
       next.push_back(nodes.size() - 1);
     }
+    if (level < replay_levels) {
+      frontier.swap(next);
+      if (progress && level + 1 == replay_levels) {
+        LevelReport r;
+        r.tree = tree_index;
+        r.level = level;
+        r.resumed = true;
+        r.tree_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tree_start).count();
+        progress(r);
+      }
+      continue;
+    }
     frontier.swap(next);
 
     const auto now = std::chrono::steady_clock::now();
@@ -663,8 +916,23 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
       progress(r);
     }
+    if (level_done) {
+      GrowthState state;
+      state.levels_done = level + 1;
+      state.complete = frontier.empty();
+      state.feature_evaluations = out.feature_evaluations;
+      for (const GrowNode& g : nodes)
+        if (heap_level(g.heap) <= level) state.nodes.push_back({g.heap, g.leaf, g.du1, g.dv1, g.du2, g.dv2, g.threshold});
+      std::sort(state.nodes.begin(), state.nodes.end(),
+                [](const DecidedNode& a, const DecidedNode& b) { return a.heap < b.heap; });
+      level_done(state);
+    }
   }
 
+  if (resume && replay_next != resume->nodes.size())
+    fail("checkpoint: tree " + std::to_string(tree_index) + " records " +
+         std::to_string(resume->nodes.size() - replay_next) +
+         " decisions for nodes the replayed tree does not have (the checkpoint belongs to other data or options)");
   std::sort(nodes.begin(), nodes.end(), [](const GrowNode& a, const GrowNode& b) { return a.heap < b.heap; });
   TrainedTree& tree = out.tree;
   for (const GrowNode& g : nodes) {
@@ -693,7 +961,7 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
     n.left = position(2 * n.heap_index + 1);
     n.right = position(2 * n.heap_index + 2);
   }
-  out.peak_bytes = pixels.size() * sizeof(TrainingPixel) * 2 + grower.scratch_bytes() +
+  out.peak_bytes = pixels.size() * sizeof(TrainingPixel) * 2 + grower.scratch_bytes() + range_peak_bytes +
                    nodes.size() * sizeof(GrowNode);
   out.pixels = std::move(pixels);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tree_start).count();

@@ -51,6 +51,8 @@ struct LevelReport {
   double tree_seconds = 0;           // since the tree started
   bool partial = false;              // a heartbeat within a long level: only `done` is meaningful
   double done = 1;                   // fraction of the level's split search finished
+  bool resumed = false;              // levels 0..level were replayed from a checkpoint (only
+                                     // tree, level and tree_seconds are meaningful)
 };
 // Called on the calling thread after each level, and every ~10 s within a long level (partial).
 using ProgressFn = std::function<void(const LevelReport&)>;
@@ -64,9 +66,35 @@ struct GrownTree {
   size_t peak_bytes = 0;             // working memory of the growth (pixels, buffers, scratch)
 };
 
+// A node whose fate is decided: split with the given feature and threshold, or a leaf.
+struct DecidedNode {
+  uint32_t heap = 0;
+  bool leaf = true;
+  int32_t du1 = 0, dv1 = 0, du2 = 0, dv2 = 0, threshold = 0;
+};
+
+// What a tree's growth has decided after its first `levels_done` levels (breadth first): every
+// node at a level < levels_done, in heap order. Together with the tree's initial pixels this
+// determines the rest of the growth (the pixel order is recomputed by replaying the splits), so it
+// is all a checkpoint needs. `complete` = nothing is left to grow.
+struct GrowthState {
+  int levels_done = 0;
+  bool complete = false;
+  std::vector<DecidedNode> nodes;
+  uint64_t feature_evaluations = 0;  // spent so far (statistics only)
+};
+// Called on the calling thread after each level with the state so far (for checkpoints). It may
+// throw; the exception leaves grow_tree.
+using LevelDoneFn = std::function<void(const GrowthState&)>;
+
 // Grows one tree on `pixels` (which it takes) of `set`. For kRegression the images need joints.
+// With `resume`, the decisions of its first resume->levels_done levels are replayed (pixels are
+// partitioned, no split search) and growth continues from there: the result equals an
+// uninterrupted growth with the same inputs. `resume` must come from the same set, pixels and
+// params; a decision that does not fit the replayed tree is refused (ToolError).
 GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, int tree_index,
-                    const TreeParams& params, const ProgressFn& progress = {});
+                    const TreeParams& params, const ProgressFn& progress = {}, const GrowthState* resume = nullptr,
+                    const LevelDoneFn& level_done = {});
 
 // Objective pieces, exposed for tests. Natural logarithms.
 // n·log n − Σ_c n_c·log n_c = |S|·H(S) of Eq. 8 for label counts n_c (n = Σ n_c).

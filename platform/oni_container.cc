@@ -1,0 +1,181 @@
+#include "platform/oni_container.h"
+
+#include <cstring>
+#include <vector>
+
+#include "forest_blob/blob_format.h"
+#include "tools/common/error.h"
+#include "tools/common/file_io.h"
+
+namespace dp::platform {
+
+namespace {
+
+constexpr uint32_t kRecordMagic = 0x0052494Eu;  // "NIR\0"
+constexpr size_t kFileHeaderBytes = 24;
+constexpr size_t kRecordHeaderBytes = 28;
+constexpr uint32_t kMaxNodeId = 64;            // a recording holds a handful of streams
+constexpr uint32_t kMaxNameBytes = 256;        // property and node names are short identifiers
+
+enum RecordType : uint32_t {
+  kNodeAdded_1_0_0_4 = 2, kIntProperty = 3, kRealProperty = 4, kStringProperty = 5, kGeneralProperty = 6,
+  kNodeRemoved = 7, kNodeDataBegin = 8, kNodeStateReady = 9, kNewData = 10, kEnd = 11,
+  kNodeAdded_1_0_0_5 = 12, kNodeAdded = 13, kSeekTable = 14,
+};
+constexpr uint32_t kNodeTypeDepth = 2;
+
+struct Cursor {
+  const uint8_t* data;
+  size_t size;
+  const std::string& label;
+  [[noreturn]] void bad(const std::string& what, uint64_t at) const {
+    tools::fail(label + ": not a readable OpenNI2 recording (truncated or corrupt: " + what + " at byte " +
+                std::to_string(at) + ")");
+  }
+  uint32_t u32(uint64_t at) const {
+    uint32_t v;
+    std::memcpy(&v, data + at, 4);
+    return v;
+  }
+  uint64_t u64(uint64_t at) const {
+    uint64_t v;
+    std::memcpy(&v, data + at, 8);
+    return v;
+  }
+};
+
+struct Node {
+  bool added = false;
+  uint32_t type = 0;
+  int64_t declared_frames = 0, frames = 0;
+};
+
+// A u32-length-prefixed NUL-terminated printable name inside [at, end); returns the offset after it.
+uint64_t check_name(const Cursor& c, uint64_t at, uint64_t end, std::string* name) {
+  if (end - at < 4) c.bad("name length beyond its record", at);
+  const uint32_t n = c.u32(at);
+  if (n < 1 || n > kMaxNameBytes || n > end - at - 4)
+    c.bad("name length " + std::to_string(n) + " (1.." + std::to_string(kMaxNameBytes) + " within the record)", at);
+  const uint8_t* s = c.data + at + 4;
+  if (s[n - 1] != 0) c.bad("name not NUL-terminated", at + 4);
+  for (uint32_t k = 0; k + 1 < n; ++k)
+    if (s[k] < 0x20 || s[k] > 0x7E) c.bad("name byte " + std::to_string(s[k]) + " not printable ASCII", at + 4 + k);
+  name->assign(reinterpret_cast<const char*>(s), n - 1);
+  return at + 4 + n;
+}
+
+}  // namespace
+
+OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std::string& label) {
+  const Cursor c{data, size, label};
+  OniContainerSummary out;
+  out.file_bytes = size;
+  if (size < kFileHeaderBytes) c.bad("file shorter than the 24-byte header", 0);
+  if (std::memcmp(data, "NI10", 4) != 0) c.bad("not an OpenNI recording (magic is not \"NI10\")", 0);
+  if (data[4] != 1) c.bad("unsupported version " + std::to_string(data[4]) + " (this build reads 1)", 4);
+  const uint32_t max_node = c.u32(20);
+  if (max_node > kMaxNodeId) c.bad("max node id " + std::to_string(max_node) + " above " + std::to_string(kMaxNodeId), 20);
+  std::vector<Node> nodes(max_node + 1);
+  uint32_t depth_node = 0;
+  bool ended = false;
+  uint64_t at = kFileHeaderBytes;
+  while (at < size && !ended) {
+    if (size - at < kRecordHeaderBytes) c.bad("record header truncated", at);
+    if (c.u32(at) != kRecordMagic) c.bad("record magic is not \"NIR\"", at);
+    const uint32_t type = c.u32(at + 4), node_id = c.u32(at + 8), fields = c.u32(at + 12), payload = c.u32(at + 16);
+    if (type < kNodeAdded_1_0_0_4 || type > kSeekTable) c.bad("unknown record type " + std::to_string(type), at + 4);
+    if (node_id > max_node) c.bad("node id " + std::to_string(node_id) + " above the header's " + std::to_string(max_node), at + 8);
+    if (fields < kRecordHeaderBytes || fields > size - at)
+      c.bad("record fields size " + std::to_string(fields) + " beyond the file", at + 12);
+    if (payload > size - at - fields) c.bad("record payload size " + std::to_string(payload) + " beyond the file", at + 16);
+    if (c.u64(at + 20) > size) c.bad("undo position beyond the file", at + 20);
+    const uint64_t body = at + kRecordHeaderBytes, body_end = at + fields;
+    Node& node = nodes[node_id];
+    std::string name;
+    switch (type) {
+      case kNodeAdded_1_0_0_4:
+      case kNodeAdded_1_0_0_5:
+      case kNodeAdded: {
+        const uint64_t p = check_name(c, body, body_end, &name);
+        const uint64_t need = type == kNodeAdded ? 36 : type == kNodeAdded_1_0_0_5 ? 28 : 12;
+        if (body_end - p < need) c.bad("node record shorter than its fields", p);
+        if (node.added) c.bad("node " + std::to_string(node_id) + " added twice", at);
+        node.added = true;
+        node.type = c.u32(p);
+        if (type != kNodeAdded_1_0_0_4) node.declared_frames = c.u32(p + 8);
+        if (node.type == kNodeTypeDepth && !depth_node) depth_node = node_id;
+        break;
+      }
+      case kIntProperty:
+      case kRealProperty:
+      case kStringProperty:
+      case kGeneralProperty: {
+        uint64_t p = check_name(c, body, body_end, &name);
+        if (body_end - p < 4) c.bad("property value size beyond its record", p);
+        const uint32_t value = c.u32(p);
+        if (value != body_end - p - 4)
+          c.bad("property '" + name + "' value size " + std::to_string(value) + " disagrees with its record", p);
+        if ((type == kIntProperty || type == kRealProperty) && value != 8)
+          c.bad("numeric property '" + name + "' of " + std::to_string(value) + " bytes (8 expected)", p);
+        if (name == "xnMapOutputMode" && node_id == depth_node && depth_node) {
+          if (value < 8) c.bad("xnMapOutputMode shorter than width and height", p);
+          const uint32_t w = c.u32(p + 4), h = c.u32(p + 8);
+          if (w < 1 || h < 1 || w > uint32_t(blob::kMaxFrameDimension) || h > uint32_t(blob::kMaxFrameDimension))
+            c.bad("depth resolution " + std::to_string(w) + "x" + std::to_string(h) + " outside 1.." +
+                      std::to_string(blob::kMaxFrameDimension),
+                  p + 4);
+          out.width = int(w);
+          out.height = int(h);
+        }
+        break;
+      }
+      case kNewData: {
+        if (fields - kRecordHeaderBytes < 12) c.bad("frame record without timestamp and frame id", body);
+        if (!node.added) c.bad("frame of node " + std::to_string(node_id) + " before the node was added", at);
+        ++node.frames;
+        if (node.declared_frames && node.frames > node.declared_frames)
+          c.bad("more frames than node " + std::to_string(node_id) + " declares (" +
+                    std::to_string(node.declared_frames) + ")",
+                at);
+        if (node_id == depth_node) {
+          // A compressed frame is never larger than the raw frame plus the codec's tables.
+          const uint64_t raw = uint64_t(out.width ? out.width : blob::kMaxFrameDimension) *
+                               uint64_t(out.height ? out.height : blob::kMaxFrameDimension) * 2;
+          if (payload == 0 || payload > raw + 65536 * 2 + 64)
+            c.bad("depth frame payload of " + std::to_string(payload) + " bytes for a frame of " +
+                      std::to_string(raw) + " raw bytes",
+                  at + 16);
+          ++out.depth_frames;
+        }
+        break;
+      }
+      case kSeekTable:
+        if (payload % 20 != 0) c.bad("seek table size " + std::to_string(payload) + " not a multiple of 20", at + 16);
+        for (uint64_t e = body_end; e + 20 <= body_end + payload; e += 20)
+          if (c.u64(e + 12) >= size) c.bad("seek table entry points beyond the file", e + 12);
+        break;
+      case kEnd:
+        ended = true;
+        break;
+      default:
+        break;
+    }
+    at = body_end + payload;
+  }
+  if (!depth_node) c.bad("no depth stream", at);
+  out.records_end = ended ? at : size;
+  for (uint64_t k = at; k < size; ++k)
+    if (data[k] != 0) c.bad("data after the end record", k);
+  if (out.depth_frames == 0) c.bad("the depth stream holds no frame", at);
+  const Node& d = nodes[depth_node];
+  if (d.declared_frames && ended && d.frames != d.declared_frames)
+    c.bad("depth node declares " + std::to_string(d.declared_frames) + " frames but holds " + std::to_string(d.frames), at);
+  return out;
+}
+
+OniContainerSummary check_oni_container(const std::string& path) {
+  const std::vector<uint8_t> bytes = tools::read_file_bytes(path, ".oni recording");
+  return check_oni_bytes(bytes.data(), bytes.size(), "oni:" + path);
+}
+
+}  // namespace dp::platform

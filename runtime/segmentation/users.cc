@@ -1,0 +1,187 @@
+#include "runtime/segmentation/users.h"
+
+namespace dp::seg {
+
+// The per-frame verdicts on the candidates and the tracks they matched (assign_users).
+struct UserStage::Verdicts {
+  bool strict[kMaxCandidates];   // meets the full person test (or as someone low): may become a new user
+  bool relaxed[kMaxCandidates];  // wide and large enough to keep a tracked user's id
+  bool outline[kMaxCandidates];  // qualifies only as low by its outline (low_max_solidity)
+  float cx[kMaxCandidates], cy[kMaxCandidates], cz[kMaxCandidates];  // centroids, camera metres
+  bool track_matched[kMaxUsers];
+};
+
+void UserStage::set_centroid(int32_t k, Verdicts* v) const {
+  const Candidate& c = candidates_[k];
+  v->cx[k] = float(c.sx / c.pixels);
+  v->cy[k] = float(c.sy / c.pixels);
+  v->cz[k] = float(c.sz / c.pixels);
+}
+
+// Centroids and the two person verdicts of every candidate left after merging.
+void UserStage::judge_candidates(const DepthFrame& f, int32_t n, Verdicts* v) {
+  const SegmenterConfig& cfg = *config_;
+  const float focal2 = f.intrinsics.fx * f.intrinsics.fy;
+  for (int32_t k = 0; k < n; ++k) {
+    const Candidate& c = candidates_[k];
+    if (c.pixels == 0) {  // merged into another candidate
+      v->strict[k] = v->relaxed[k] = false;
+      v->cx[k] = v->cy[k] = v->cz[k] = 0.0f;
+      continue;
+    }
+    set_centroid(k, v);
+    const float need = cfg.min_person_area_m2 * focal2 / (v->cz[k] * v->cz[k]);
+    v->strict[k] = meets_person_test(f, c, true, true);
+    const int32_t low = v->strict[k] ? 0 : low_person(f, k);
+    v->strict[k] = v->strict[k] || low > 0;
+    v->outline[k] = low == 2;
+    v->relaxed[k] = c.x_max - c.x_min <= cfg.max_person_width_m && float(c.pixels) >= cfg.tracked_area_fraction * need;
+  }
+}
+
+// Greedy nearest-centroid association: repeatedly the closest (track, component) pair, the
+// distance measured against each track's reach from its predicted position.
+void UserStage::associate_tracks(int32_t n, Verdicts* v) {
+  const SegmenterConfig& cfg = *config_;
+  float predicted[kMaxUsers][3], reach[kMaxUsers];
+  for (int32_t t = 0; t < kMaxUsers; ++t) {
+    const Track& tr = tracks_[t];
+    const float steps = float(tr.lost_frames + 1);
+    for (int k = 0; k < 3; ++k) predicted[t][k] = tr.centroid[k] + tr.velocity[k] * steps;
+    reach[t] = cfg.association_distance_m + cfg.association_growth_m * float(tr.lost_frames);
+  }
+  for (int round = 0; round < kMaxUsers; ++round) {
+    int32_t best_t = -1, best_k = -1;
+    float best_ratio = 1.0f;  // distance / reach: a lost track's wider reach does not win ties
+    for (int32_t t = 0; t < kMaxUsers; ++t) {
+      if (!tracks_[t].active || v->track_matched[t]) continue;
+      for (int32_t k = 0; k < n; ++k) {
+        if (!v->relaxed[k] || candidates_[k].user) continue;
+        const float dx = v->cx[k] - predicted[t][0], dy = v->cy[k] - predicted[t][1], dz = v->cz[k] - predicted[t][2];
+        const float ratio = sqrtf(dx * dx + dy * dy + dz * dz) / reach[t];
+        if (ratio <= best_ratio) { best_ratio = ratio; best_t = t; best_k = k; }
+      }
+    }
+    if (best_t < 0) break;
+    v->track_matched[best_t] = true;
+    candidates_[best_k].user = best_t + 1;
+  }
+}
+
+// New users: unmatched components meeting the full person test, largest first, lowest free id;
+// each may first be found a limb in front of a user, a box, two people or a piece of a user.
+// Returns the candidate count, grown by the components cut in two (split_pair).
+int32_t UserStage::admit_new_users(const DepthFrame& f, int32_t n, Verdicts* v, SegmentationResult* r) {
+  const SegmenterConfig& cfg = *config_;
+  for (int round = 0; round < kMaxCandidates; ++round) {
+    int32_t best_k = -1;
+    for (int32_t k = 0; k < n; ++k)
+      if (v->strict[k] && !candidates_[k].user && (best_k < 0 || candidates_[k].pixels > candidates_[best_k].pixels))
+        best_k = k;
+    if (best_k < 0) break;
+    if (in_front_of_a_user(f, n, best_k, v->cz, v->strict)) {  // a limb reaching out, not someone hidden
+      v->strict[best_k] = false;
+      continue;
+    }
+    const int32_t split = split_box(f, best_k, v->outline[best_k] && cfg.low_outline_box_split != 0);
+    if (split == 2) {  // a box with a hand or arm over it (box_reject_min_share)
+      v->strict[best_k] = false;
+      continue;
+    }
+    if (split == 1) set_centroid(best_k, v);  // a box dropped from a person (box_split_height_m)
+    const int32_t pair = split_pair(f, n, best_k);
+    if (pair >= 0) {  // two people joined by an arm (pair_bridge_max_m): the other one waits its round
+      ++n;
+      set_centroid(best_k, v);
+      set_centroid(pair, v);
+      v->strict[pair] = true;
+      v->relaxed[pair] = false;
+    }
+    const int32_t into = absorbing_user(f, n, best_k, v->cx, v->cy, v->cz);
+    if (into >= 0) {  // a piece of that user's body behind a depth jump (absorb_radius_m, head_radius_m)
+      v->strict[best_k] = false;
+      Candidate& dst = candidates_[into];
+      Candidate& src = candidates_[best_k];
+      add_stats(dst, src, floor_->valid != 0);
+      set_centroid(into, v);
+      for (int32_t j = 0; j < n; ++j)
+        if (candidates_[j].owner == best_k) candidates_[j].owner = into;  // best_k's own pieces too
+      src.pixels = 0;
+      continue;
+    }
+    int32_t slot = -1;
+    for (int32_t t = 0; t < cfg.max_users && slot < 0; ++t)
+      if (!tracks_[t].active) slot = t;
+    if (slot < 0) {
+      r->flags |= kSegFlagUsersTruncated;
+      break;
+    }
+    tracks_[slot] = Track{1, 0, 0, {v->cx[best_k], v->cy[best_k], v->cz[best_k]}, {0, 0, 0}};
+    v->track_matched[slot] = true;
+    candidates_[best_k].user = slot + 1;
+  }
+  return n;
+}
+
+// Tracks (matched: moved and counted; unmatched: lost, dropped after track_keep_frames) and the
+// visible users, by id.
+void UserStage::update_tracks(const Verdicts& v, SegmentationResult* r) {
+  const SegmenterConfig& cfg = *config_;
+  for (int32_t t = 0; t < kMaxUsers; ++t) {
+    Track& tr = tracks_[t];
+    if (!tr.active) continue;
+    if (!v.track_matched[t]) {
+      tr.frames_tracked = 0;
+      if (++tr.lost_frames > cfg.track_keep_frames) tr.active = 0;
+      continue;
+    }
+    int32_t k = 0;
+    while (candidates_[k].user != t + 1) ++k;
+    const Candidate& c = candidates_[k];
+    // Velocity: smoothed displacement per frame (a reappearing user spreads it over the gap).
+    const float now[3] = {v.cx[k], v.cy[k], v.cz[k]};
+    const float gap = float(tr.lost_frames + 1);
+    for (int a = 0; a < 3; ++a) {
+      tr.velocity[a] = tr.frames_tracked > 0 || tr.lost_frames > 0
+                           ? 0.5f * tr.velocity[a] + 0.5f * (now[a] - tr.centroid[a]) / gap
+                           : 0.0f;
+      tr.centroid[a] = now[a];
+    }
+    tr.lost_frames = 0;
+    if (tr.frames_tracked < 0x7fffffff) ++tr.frames_tracked;
+    UserInfo& u = r->users[r->user_count++];
+    u.id = t + 1;
+    u.pixel_count = c.pixels;
+    u.centroid_m[0] = v.cx[k]; u.centroid_m[1] = v.cy[k]; u.centroid_m[2] = v.cz[k];
+    u.u_min = c.u_min; u.v_min = c.v_min; u.u_max = c.u_max; u.v_max = c.v_max;
+    u.top_height_m = c.top;
+    u.frames_tracked = tr.frames_tracked;
+    r->user_pixels += c.pixels;
+  }
+}
+
+// The label image: every pixel of a candidate takes its owner's user id (0 for none).
+void UserStage::write_labels(const DepthFrame& f, SegmentationResult* r) const {
+  const int32_t w = f.width;
+  for (int32_t v = 0; v < f.height; ++v) {
+    uint8_t* out = r->labels + size_t(v) * f.stride_px;
+    const int32_t* parent = parent_ + size_t(v) * w;
+    for (int32_t u = 0; u < w; ++u) {
+      const int32_t root = parent[u];
+      const int32_t k = root >= 0 ? aux_[root] : -1;
+      out[u] = k >= 0 ? uint8_t(candidates_[candidates_[k].owner].user) : 0;
+    }
+  }
+}
+
+void UserStage::assign_users(const DepthFrame& f, int32_t candidate_count, SegmentationResult* r) {
+  merge_fragments(f, candidate_count);
+  Verdicts v{};
+  judge_candidates(f, candidate_count, &v);
+  associate_tracks(candidate_count, &v);
+  admit_new_users(f, candidate_count, &v, r);
+  update_tracks(v, r);
+  write_labels(f, r);
+}
+
+}  // namespace dp::seg

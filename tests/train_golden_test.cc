@@ -1,0 +1,69 @@
+// The trainer's output is pinned: small forests grown with fixed options and seed must serialize
+// to the bytes recorded below (FNV-1a 64 of the forest file with the timings blanked). The digests
+// were computed by the trainer before its split search was restructured for speed, so any change
+// that alters a chosen split, threshold, tie-break or leaf shows up here. If a deliberate change
+// of the training rule alters them, record the new digests and say why in the commit.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "tests/train_stick_bodies.h"
+#include "tools/train/forest_trainer.h"
+
+namespace dp::train {
+namespace {
+
+uint64_t forest_digest(TrainedForest forest) {
+  forest.timings_json = "{}";
+  uint64_t h = 0xCBF29CE484222325ull;
+  for (uint8_t b : serialize_forest(forest)) h = (h ^ b) * 0x100000001B3ull;
+  return h;
+}
+
+std::string hex(uint64_t v) {
+  char b[20];
+  std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(v));
+  return b;
+}
+
+ForestOptions golden_options(const std::string& method, Objective objective, int threads) {
+  ForestOptions fo;
+  fo.method = method;
+  fo.tree.max_depth = 9;
+  fo.tree.offset_candidates = 48;
+  fo.tree.threshold_candidates = 20;
+  fo.tree.max_offset_pxm = 65;
+  fo.tree.min_samples = 8;
+  fo.tree.objective = objective;
+  fo.tree.seed = 5;
+  fo.tree.threads = threads;
+  fo.leaf.reservoir = 30;
+  fo.leaf.seed = 5;
+  return fo;
+}
+
+TEST(TrainGolden, ForestsEqualTheRecordedDigests) {
+  const TrainingSet set = testing_bodies::stick_body_set(24, 400, 2, 3);
+  struct Case {
+    const char* name;
+    std::string method;
+    Objective objective;
+    const char* digest;
+  };
+  const Case cases[] = {
+      {"bpc classification", "bpc", Objective::kClassification, "9a34ff0291d3cc00"},
+      {"ojr classification", "ojr", Objective::kClassification, "a2919b5797450184"},
+      {"ojr regression", "ojr", Objective::kRegression, "3e40f3cc030965b3"},
+  };
+  for (const Case& c : cases)
+    for (int threads : {1, 2}) {
+      const TrainedForest f = train_forest(set, golden_options(c.method, c.objective, threads), {});
+      size_t nodes = 0;
+      for (const TrainedTree& t : f.trees) nodes += t.nodes.size();
+      EXPECT_GT(nodes, 100u) << c.name << ": the golden forest should be deep enough to pin many splits";
+      EXPECT_EQ(hex(forest_digest(f)), c.digest) << c.name << ", " << threads << " thread(s)";
+    }
+}
+
+}  // namespace
+}  // namespace dp::train

@@ -1,0 +1,193 @@
+#include "tools/train/checkpoint.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+
+#include "tools/common/error.h"
+
+namespace dp::train {
+using tools::fail;
+
+namespace {
+
+constexpr char kMagic[8] = {'D', 'P', 'T', 'R', 'C', 'K', 'P', 'T'};
+constexpr uint32_t kVersion = 1;
+constexpr size_t kNodeInts = 7;
+
+// FNV-1a over 64-bit words (tail bytes one by one): fast enough for gigabytes of probe images.
+struct Digest {
+  uint64_t h = 0xCBF29CE484222325ull;
+  void bytes(const void* data, size_t n) {
+    const uint8_t* p = static_cast<const uint8_t*>(data);
+    for (; n >= 8; n -= 8, p += 8) {
+      uint64_t w;
+      std::memcpy(&w, p, 8);
+      h = (h ^ w) * 0x100000001B3ull;
+    }
+    for (; n > 0; --n, ++p) h = (h ^ *p) * 0x100000001B3ull;
+  }
+  template <typename T>
+  void value(const T& v) {
+    bytes(&v, sizeof v);
+  }
+  void text(const std::string& s) {
+    value(s.size());
+    bytes(s.data(), s.size());
+  }
+};
+
+template <typename T>
+void put(std::vector<uint8_t>& out, T v) {
+  const size_t at = out.size();
+  out.resize(at + sizeof v);
+  std::memcpy(out.data() + at, &v, sizeof v);
+}
+
+}  // namespace
+
+std::string training_data_digest(const TrainingSet& set) {
+  Digest d;
+  d.value(set.images.size());
+  for (const TrainingImage& im : set.images) {
+    for (int v : {im.width, im.height, im.origin_u, im.origin_v, im.frame_width, im.frame_height, im.focal_factor})
+      d.value(v);
+    for (double v : {im.camera.fx, im.camera.fy, im.camera.cx, im.camera.cy}) d.value(v);
+    d.value(im.probe.size());
+    d.bytes(im.probe.data(), im.probe.size() * sizeof(uint16_t));
+    d.value(im.joints.size());
+    d.bytes(im.joints.data(), im.joints.size() * sizeof(float));
+  }
+  d.value(set.tree_pixels.size());
+  for (const auto& pixels : set.tree_pixels) {
+    d.value(pixels.size());
+    d.bytes(pixels.data(), pixels.size() * sizeof(TrainingPixel));
+  }
+  d.value(set.part_names.size());
+  for (const std::string& s : set.part_names) d.text(s);
+  d.value(set.joint_names.size());
+  for (const std::string& s : set.joint_names) d.text(s);
+  d.value(set.has_labels);
+  d.value(set.has_joints);
+  d.value(set.reference_focal_px);
+  char b[20];
+  std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(d.h));
+  return b;
+}
+
+void write_checkpoint(const std::string& path, const TrainingCheckpoint& checkpoint) {
+  nlohmann::json header;
+  header["options"] = nlohmann::json::parse(checkpoint.options_json);
+  header["data_digest"] = checkpoint.data_digest;
+  header["trees"] = nlohmann::json::array();
+  for (const GrowthState& t : checkpoint.trees)
+    header["trees"].push_back({{"levels_done", t.levels_done},
+                               {"complete", t.complete},
+                               {"feature_evaluations", t.feature_evaluations},
+                               {"nodes", t.nodes.size()}});
+  const std::string text = header.dump();
+  std::vector<uint8_t> out(kMagic, kMagic + 8);
+  put<uint32_t>(out, kVersion);
+  put<uint32_t>(out, static_cast<uint32_t>(text.size()));
+  out.insert(out.end(), text.begin(), text.end());
+  for (const GrowthState& t : checkpoint.trees)
+    for (const DecidedNode& n : t.nodes)
+      for (int32_t v : {static_cast<int32_t>(n.heap), int32_t(n.leaf ? 1 : 0), n.du1, n.dv1, n.du2, n.dv2, n.threshold})
+        put<int32_t>(out, v);
+  put<uint32_t>(out, static_cast<uint32_t>(crc32(0L, out.data(), static_cast<uInt>(out.size()))));
+
+  const std::string tmp = path + ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd < 0) fail("cannot write checkpoint " + tmp + ": " + std::strerror(errno));
+  size_t done = 0;
+  while (done < out.size()) {
+    const ssize_t w = ::write(fd, out.data() + done, out.size() - done);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) {
+      const std::string why = std::strerror(errno);
+      ::close(fd);
+      fail("cannot write checkpoint " + tmp + ": " + why);
+    }
+    done += static_cast<size_t>(w);
+  }
+  if (::fsync(fd) != 0 || ::close(fd) != 0) fail("cannot write checkpoint " + tmp + ": " + std::strerror(errno));
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+    fail("cannot rename checkpoint " + tmp + " to " + path + ": " + std::strerror(errno));
+}
+
+TrainingCheckpoint read_checkpoint(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) fail("cannot open checkpoint " + path);
+  const std::vector<uint8_t> data((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  auto bad = [&](const std::string& why) { fail("checkpoint " + path + ": " + why); };
+  if (data.size() < 20 || std::memcmp(data.data(), kMagic, 8) != 0)
+    bad("not a depthpose training checkpoint (bad magic)");
+  uint32_t version, header_bytes, crc;
+  std::memcpy(&version, data.data() + 8, 4);
+  std::memcpy(&header_bytes, data.data() + 12, 4);
+  if (version != kVersion) bad("version " + std::to_string(version) + ", this build reads version 1");
+  std::memcpy(&crc, data.data() + data.size() - 4, 4);
+  if (crc != static_cast<uint32_t>(crc32(0L, data.data(), static_cast<uInt>(data.size() - 4))))
+    bad("CRC-32 mismatch (truncated or damaged file)");
+  if (size_t(header_bytes) > data.size() - 20) bad("header length " + std::to_string(header_bytes) + " beyond the file");
+  TrainingCheckpoint c;
+  nlohmann::json header;
+  try {
+    header = nlohmann::json::parse(data.begin() + 16, data.begin() + 16 + header_bytes);
+    c.options_json = header.at("options").dump();
+    c.data_digest = header.at("data_digest").get<std::string>();
+    size_t at = 16 + header_bytes;
+    for (const auto& t : header.at("trees")) {
+      GrowthState g;
+      g.levels_done = t.at("levels_done").get<int>();
+      g.complete = t.at("complete").get<bool>();
+      g.feature_evaluations = t.at("feature_evaluations").get<uint64_t>();
+      const size_t count = t.at("nodes").get<size_t>();
+      if (g.levels_done < 0 || count > (data.size() - 4 - at) / (kNodeInts * 4))
+        bad("tree " + std::to_string(c.trees.size()) + " lists more nodes than the file holds");
+      for (size_t i = 0; i < count; ++i, at += kNodeInts * 4) {
+        int32_t v[kNodeInts];
+        std::memcpy(v, data.data() + at, sizeof v);
+        if (v[0] < 0 || (v[1] != 0 && v[1] != 1)) bad("corrupt node record");
+        g.nodes.push_back({static_cast<uint32_t>(v[0]), v[1] == 1, v[2], v[3], v[4], v[5], v[6]});
+      }
+      c.trees.push_back(std::move(g));
+    }
+    if (at != data.size() - 4) bad("trailing bytes after the node records");
+  } catch (const nlohmann::json::exception& e) {
+    bad(std::string("bad JSON header: ") + e.what());
+  }
+  for (size_t t = 0; t + 1 < c.trees.size(); ++t)
+    if (!c.trees[t].complete) bad("tree " + std::to_string(t) + " is incomplete but a later tree was begun");
+  return c;
+}
+
+void check_checkpoint_matches(const TrainingCheckpoint& checkpoint, const std::string& options_json,
+                              const std::string& data_digest, const std::string& path) {
+  const nlohmann::json had = nlohmann::json::parse(checkpoint.options_json);
+  const nlohmann::json now = nlohmann::json::parse(options_json);
+  std::string diff;
+  for (auto it = now.begin(); it != now.end(); ++it) {
+    const std::string before = had.contains(it.key()) ? had[it.key()].dump() : "(absent)";
+    if (before != it.value().dump())
+      diff += "\n  " + it.key() + ": checkpoint " + before + ", this run " + it.value().dump();
+  }
+  for (auto it = had.begin(); it != had.end(); ++it)
+    if (!now.contains(it.key())) diff += "\n  " + it.key() + ": checkpoint " + it.value().dump() + ", this run (absent)";
+  if (!diff.empty())
+    fail("cannot resume from " + path + ": it was written with other options:" + diff +
+         "\nrun with the checkpoint's options, or without --resume to start over");
+  if (checkpoint.data_digest != data_digest)
+    fail("cannot resume from " + path + ": it was written for other training data (data digest " +
+         checkpoint.data_digest + ", this run " + data_digest +
+         "); use the same datasets, --pixels-per-image, --images-per-tree, --trees and --seed, or start without --resume");
+}
+
+}  // namespace dp::train

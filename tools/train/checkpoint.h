@@ -1,0 +1,51 @@
+// Training checkpoints (`depthpose train --checkpoint FILE --resume`): what a forest's growth has
+// decided so far, so that a killed run continues to the byte-identical forest.
+//
+// A checkpoint holds, per tree begun, its GrowthState (tree_trainer.h): the split or leaf decision
+// of every node at the levels finished. Nothing else is needed: the training pixels are a function
+// of the data, options and seed, the pixel order of a level is recomputed by replaying the
+// recorded splits (one feature per pixel and level, cheap next to the split search), and leaf
+// models are fitted after the structure. It also records the options that determine the forest
+// and a digest of the training data; resuming with other options or data is refused.
+//
+// File layout (little-endian):
+//   "DPTRCKPT"            8 bytes magic
+//   uint32 version        1
+//   uint32 header_bytes   length of the JSON header that follows
+//   JSON header           {"options":{...},"data_digest":"<16 hex>","trees":[{"levels_done":L,
+//                          "complete":bool,"feature_evaluations":N,"nodes":count},...]}
+//   per tree, its nodes   count × 7 int32: heap, leaf (0/1), du1, dv1, du2, dv2, threshold
+//   uint32 crc32          zlib CRC-32 of every byte before it
+// Written to FILE.tmp, flushed and fsync'ed, then renamed over FILE, so FILE is always either the
+// previous complete checkpoint or the new one.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "tools/train/training_set.h"
+#include "tools/train/tree_trainer.h"
+
+namespace dp::train {
+
+struct TrainingCheckpoint {
+  std::string options_json = "{}";    // the forest-determining options (JSON object text)
+  std::string data_digest;            // training_data_digest() of the set
+  std::vector<GrowthState> trees;     // trees begun, in order; all but the last are complete
+};
+
+// 64-bit digest (16 hex digits) of everything in the set that the forest depends on: image crops,
+// cameras, joints, part/joint names and every tree's sampled pixels. Dataset paths are not part of
+// it (a moved dataset still matches).
+std::string training_data_digest(const TrainingSet& set);
+
+// Atomic write (temp file + fsync + rename). Throws ToolError naming the file on I/O errors.
+void write_checkpoint(const std::string& path, const TrainingCheckpoint& checkpoint);
+// Throws ToolError naming the file and the problem (missing, truncated, bad magic/version/CRC).
+TrainingCheckpoint read_checkpoint(const std::string& path);
+
+// Throws ToolError when `checkpoint` was written with other options or data than the current
+// run's, naming each differing option with both values.
+void check_checkpoint_matches(const TrainingCheckpoint& checkpoint, const std::string& options_json,
+                              const std::string& data_digest, const std::string& path);
+
+}  // namespace dp::train
