@@ -18,7 +18,7 @@ GTEST_SRC    ?= /usr/src/googletest/googletest
 A64_LIB      := $(A64)/libdepthpose_runtime.a
 A64_TEST_BIN := $(A64)/bin/runtime_tests
 A64_TEST_SRCS := tests/runtime_kernel_test.cc tests/runtime_pipeline_test.cc forest_blob/blob_writer.cc \
-                 platform/arena_memory.cc \
+                 platform/arena_memory.cc tools/common/file_io.cc \
                  tools/demo/fixtures.cc
 A64_TEST_OBJS := $(A64_TEST_SRCS:%.cc=$(A64)/testobj/%.o)
 A64_GTEST_OBJS := $(A64)/gtest/gtest-all.o $(A64)/gtest/gtest_main.o

@@ -5,7 +5,8 @@
 #                       $(BUILD)/debug; gtest output in $(BUILD)/debug/test-logs/unit.log
 #   make $(BUILD)/bin/runtime_tests   that binary for the current flags (e.g. OPT=-O0 BUILD=build-o0)
 RUNTIME_TEST_SRCS := tests/runtime_kernel_test.cc tests/runtime_pipeline_test.cc forest_blob/blob_writer.cc \
-                     tools/demo/fixtures.cc tools/convert/pcl_import.cc platform/arena_memory.cc
+                     tools/demo/fixtures.cc tools/convert/pcl_import.cc tools/convert/pcl_tree_reader.cc \
+                     tools/common/file_io.cc platform/arena_memory.cc
 RUNTIME_TEST_OBJS := $(RUNTIME_TEST_SRCS:%.cc=$(BUILD)/obj/%.o)
 RUNTIME_TEST_BIN  := $(BUILD)/bin/runtime_tests
 

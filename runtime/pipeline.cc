@@ -284,8 +284,10 @@ Status Pipeline::process_user(const DepthFrame& f, uint8_t user_id, FrameResult*
   r->joint_count = s_.blob.meta->joint_count;
   const uint64_t t0 = cycle_count();
   int32_t mine = 0;
-  for (int32_t i = 0; i < s_.evaluated_count; ++i)
+  for (int32_t i = 0; i < s_.evaluated_count; ++i) {
+    DP_DCHECK(s_.pixels[i].u < f.width && s_.pixels[i].v < f.height);  // the frame of the last process()
     mine += f.foreground_mask[size_t(s_.pixels[i].v) * size_t(f.stride_px) + s_.pixels[i].u] == user_id;
+  }
   r->evaluated_pixels = mine;
   if (mine == 0) {
     r->flags |= kFlagNoForeground;
