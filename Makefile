@@ -22,8 +22,13 @@ BUILD    ?= build
 SAN      ?=
 CXX      ?= g++
 OPT      ?= -O2
+DEBUG    ?=
 CXXSTD   := -std=c++20
-BASE_ISA := -msse4.1
+# The target architecture, from the compiler (x86_64, aarch64, ...): it picks the kernel folders.
+TARGET_ARCH := $(firstword $(subst -, ,$(shell $(CXX) -dumpmachine)))
+# The x86 tools' baseline (tools/train uses SSE4.1 intrinsics). The runtime needs none: its generic
+# code and kernels/ref are plain C++, and each kernels/<isa>/ folder gets its own flags below.
+BASE_ISA := $(if $(filter x86_64,$(TARGET_ARCH)),-msse4.1,)
 WARN     := -Wall -Wextra -Wno-missing-field-initializers
 INCLUDES := -I. -I/usr/include/openni2
 DEPFLAGS  = -MMD -MP
@@ -33,22 +38,39 @@ ifeq ($(SAN),1)
 else
   SANFLAGS :=
 endif
+# make DEBUG=1: the runtime's precondition checks (runtime/debug_check.h) compiled in, at -O1.
+ifeq ($(DEBUG),1)
+  OPT := -O1
+  DEBUGFLAGS := -DDP_DEBUG_CHECKS=1
+else
+  DEBUGFLAGS :=
+endif
 
-CXXFLAGS_COMMON := $(CXXSTD) $(OPT) -g $(BASE_ISA) $(WARN) $(INCLUDES) $(SANFLAGS) $(EXTRA_CXXFLAGS)
-RUNTIME_CXXFLAGS := $(CXXFLAGS_COMMON) -fno-exceptions -fno-rtti -fno-threadsafe-statics
+CXXFLAGS_COMMON := $(CXXSTD) $(OPT) -g $(BASE_ISA) $(WARN) $(INCLUDES) $(SANFLAGS) $(DEBUGFLAGS) $(EXTRA_CXXFLAGS)
+# -ffp-contract=off: every float product and sum of the runtime is rounded on its own, as the
+# reference kernels define it (no fused multiply-add on FMA-capable x86 kernels or on aarch64, where
+# GCC would otherwise fuse), so every ISA gives the same bits.
+RUNTIME_CXXFLAGS := $(filter-out $(BASE_ISA),$(CXXFLAGS_COMMON)) -ffp-contract=off -fno-exceptions -fno-rtti -fno-threadsafe-statics
 TOOLS_CXXFLAGS   := $(CXXFLAGS_COMMON) -pthread
 LDLIBS_TOOLS     := -lpng -lz -lbz2 -lusb-1.0 -lOpenNI2 -pthread
 
-# Per-ISA kernel folders: same file names as runtime/kernels/ref, compiled for their ISA.
-# -ffp-contract=off: float kernels must round every product and sum as the SSE4.1 reference does
-# (no fused multiply-add), so every ISA gives the same bits.
+# Per-ISA kernel folders: same file names as runtime/kernels/ref, compiled for their ISA (ref/ and
+# neon/ need no flag: NEON is part of the AArch64 base architecture).
 # -fno-tree-slp-vectorize: GCC 12's -O2 packs the forest kernels' scalar probe loads back into
 # vectors with shift/or chains and stack spills (more ops per visit); without it the forest stage
 # takes 5-12 % fewer cycles, the other kernels the same (docs/runtime_speed.md).
-ISA_FLAGS_avx2   := -mavx2 -mfma -mbmi -mbmi2 -mpopcnt -ffp-contract=off -fno-tree-slp-vectorize
-ISA_FLAGS_avx512 := -mavx2 -mfma -mbmi -mbmi2 -mpopcnt -mavx512f -mavx512bw -mavx512vl -mavx512dq -ffp-contract=off -fno-tree-slp-vectorize
+ISA_FLAGS_sse41  := -msse4.1
+ISA_FLAGS_avx2   := -mavx2 -mfma -mbmi -mbmi2 -mpopcnt -fno-tree-slp-vectorize
+ISA_FLAGS_avx512 := -mavx2 -mfma -mbmi -mbmi2 -mpopcnt -mavx512f -mavx512bw -mavx512vl -mavx512dq -fno-tree-slp-vectorize
+ISA_FLAGS_neon   := -fno-tree-slp-vectorize
+ISA_DIRS_x86_64  := sse41 avx2 avx512
+ISA_DIRS_aarch64 := neon
+ISA_DIRS         := $(ISA_DIRS_$(TARGET_ARCH))
+OTHER_ISA_DIRS   := $(filter-out $(ISA_DIRS),sse41 avx2 avx512 neon)
 
-RUNTIME_SRCS := $(sort $(shell find runtime -name '*.cc' -not -name '*_test.cc') \
+RUNTIME_EXCLUDE ?=
+RUNTIME_SRCS := $(sort $(filter-out $(foreach d,$(OTHER_ISA_DIRS),runtime/kernels/$(d)/%) $(RUNTIME_EXCLUDE), \
+                         $(shell find runtime -name '*.cc' -not -name '*_test.cc')) \
                        $(wildcard forest_blob/blob_loader.cc forest_blob/crc32.cc))
 # Files under platform/openni_driver/ build into an OpenNI2 driver (mk/openni.mk), not the CLI.
 TOOLS_SRCS   := $(sort $(shell find tools platform forest_blob -name '*.cc' \
@@ -75,12 +97,12 @@ EXTRA_LINK_DEPS :=
 .DEFAULT_GOAL := all
 all: $(CLI) $(RUNTIME_LIB) $(EXTRA_LINK_DEPS)
 
-$(BUILD)/obj/runtime/kernels/avx2/%.o: runtime/kernels/avx2/%.cc
-	@mkdir -p $(@D)
-	$(CXX) $(RUNTIME_CXXFLAGS) $(ISA_FLAGS_avx2) $(DEPFLAGS) -c $< -o $@
-$(BUILD)/obj/runtime/kernels/avx512/%.o: runtime/kernels/avx512/%.cc
-	@mkdir -p $(@D)
-	$(CXX) $(RUNTIME_CXXFLAGS) $(ISA_FLAGS_avx512) $(DEPFLAGS) -c $< -o $@
+define ISA_RULE
+$$(BUILD)/obj/runtime/kernels/$(1)/%.o: runtime/kernels/$(1)/%.cc
+	@mkdir -p $$(@D)
+	$$(CXX) $$(RUNTIME_CXXFLAGS) $$(ISA_FLAGS_$(1)) $$(DEPFLAGS) -c $$< -o $$@
+endef
+$(foreach d,$(ISA_DIRS),$(eval $(call ISA_RULE,$(d))))
 $(BUILD)/obj/runtime/%.o: runtime/%.cc
 	@mkdir -p $(@D)
 	$(CXX) $(RUNTIME_CXXFLAGS) $(DEPFLAGS) -c $< -o $@
@@ -114,8 +136,10 @@ $(BUILD)/bin/bench_%: $(BUILD)/obj/tests/bench/%_bench.o $(TOOLS_LIB) $(RUNTIME_
 FORBIDDEN_RUNTIME_SYMS := malloc calloc realloc free aligned_alloc posix_memalign _Znwm _Znam _ZdlPv _ZdaPv \
   _ZdlPvm _ZdaPvm _ZnwmSt11align_val_t _ZnamSt11align_val_t _ZdlPvSt11align_val_t __cxa_throw \
   __cxa_allocate_exception __cxa_begin_catch __gxx_personality_v0
+NM ?= nm
 check-runtime: $(RUNTIME_LIB)
-	@bad=$$(nm -u $(RUNTIME_LIB) | awk '{print $$2}' | sort -u | grep -x -F $(addprefix -e ,$(FORBIDDEN_RUNTIME_SYMS)) || true); \
+	@NM=$(NM) mk/check_isa_linkage.sh $(BUILD)/obj/runtime/kernels
+	@bad=$$($(NM) -u $(RUNTIME_LIB) | awk '{print $$2}' | sort -u | grep -x -F $(addprefix -e ,$(FORBIDDEN_RUNTIME_SYMS)) || true); \
 	if [ -n "$$bad" ]; then echo "check-runtime: FAILED: runtime references: $$bad"; exit 1; fi; \
 	echo "check-runtime: OK ($(RUNTIME_LIB) references no heap or exception symbols)"
 

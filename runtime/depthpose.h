@@ -7,7 +7,13 @@
 //   - The blob must have been accepted by dp::blob::load_blob(); its bytes must outlive the
 //     Pipeline. After init() every loop is bounded by values validated at load time.
 //   - process() is deterministic: the same blob, config, kernel and frame give the same result
-//     bit for bit, whichever kernel (scalar reference, AVX2, AVX-512) evaluates the forest.
+//     bit for bit, whichever kernel (scalar reference, AVX2, AVX-512, NEON) evaluates the forest.
+//   - A Pipeline owns its view of the arena: it can be moved (the source is left uninitialised)
+//     but not copied (two copies would share one arena's scratch).
+//   - Costs are in counter ticks (runtime/cycle_counter.h: TSC cycles on x86-64, CNTVCT_EL0 ticks
+//     on aarch64).
+// Dataflow (docs/architecture.md maps each stage to its file): foreground.h → forest.h → votes.h
+// (bpc_votes.h, ojr_votes.h, vote_selection.h) → mean_shift.h, planned by budget_plan.h.
 // Units: depth uint16 millimetres (0 = no reading); 3D points in metres in the camera frame
 // (OpenNI convention: x right, y up, z forward): x = (u − cx)·z/fx, y = −(v − cy)·z/fy.
 #pragma once
@@ -35,8 +41,8 @@ constexpr int kMaxJoints = blob::kMaxJoints;
 constexpr int kMaxProposals = blob::kMaxProposalsCap;
 
 struct CameraIntrinsics {
-  float fx, fy;  // focal lengths in pixels, > 0
-  float cx, cy;  // principal point in pixels
+  float fx, fy;  // focal lengths in pixels, finite and > 0
+  float cx, cy;  // principal point in pixels, finite
 };
 
 struct DepthFrame {
@@ -94,7 +100,7 @@ struct FrameResult {
   int32_t joint_count;                         // = blob joint_count
   int32_t proposal_count[kMaxJoints];          // per joint, ≤ config.max_proposals_per_joint
   JointProposal proposals[kMaxJoints][kMaxProposals];  // per joint, by decreasing confidence
-  uint64_t stage_cycles[kStageCount];          // TSC cycles per stage
+  uint64_t stage_cycles[kStageCount];          // counter ticks per stage (runtime/cycle_counter.h)
   uint64_t total_cycles;
   uint32_t flags;                              // FrameFlag bits
   int32_t foreground_pixels;                   // before striding
@@ -107,7 +113,7 @@ struct FrameResult {
   uint64_t predicted_cycles;                   // the plan's worst-case cost model (docs/budget.md)
 };
 
-enum class KernelIsa : int32_t { kScalar = 0, kAvx2 = 1, kAvx512 = 2, kBest = 3 };
+enum class KernelIsa : int32_t { kScalar = 0, kAvx2 = 1, kAvx512 = 2, kBest = 3, kNeon = 4 };
 const char* kernel_isa_name(KernelIsa isa);
 bool kernel_isa_supported(KernelIsa isa);
 // What kBest means for the forest kernel: AVX2 when present (else scalar). On split nodes it measured
@@ -115,8 +121,9 @@ bool kernel_isa_supported(KernelIsa isa);
 // load is cheaper than its share of the 8-pixel step's lane decode, and 256-bit ops issue on more
 // ports). The other kernels' kBest is the widest available. Results are the same whichever runs.
 KernelIsa best_forest_kernel_isa();
+// On aarch64 both are NEON (part of the base architecture).
 // What kBest means for every other kernel: the widest ISA this build and CPU run (AVX-512, else AVX2,
-// else scalar).
+// else NEON, else scalar).
 KernelIsa widest_kernel_isa();
 
 // A pixel the forest evaluated (for tools: segmentation output, overlays).
@@ -136,6 +143,13 @@ size_t minimum_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int3
 
 class Pipeline {
  public:
+  Pipeline() = default;
+  Pipeline(const Pipeline&) = delete;
+  Pipeline& operator=(const Pipeline&) = delete;
+  // Moving hands the arena view over; the source is left as a default-constructed Pipeline.
+  Pipeline(Pipeline&& other) noexcept;
+  Pipeline& operator=(Pipeline&& other) noexcept;
+
   // Carves state out of `arena` (64-byte aligned, ≥ minimum_arena_bytes; the split node copy is
   // made when it is ≥ required_arena_bytes). Copies the blob's RuntimeConfig into the arena
   // (set_config may change it later). Selects KernelIsa::kBest.
@@ -143,7 +157,8 @@ class Pipeline {
   Status init(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height, uint8_t* arena,
               size_t arena_bytes);
 
-  // Runs the whole chain on one frame. Returns kOk, kNotInitialized, kBadArgument or
+  // Runs the whole chain on one frame. Returns kOk, kNotInitialized, kBadArgument (null pointer,
+  // non-positive size, stride < width, intrinsics not finite or a focal length ≤ 0) or
   // kFrameTooLarge; on error `result` is zeroed and no proposals are reported.
   Status process(const DepthFrame& frame, FrameResult* result);
 
@@ -156,17 +171,16 @@ class Pipeline {
   // kBadArgument for a null result, a null mask or user_id 0; kNotInitialized before init.
   Status process_user(const DepthFrame& frame, uint8_t user_id, FrameResult* result);
 
-  // Chooses the kernels (tests and benchmarks compare them). kKernelUnavailable if the CPU lacks
-  // it. kBest picks the widest available (the forest kernel: best_forest_kernel_isa()). kScalar
-  // selects the scalar reference forest kernel and vote casters (the specification) and the SSE4.1
-  // mean-shift sums; every other choice uses that
-  // ISA's forest kernel, BPC vote scan and mean-shift sums (runtime/kernels/) and the SSE4.1 OJR
-  // caster, which give exactly the same votes and proposals (tests/runtime_kernel_test.cc proves it).
+  // Chooses the kernels (tests and benchmarks compare them). kKernelUnavailable if this build or
+  // CPU lacks it. kBest picks the widest available (the forest kernel: best_forest_kernel_isa()).
+  // kScalar selects the plain C++ reference kernels and vote casters (the specification); every other
+  // choice uses that ISA's kernels as runtime/kernels/dispatch.h lists them, which give exactly the
+  // same votes and proposals (tests/runtime_kernel_test.cc proves it).
   Status set_kernel(KernelIsa isa);
-  KernelIsa kernel() const { return kernel_; }                // the vote and mean-shift kernels' ISA
-  KernelIsa forest_kernel() const { return forest_kernel_; }  // the forest kernel's (differs under kBest)
+  KernelIsa kernel() const { return s_.kernel; }                // the vote and mean-shift kernels' ISA
+  KernelIsa forest_kernel() const { return s_.forest_kernel; }  // the forest kernel's (differs under kBest)
 
-  const blob::RuntimeConfig& config() const { return *config_; }
+  const blob::RuntimeConfig& config() const { return *s_.config; }
   // Validates then replaces the runtime config (tune uses this). kBadConfig on invalid values.
   Status set_config(const blob::RuntimeConfig& config);
 
@@ -174,72 +188,61 @@ class Pipeline {
   // its leaves saved from an earlier process() of a frame with these intrinsics (tune's grid
   // search re-aggregates cached forest output). `leaves` is tree-major: tree t's leaf for pixel i
   // at leaves[t · count + i]. Returns kNotInitialized, kBadArgument (null pointer, count outside
-  // 1..pixel budget, bad intrinsics, a leaf ≥ leaf_count) or kOk; stage_cycles[kStageForest] = 0.
+  // 1..pixel budget, intrinsics as for process(), a leaf ≥ leaf_count) or kOk;
+  // stage_cycles[kStageForest] = 0.
   // Afterwards the views below describe the given pixels.
   Status aggregate_from_leaves(const CameraIntrinsics& intrinsics, const EvaluatedPixel* pixels,
                                const uint32_t* leaves, int32_t count, FrameResult* result);
 
   // Views of the last processed frame, valid until the next process() call.
-  int32_t evaluated_pixel_count() const { return evaluated_count_; }
-  const EvaluatedPixel* evaluated_pixels() const { return pixels_; }
+  int32_t evaluated_pixel_count() const { return s_.evaluated_count; }
+  const EvaluatedPixel* evaluated_pixels() const { return s_.pixels; }
   // Leaf record index (into the blob's leaf table) reached by evaluated pixel i in tree t.
   uint32_t leaf_of(int32_t pixel_index, int32_t tree) const {
-    return leaves_[size_t(tree) * size_t(max_pixels_) + size_t(pixel_index)];
+    return s_.leaves[size_t(tree) * size_t(s_.max_pixels) + size_t(pixel_index)];
   }
   // BPC: p(c|u) for evaluated pixel i averaged over trees (Eq. 5), Q15, part_count entries.
   void part_distribution(int32_t pixel_index, uint16_t* probability_q15) const;
 
-  size_t arena_used_bytes() const { return arena_used_; }
-  bool uses_split_nodes() const { return split_offsets_ != nullptr; }
-  const blob::LoadedBlob& blob() const { return blob_; }
+  size_t arena_used_bytes() const { return s_.arena_used; }
+  bool uses_split_nodes() const { return s_.split_offsets != nullptr; }
+  const blob::LoadedBlob& blob() const { return s_.blob; }
 
  private:
-  blob::LoadedBlob blob_{};
-  blob::RuntimeConfig* config_ = nullptr;
-  KernelIsa kernel_ = KernelIsa::kScalar, forest_kernel_ = KernelIsa::kScalar;
-  int32_t max_width_ = 0, max_height_ = 0, max_pixels_ = 0;
-  uint8_t* arena_ = nullptr;
-  size_t arena_bytes_ = 0, arena_used_ = 0;
-  // per-frame scratch (arena head)
-  uint16_t* probe_image_ = nullptr;
-  EvaluatedPixel* pixels_ = nullptr;
-  uint32_t* leaves_ = nullptr;          // tree-major: [tree][pixel]
-  uint32_t* slots_ = nullptr;           // kernel output: heap slot per pixel (one tree)
-  struct Vote* votes_ = nullptr;        // [joint][max_votes]
-  int32_t* vote_counts_ = nullptr;
-  struct Vote* starts_ = nullptr;       // [max_starts] for the joint being aggregated
-  float* modes_ = nullptr;              // scratch for mean-shift modes
-  uint64_t* split_offsets_ = nullptr;            // persistent (arena tail): split copy of the nodes
-  int16_t* split_thresholds_ = nullptr;          //   (kernels::SplitTree), or nullptr
-  uint16_t* joint_mass_ = nullptr;               // persistent: per leaf record × joint mass (BPC)
-  float* soa_ = nullptr;                         // scratch: mean-shift votes as structure of arrays
-  uint64_t* select_keys_ = nullptr;              // scratch: one joint's vote keys while cutting it
-  uint16_t* guess_hist_ = nullptr;               // scratch: sampled weight histogram for the BPC floor guess
-  int32_t cast_cap_ = 0;                         // Nsub of the casting in progress
-  void rebuild_joint_mass();
-  int32_t evaluated_count_ = 0;
-  bool initialized_ = false;
-  // process_user: only evaluated pixels whose mask value equals user_filter_id_ cast votes.
-  const uint8_t* user_filter_ = nullptr;
-  int32_t user_filter_stride_ = 0;
-  uint8_t user_filter_id_ = 0;
-  bool skipped_by_user_filter(const EvaluatedPixel& px) const {
-    return user_filter_ && user_filter_[size_t(px.v) * size_t(user_filter_stride_) + px.u] != user_filter_id_;
-  }
+  // Everything a Pipeline holds, so that a move can hand it over and reset the source in one step.
+  struct State {
+    blob::LoadedBlob blob{};
+    blob::RuntimeConfig* config = nullptr;
+    KernelIsa kernel = KernelIsa::kScalar, forest_kernel = KernelIsa::kScalar;
+    int32_t max_width = 0, max_height = 0, max_pixels = 0;
+    uint8_t* arena = nullptr;
+    size_t arena_bytes = 0, arena_used = 0;
+    // per-frame scratch (arena head)
+    uint16_t* probe_image = nullptr;
+    EvaluatedPixel* pixels = nullptr;
+    uint32_t* leaves = nullptr;          // tree-major: [tree][max_pixels]
+    struct Vote* votes = nullptr;        // [joint][kVoteSlots]
+    int32_t* vote_counts = nullptr;
+    uint32_t* select_keys = nullptr;     // vote cuts: 2·kVoteSlots
+    uint16_t* guess_hist = nullptr;      // floor guesses: [kMaxJoints][kGuessBuckets]
+    struct Vote* starts = nullptr;       // mean shift: [kMaxStartsCap]
+    float* modes = nullptr;              //   [kMaxStartsCap][4]
+    float* soa = nullptr;                //   [4][kSoaRow]
+    // persistent (arena tail)
+    uint64_t* split_offsets = nullptr;   // split copy of the nodes (kernels::SplitTree), or nullptr
+    int16_t* split_thresholds = nullptr;
+    uint16_t* joint_mass = nullptr;      // BPC joint-mass table (bpc_votes.h), or nullptr
+    int32_t evaluated_count = 0;
+    bool initialized = false;
+  };
+  State s_;
 
-  void cast_votes(const DepthFrame& frame, FrameResult* result);  // reference or fast, by kernel_
-  void cast_bpc_votes(const DepthFrame& frame, FrameResult* result);
-  void cast_ojr_votes(const DepthFrame& frame, FrameResult* result);
-  void cast_bpc_votes_fast(const DepthFrame& frame, FrameResult* result);
-  void cast_ojr_votes_fast(const DepthFrame& frame, FrameResult* result);
-  bool append_vote(int joint, int32_t cap, const struct Vote& vote, float* floor_weight);
-  bool finish_votes(int32_t cap);
-  float cut_votes(int joint, int32_t cap);
-  static float on_buffer_full(void* ctx, int joint);  // the BPC scan's callback: cut_votes(joint, cast_cap_)
-  void guess_bpc_floors(int32_t cap, float* floor);
-  void guess_ojr_floors(int32_t cap, const uint32_t* lane_len2, float* floor);
-  void aggregate(FrameResult* result);
-  void plan_budget(int32_t frame_pixels, int32_t foreground, int32_t pixel_cap, int32_t* pixels, FrameResult* result) const;
+  // The shared tail of process, process_user and aggregate_from_leaves: votes (stage 3) and mean
+  // shift (stage 4) over the listed pixels with the kernels of kernel(), timed from `t0` into
+  // result's stage_cycles[kStageVotes], [kStageMeanShift] and total_cycles. Pixels whose value in
+  // user_filter differs from user_id cast no votes (user_filter null: all cast).
+  void votes_and_proposals(const CameraIntrinsics& intrinsics, const uint8_t* user_filter, int32_t user_stride,
+                           uint8_t user_id, uint64_t t0, FrameResult* result);
 };
 
 }  // namespace dp

@@ -30,13 +30,15 @@ constexpr uint16_t kBackgroundDepthMm = 32767;  // "large positive constant" of 
 constexpr int32_t kMaxFocalFactor = 65535;      // keeps focal_factor·8192 inside int32
 
 // focal_factor for a frame of focal length `frame_focal_px` and a forest trained for
-// `reference_focal_px`. Both > 0. Computed once per frame; rounding half away from zero.
+// `reference_focal_px` (both meant > 0). Computed once per frame; rounding half away from zero, then
+// clamped to 1..kMaxFocalFactor. The ratio is range-checked before the float → int conversion, so
+// any input is defined: +inf or a huge ratio gives kMaxFocalFactor; NaN, 0 and negatives give 1.
 inline int32_t focal_factor_mm(float frame_focal_px, float reference_focal_px) {
-  float f = 1000.0f * frame_focal_px / reference_focal_px;
-  int32_t v = static_cast<int32_t>(f + 0.5f);
-  if (v < 1) v = 1;
-  if (v > kMaxFocalFactor) v = kMaxFocalFactor;
-  return v;
+  const float f = 1000.0f * frame_focal_px / reference_focal_px;
+  if (!(f >= 1.0f)) return 1;  // also NaN
+  if (!(f < float(kMaxFocalFactor))) return kMaxFocalFactor;
+  const int32_t v = static_cast<int32_t>(f + 0.5f);
+  return v < kMaxFocalFactor ? v : kMaxFocalFactor;
 }
 
 // Pixels per offset unit at depth z (Q13), saturated at kScaleMaxQ13. z_mm must be > 0.

@@ -3,13 +3,20 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
+#include <limits>
 #include <memory>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "forest_blob/blob_loader.h"
 #include "forest_blob/blob_writer.h"
+#include "runtime/cycle_counter.h"
+#include "runtime/debug_check.h"
 #include "runtime/depthpose.h"
 #include "runtime/fixed_point.h"
+#include "runtime/vote_selection.h"
 #include "tools/demo/fixtures.h"
 
 using namespace dp;
@@ -252,4 +259,114 @@ TEST(Pipeline, ForestFollowsTheFeatureRule) {
     ++checked;
   }
   EXPECT_GT(checked, 1000);
+}
+
+// ---- contracts: conversions of user values, ownership, debug checks, the counter -------------
+
+TEST(FixedPoint, FocalFactorIsDefinedForEveryFloat) {
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(focal_factor_mm(inf, 525.0f), kMaxFocalFactor);
+  EXPECT_EQ(focal_factor_mm(1e30f, 525.0f), kMaxFocalFactor);
+  EXPECT_EQ(focal_factor_mm(std::numeric_limits<float>::max(), 525.0f), kMaxFocalFactor);
+  EXPECT_EQ(focal_factor_mm(34000.0f, 525.0f), 64762);            // 64761.9 < limit: rounds, no clamp
+  EXPECT_EQ(focal_factor_mm(34500.0f, 525.0f), kMaxFocalFactor);  // 65714 ≥ limit: clamped
+  EXPECT_EQ(focal_factor_mm(nan, 525.0f), 1);
+  EXPECT_EQ(focal_factor_mm(525.0f, nan), 1);
+  EXPECT_EQ(focal_factor_mm(-inf, 525.0f), 1);
+  EXPECT_EQ(focal_factor_mm(-300.0f, 525.0f), 1);
+  EXPECT_EQ(focal_factor_mm(0.0f, 525.0f), 1);
+  EXPECT_EQ(focal_factor_mm(525.0f, 0.0f), kMaxFocalFactor);  // +inf ratio
+  EXPECT_EQ(focal_factor_mm(0.2f, 525.0f), 1);                // 0.38: below one unit
+  EXPECT_EQ(focal_factor_mm(0.8f, 525.0f), 2);                // 1.52 rounds to 2
+}
+
+TEST(Pipeline, RefusesNonFiniteIntrinsicsAndAcceptsHugeFiniteOnes) {
+  Loaded l(tools::single_part_bpc(4, 2, 3, 55));
+  const SyntheticFrame f = tools::make_disc_frame(320, 240, 160.0f, 120.0f, 50.0f, 2000);
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  FrameResult r;
+  for (float bad : {inf, -inf, nan, 0.0f, -525.0f}) {
+    for (int field = 0; field < 4; ++field) {
+      if ((field >= 2) && !(bad != bad || bad == inf || bad == -inf)) continue;  // any finite cx, cy is fine
+      DepthFrame d = f.view();
+      float* fields[4] = {&d.intrinsics.fx, &d.intrinsics.fy, &d.intrinsics.cx, &d.intrinsics.cy};
+      *fields[field] = bad;
+      EXPECT_EQ(l.pipeline.process(d, &r), Status::kBadArgument) << "field " << field << " = " << bad;
+      EXPECT_EQ(r.evaluated_pixels, 0);
+      uint8_t mask[1] = {1};
+      d.foreground_mask = mask;
+      EXPECT_EQ(l.pipeline.process_user(d, 1, &r), Status::kBadArgument) << "field " << field;
+      const EvaluatedPixel px{10, 10, 2000, 0};
+      const uint32_t leaf = 0;
+      EXPECT_EQ(l.pipeline.aggregate_from_leaves(d.intrinsics, &px, &leaf, 1, &r), Status::kBadArgument);
+    }
+  }
+  // Huge but finite focal lengths: the focal factor saturates (every probe lands on the border)
+  // and the frame still runs.
+  DepthFrame huge = f.view();
+  huge.intrinsics.fx = huge.intrinsics.fy = 3e38f;  // (fx + fy) / 2 overflows to +inf inside
+  ASSERT_EQ(l.pipeline.process(huge, &r), Status::kOk);
+  EXPECT_GT(r.evaluated_pixels, 0);
+}
+
+static_assert(!std::is_copy_constructible_v<Pipeline>, "two copies would share one arena");
+static_assert(!std::is_copy_assignable_v<Pipeline>, "two copies would share one arena");
+static_assert(std::is_nothrow_move_constructible_v<Pipeline>, "a Pipeline can be handed over");
+static_assert(std::is_nothrow_move_assignable_v<Pipeline>, "a Pipeline can be handed over");
+
+TEST(Pipeline, MoveHandsTheArenaOverAndLeavesTheSourceUninitialised) {
+  Loaded l(tools::single_part_bpc(4, 2, 3, 55));
+  const SyntheticFrame f = tools::make_disc_frame(320, 240, 160.0f, 120.0f, 50.0f, 2000);
+  FrameResult before, after;
+  ASSERT_EQ(l.pipeline.process(f.view(), &before), Status::kOk);
+  ASSERT_GT(before.proposal_count[0], 0);
+  Pipeline moved(std::move(l.pipeline));
+  EXPECT_EQ(l.pipeline.process(f.view(), &after), Status::kNotInitialized);
+  EXPECT_EQ(l.pipeline.arena_used_bytes(), 0u);
+  EXPECT_EQ(moved.arena_used_bytes(), l.arena_bytes);
+  ASSERT_EQ(moved.process(f.view(), &after), Status::kOk);
+  EXPECT_EQ(after.proposal_count[0], before.proposal_count[0]);
+  EXPECT_EQ(0, std::memcmp(after.proposals[0], before.proposals[0], sizeof(JointProposal) * size_t(before.proposal_count[0])));
+  Pipeline assigned;
+  assigned = std::move(moved);
+  EXPECT_EQ(moved.process(f.view(), &after), Status::kNotInitialized);
+  ASSERT_EQ(assigned.process(f.view(), &after), Status::kOk);
+  EXPECT_EQ(0, std::memcmp(after.proposals[0], before.proposals[0], sizeof(JointProposal) * size_t(before.proposal_count[0])));
+}
+
+#if DP_DEBUG_CHECKS
+TEST(DebugChecks, AFailedPreconditionAbortsNamingIt) {
+  int evaluated = 0;
+  DP_DCHECK(++evaluated == 1);
+  EXPECT_EQ(evaluated, 1);  // compiled in: the condition runs
+  EXPECT_DEATH(DP_DCHECK(evaluated == 2), "debug check failed: evaluated == 2 at .*runtime_pipeline_test.cc");
+  // A broken runtime precondition: a vote cut of a buffer that is not over its cap.
+  Vote votes[4] = {};
+  int32_t counts[blob::kMaxJoints] = {};
+  uint32_t keys[2 * kVoteSlots];
+  counts[0] = 2;
+  const VoteSets sets{votes, counts, keys};
+  EXPECT_DEATH(cut_votes(sets, 0, 3), "debug check failed: cap >= 1 && n > cap");
+}
+#else
+TEST(DebugChecks, CompiledAwayInRelease) {
+  int evaluated = 0;
+  DP_DCHECK(++evaluated == 5);  // neither evaluated nor fatal
+  EXPECT_EQ(evaluated, 0);
+}
+#endif
+
+TEST(CycleCounter, CountsForwardInItsDocumentedUnit) {
+  const uint64_t a = cycle_count();
+  volatile uint64_t sink = 0;
+  for (int i = 0; i < 100000; ++i) sink = sink + uint64_t(i);
+  const uint64_t b = cycle_count();
+  EXPECT_GT(b, a);
+#if defined(__x86_64__)
+  EXPECT_STREQ(cycle_counter_unit(), "tsc_cycles");
+  EXPECT_EQ(cycle_counter_hz(), 0u);
+#elif defined(__aarch64__)
+  EXPECT_STREQ(cycle_counter_unit(), "cntvct_ticks");
+  EXPECT_GT(cycle_counter_hz(), 1000000u);  // the generic timer runs at MHz rates
+#endif
 }

@@ -1,7 +1,9 @@
-// The forest-evaluation seam. runtime/kernels/ref/ is the specification; per-ISA folders
-// (runtime/kernels/avx2/, runtime/kernels/avx512/) hold files of the same names whose results
-// must equal the reference bit for bit (tests/runtime_kernel_test.cc proves it).
+// The forest-evaluation seam. runtime/kernels/ref/ (plain C++) is the specification; per-ISA folders
+// (runtime/kernels/avx2/, avx512/, neon/) hold files of the same names whose results must equal the
+// reference bit for bit (tests/runtime_kernel_test.cc proves it).
 // Kernels run on caller-provided memory only: no heap, no exceptions, no state between calls.
+// The inline helpers below have internal linkage (an unnamed namespace): ISA folders compile this
+// header with their own instruction-set flags, and no copy may stand in for another TU's.
 #pragma once
 #include <stddef.h>
 #include <stdint.h>
@@ -20,9 +22,10 @@ namespace dp::kernels {
 // kProbeBias, i.e. d with bit 15 set: probe_element(d) to write, probe_depth_of(e) to read. Why biased:
 // the SIMD kernels take a visit's child bit (t + d2 − d1 < 0) as the carry of one unsigned compare of
 // t + (d2 + bias) with d1 + bias, both sides then ≥ 0 for every int16 threshold t (one cmp and one adc
-// instead of add, sub, shift and lea; docs/runtime_speed.md, eighth session).
+// instead of add, sub, shift and lea; docs/runtime_speed.md).
 constexpr uint16_t kProbeBias = 0x8000;
 static_assert(kBackgroundDepthMm < kProbeBias, "probe depths fit below the bias bit");
+namespace {
 // The element for depth_mm: the background for 0 (no reading) and for depth_mm ≥ kBackgroundDepthMm.
 inline uint16_t probe_element(uint16_t depth_mm) {
   return uint16_t((depth_mm == 0 || depth_mm >= kBackgroundDepthMm ? kBackgroundDepthMm : depth_mm) | kProbeBias);
@@ -44,6 +47,7 @@ inline void fill_probe_border(uint16_t* padded, int32_t width, int32_t height) {
     padded[size_t(v) * stride + width + 1] = background;
   }
 }
+}  // namespace
 
 // Compact 8-byte node, built at init from blob::TreeNode when every |offset| ≤ kPackedMaxOffset
 // (PCL's trees: 395). Lane k (int16, k = du1, dv1, du2, dv2) holds offset_k·16 in bits 4..15 and
@@ -56,6 +60,7 @@ struct PackedNode {
 static_assert(sizeof(PackedNode) == 8, "PackedNode is 8 bytes");
 constexpr int32_t kPackedMaxOffset = 2047;
 
+namespace {
 inline PackedNode pack_node(const blob::TreeNode& n) {
   const int16_t offsets[4] = {n.du1, n.dv1, n.du2, n.dv2};
   const uint16_t t = uint16_t(n.threshold_mm);
@@ -66,8 +71,9 @@ inline PackedNode pack_node(const blob::TreeNode& n) {
   }
   return PackedNode{bits};
 }
+}  // namespace
 
-// Node layouts (issue 5's study, `make bench`; docs/runtime_speed.md), all read by the same kernel
+// Node layouts (the layout study, `make bench`; docs/runtime_speed.md), all read by the same kernel
 // code. The pipeline copies the blob's nodes into kSplit at init (or, in a minimum arena, the kernels
 // read the blob's kBlob10 nodes in place); kPacked8 and kWide16 are kept for the study.
 enum class NodeLayout : int32_t { kBlob10, kPacked8, kWide16, kSplit };
@@ -79,11 +85,13 @@ struct SplitTree {
   const uint64_t* offsets;
   const int16_t* thresholds_mm;
 };
+namespace {
 inline uint64_t split_offsets_of(const blob::TreeNode& n) {
   static_assert(4 * blob::kMaxProbeOffsetPxm <= 32767, "4δ fits int16");
   return uint64_t(uint16_t(4 * n.du1)) | uint64_t(uint16_t(4 * n.dv1)) << 16 | uint64_t(uint16_t(4 * n.du2)) << 32 |
          uint64_t(uint16_t(4 * n.dv2)) << 48;
 }
+}  // namespace
 struct WideNode {  // kWide16: the blob node, aligned and padded to 16 bytes
   int16_t du1, dv1, du2, dv2;
   int16_t threshold_mm;
@@ -131,6 +139,11 @@ void evaluate_tree(const ForestKernelArgs& args);
 void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count);
 void evaluate_trees_study(const ForestKernelArgs* per_tree, int32_t tree_count, NodeLayout layout);
 }  // namespace avx512
+namespace neon {
+void evaluate_tree(const ForestKernelArgs& args);
+void evaluate_trees(const ForestKernelArgs* per_tree, int32_t tree_count);
+void evaluate_trees_study(const ForestKernelArgs* per_tree, int32_t tree_count, NodeLayout layout);
+}  // namespace neon
 
 // The kernel for `isa`, or nullptr when this build or this CPU lacks it (kBest never nullptr).
 ForestKernelFn forest_kernel(KernelIsa isa);

@@ -1,21 +1,39 @@
-// BPC vote casting scan (stage 3), one entry point per ISA (ref = SSE4.1 baseline, AVX2, AVX-512).
+// Vote-casting scans (stage 3), one entry point per ISA folder (ref: plain C++, the specification;
+// sse41, avx2, avx512, neon: the same results bit for bit).
 //
-// Contract: for every evaluated pixel i in increasing order (skipping pixels whose user-filter value
-// differs from user_id when user_filter is set), the scan computes each joint's
+// BPC scan contract: for every evaluated pixel i in increasing order (skipping pixels whose
+// user-filter value differs from user_id when user_filter is set), the scan computes each joint's
 //     mass_j = Σ over trees of joint_mass[leaf(i, t)][j]            (uint32, exact)
 //     weight_j = (float(mass_j) · inv_total · z) · z                 (z = z_mm · 0.001f, metres)
-// exactly as Pipeline::cast_bpc_votes does (separately rounded IEEE single products, in this
-// order), counts every candidate (mass_j ≠ 0) in candidates[j], and appends the candidates whose
-// weight is not below floor[j] to joint j's buffer votes[j · slots ...] as
+// as separately rounded IEEE single products in this order (the reference caster's arithmetic,
+// runtime/bpc_votes.cc), counts every candidate (mass_j ≠ 0) in candidates[j], and appends the
+// candidates whose weight is not below floor[j] to joint j's buffer votes[j · slots ...] as
 //     Vote{x, y, z + push_back_m[j], weight_j, order = i, start = mass_j > start_threshold[j]}.
 // A buffer that reaches `slots` votes is handed to on_full(ctx, j), which must cut it (keeping
 // casting order) and return joint j's new floor; the scan reads floor[] again after the call.
-// Votes are thus appended in casting order. Loops are bounded by count ≤ the pixel budget and
-// trees ≤ kMaxTrees (validated at blob load). No allocation.
+//
+// OJR scan contract: for every evaluated pixel i (same filter), tree t and lane l (a leaf's votes
+// in (joint, k) order, lane l = j·K + k), a vote with weight ≠ 0 and squared length
+// dx² + dy² + dz² ≤ lane_len2[l] is a candidate (counted in lane_candidates[l] when that pointer is
+// set); it is appended when weight·z² (one IEEE single product) is not below lane_floor[l], as
+//     Vote{x + dx·0.001f, y + dy·0.001f, z + dz·0.001f, weight·z², order = (i·trees + t)·K + k, 1}.
+// A buffer reaching `full_at` votes goes to on_full(ctx, j); the returned floor is written to every
+// lane of joint j.
+//
+// Both: on_full must return a floor no lower than the joint's floor before the call (the pipeline's
+// cut does: it keeps the heaviest votes of a buffer that holds only votes at or above that floor).
+// x = (u − cx)·z·inv_fx, y = −(v − cy)·z·inv_fy. Votes are appended in casting order. Loops
+// are bounded by count ≤ the pixel budget, trees ≤ kMaxTrees, lanes ≤ kMaxOjrLanes (validated at
+// blob load). No allocation, no state between calls.
+//
+// Every helper below has internal linkage: each ISA folder compiles this header with its own
+// instruction-set flags, and an externally visible inline copy could be the one the linker keeps
+// for every caller (an illegal instruction on a CPU without that ISA, at -O0 where nothing inlines).
 #pragma once
+#include <stddef.h>
 #include <stdint.h>
-#include <xmmintrin.h>
 
+#include "forest_blob/blob_format.h"
 #include "runtime/depthpose.h"
 
 namespace dp {
@@ -28,6 +46,8 @@ struct Vote {
 };
 
 namespace kernels {
+
+using VoteBufferFullFn = float (*)(void* ctx, int joint);
 
 struct BpcScanArgs {
   const EvaluatedPixel* pixels;
@@ -48,22 +68,55 @@ struct BpcScanArgs {
   int32_t slots;
   int32_t* vote_counts;         // [kMaxJoints]
   uint32_t* candidates;         // [kMaxJoints], added to (callers zero it)
-  float (*on_full)(void* ctx, int joint);
+  VoteBufferFullFn on_full;
+  void* ctx;
+};
+
+constexpr int32_t kMaxOjrLanes = blob::kMaxJoints * blob::kMaxVotesPerLeafJoint;
+
+struct OjrScanArgs {
+  const EvaluatedPixel* pixels;
+  int32_t count;
+  const uint32_t* leaves;       // tree-major, as BpcScanArgs
+  int32_t leaf_stride;
+  int32_t trees;
+  const uint8_t* leaf_table;    // leaf record r's votes at leaf_table + r · leaf_bytes
+  size_t leaf_bytes;
+  int32_t lanes;                // joint_count · K ≤ kMaxOjrLanes
+  int32_t k_votes;              // K
+  float cx, cy, inv_fx, inv_fy;
+  const uint32_t* lane_len2;    // [lanes] squared vote length limit (mm²); 0xFFFFFFFF = no limit
+  float* lane_floor;            // [kMaxOjrLanes], 16-byte aligned; joint j's lanes updated by on_full
+  const uint8_t* user_filter;   // nullptr: every pixel
+  int32_t user_stride;
+  uint8_t user_id;
+  Vote* votes;                  // [kMaxJoints][slots]
+  int32_t slots;
+  int32_t full_at;              // 1..slots: a buffer holding this many votes goes to on_full
+  int32_t* vote_counts;         // [kMaxJoints]
+  int32_t* lane_candidates;     // [kMaxOjrLanes] (16-byte aligned) added to, or nullptr
+  VoteBufferFullFn on_full;
   void* ctx;
 };
 
 using BpcScanFn = void (*)(const BpcScanArgs& args);
-namespace ref { void bpc_scan(const BpcScanArgs& args); }
+using OjrScanFn = void (*)(const OjrScanArgs& args);
+namespace ref { void bpc_scan(const BpcScanArgs& args); void ojr_scan(const OjrScanArgs& args); }
+namespace sse41 { void bpc_scan(const BpcScanArgs& args); void ojr_scan(const OjrScanArgs& args); }
 namespace avx2 { void bpc_scan(const BpcScanArgs& args); }
 namespace avx512 { void bpc_scan(const BpcScanArgs& args); }
+namespace neon { void bpc_scan(const BpcScanArgs& args); }
 
-// nullptr when the CPU lacks the ISA (kBest: the widest available).
+// nullptr when the CPU or this build lacks the ISA (kBest: the widest available).
 BpcScanFn bpc_scan_kernel(KernelIsa isa);
 
-constexpr int32_t kVotePrefetchAhead = 16;  // pixels: the joint-mass rows are random reads beyond L1
+// Pixels ahead whose joint-mass rows / OJR leaves are prefetched: they are random reads beyond L1.
+constexpr int32_t kVotePrefetchAhead = 16;
 
-// The shared tail of every ISA's scan: x and y once per pixel with a survivor, then one append per
-// surviving joint (`keep` bit j), lightest-first never matters because order = i is appended in turn.
+namespace {
+
+// The shared tail of every ISA's BPC scan: x and y once per pixel with a survivor, then one append
+// per surviving joint (`keep` bit j), in joint order.
 inline void append_bpc_survivors(const BpcScanArgs& a, int32_t i, const EvaluatedPixel& px, float z, uint32_t keep,
                                  const float* w, const uint32_t* mass) {
   const float x = (float(px.u) - a.cx) * z * a.inv_fx;
@@ -82,16 +135,56 @@ inline const uint16_t* mass_row(const BpcScanArgs& a, int t, int32_t i) {
   return a.joint_mass + size_t(a.leaves[size_t(t) * a.leaf_stride + i]) * kMaxJoints;
 }
 
-// The rows are random reads beyond L1: fetch those of the pixel kVotePrefetchAhead on.
 inline void prefetch_mass_rows_ahead(const BpcScanArgs& a, int32_t i) {
   if (i + kVotePrefetchAhead < a.count)
-    for (int t = 0; t < a.trees; ++t)
-      _mm_prefetch(reinterpret_cast<const char*>(mass_row(a, t, i + kVotePrefetchAhead)), _MM_HINT_T0);
+    for (int t = 0; t < a.trees; ++t) __builtin_prefetch(mass_row(a, t, i + kVotePrefetchAhead), 0, 3);
 }
 
+inline bool skipped(const uint8_t* filter, int32_t stride, uint8_t id, const EvaluatedPixel& px) {
+  return filter && filter[size_t(px.v) * size_t(stride) + px.u] != id;
+}
 inline bool skipped(const BpcScanArgs& a, const EvaluatedPixel& px) {
-  return a.user_filter && a.user_filter[size_t(px.v) * size_t(a.user_stride) + px.u] != a.user_id;
+  return skipped(a.user_filter, a.user_stride, a.user_id, px);
+}
+inline bool skipped(const OjrScanArgs& a, const EvaluatedPixel& px) {
+  return skipped(a.user_filter, a.user_stride, a.user_id, px);
 }
 
+// Pixel i's OJR leaf in tree t.
+inline const blob::OjrVote* ojr_leaf_of(const OjrScanArgs& a, int t, int32_t i) {
+  return reinterpret_cast<const blob::OjrVote*>(a.leaf_table + size_t(a.leaves[size_t(t) * a.leaf_stride + i]) * a.leaf_bytes);
+}
+
+inline void prefetch_ojr_leaves_ahead(const OjrScanArgs& a, int32_t i) {
+  if (i + kVotePrefetchAhead < a.count)
+    for (int t = 0; t < a.trees; ++t) {
+      const char* ahead = reinterpret_cast<const char*>(ojr_leaf_of(a, t, i + kVotePrefetchAhead));
+      for (size_t b = 0; b < size_t(a.lanes) * sizeof(blob::OjrVote); b += 64) __builtin_prefetch(ahead + b, 0, 3);
+    }
+}
+
+// Appends lane l's vote of pixel i, tree t (the OJR contract's Vote) and handles a full buffer.
+inline void append_ojr_vote(const OjrScanArgs& a, int32_t i, int t, int l, float x, float y, float z, float weight,
+                            const blob::OjrVote& ov) {
+  const int j = l / a.k_votes, k = l - j * a.k_votes;
+  const uint32_t order = (uint32_t(i) * uint32_t(a.trees) + uint32_t(t)) * uint32_t(a.k_votes) + uint32_t(k);
+  int32_t& n = a.vote_counts[j];
+  a.votes[size_t(j) * size_t(a.slots) + size_t(n++)] =
+      Vote{x + float(ov.dx_mm) * 0.001f, y + float(ov.dy_mm) * 0.001f, z + float(ov.dz_mm) * 0.001f, weight, order, 1};
+  if (n == a.full_at) {
+    const float floor = a.on_full(a.ctx, j);
+    for (int q = j * a.k_votes; q < (j + 1) * a.k_votes; ++q) a.lane_floor[q] = floor;
+  }
+}
+
+// The OJR candidate test of one lane: weight ≠ 0 and squared length within the lane's limit
+// (|offset|² ≤ 3·2^30 fits uint32, as does the limit).
+inline bool ojr_live(const blob::OjrVote& ov, uint32_t len2) {
+  const uint32_t d2 = uint32_t(int32_t(ov.dx_mm) * ov.dx_mm) + uint32_t(int32_t(ov.dy_mm) * ov.dy_mm) +
+                      uint32_t(int32_t(ov.dz_mm) * ov.dz_mm);
+  return ov.weight != 0 && d2 <= len2;
+}
+
+}  // namespace
 }  // namespace kernels
 }  // namespace dp

@@ -1,12 +1,13 @@
-// The cycle counter behind SegmentationResult::stage_cycles and total_cycles: the x86 time-stamp
-// counter (TSC ticks, constant rate on current CPUs). Every read in runtime/segmentation goes
-// through segmentation_cycles_now(), so another counter replaces it in this one place.
+// The cycle counter behind SegmentationResult::stage_cycles and total_cycles: the runtime's platform
+// counter (runtime/cycle_counter.h: TSC cycles on x86-64, CNTVCT_EL0 ticks on aarch64). Every read
+// in runtime/segmentation goes through segmentation_cycles_now().
 #pragma once
 #include <stdint.h>
-#include <x86intrin.h>
+
+#include "runtime/cycle_counter.h"
 
 namespace dp::seg {
 
-inline uint64_t segmentation_cycles_now() { return __rdtsc(); }
+inline uint64_t segmentation_cycles_now() { return cycle_count(); }
 
 }  // namespace dp::seg

@@ -1,7 +1,6 @@
 // `make bench`: forest-kernel and end-to-end speed of the runtime, SIMD beside the scalar
 // reference in the same run, on the real Skeltrack frames with PCL's trees and on synthetic
 // frames. Prints a table and writes build/bench/runtime.json (docs/runtime_speed.md).
-#include <x86intrin.h>
 
 #include <algorithm>
 #include <chrono>
@@ -17,6 +16,7 @@
 #include "forest_blob/blob_loader.h"
 #include "forest_blob/blob_writer.h"
 #include "platform/arena_memory.h"
+#include "runtime/cycle_counter.h"
 #include "runtime/depthpose.h"
 #include "runtime/fixed_point.h"
 #include "runtime/kernels/forest_kernel.h"
@@ -305,14 +305,15 @@ blob::BlobContents ojr_on_pcl_nodes(const blob::BlobContents& pcl) {
   return c;
 }
 
-// TSC ticks per ns (the pipeline's stage cycles are TSC), measured against the steady clock.
+// Counter ticks per ns (the pipeline's stage costs are in runtime/cycle_counter.h's unit: TSC cycles
+// on x86-64), measured against the steady clock.
 double tsc_per_ns() {
   static const double rate = [] {
     const auto t0 = std::chrono::steady_clock::now();
-    const uint64_t c0 = __rdtsc();
+    const uint64_t c0 = cycle_count();
     while (std::chrono::steady_clock::now() - t0 < std::chrono::milliseconds(100)) {
     }
-    const uint64_t c1 = __rdtsc();
+    const uint64_t c1 = cycle_count();
     const double ns = double(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count());
     return double(c1 - c0) / ns;
   }();
@@ -471,6 +472,7 @@ int main(int argc, char** argv) {
                "  \"node_layouts_ns_per_visit\": {%s},\n"
                "  \"pipeline_forest_ns_per_visit\": {\"bpc_640x480\": %.3f, \"bpc_320x240\": %.3f, \"ojr_640x480\": %.3f,"
                " \"ojr_320x240\": %.3f, \"tsc_ticks_per_ns\": %.4f},\n"
+               "  \"counter_unit\": \"%s\",\n"
                "  \"frames\": \"skeltrack 12 real Kinect frames, PCL 3 x depth-20 trees (shipped_*: models/*.blob on the same frames;"
                " shipped_*_rendered_*: 24 rendered people, test-split clips, seed 303)\"\n}\n",
                cpu_brand().c_str(), simd_ns, kVariants[best_variant].name, scalar_ns, scalar_ns / simd_ns, runs[1].best.fps, runs[3].best.fps,
@@ -481,7 +483,7 @@ int main(int argc, char** argv) {
                runs[11].best.stage_cycles[kStageForest], runs[11].best.stage_cycles[kStageVotes],
                runs[11].best.stage_cycles[kStageMeanShift], layout_json.c_str(), forest_ns_per_visit(runs[0].best, bpc_vga),
                forest_ns_per_visit(runs[1].best, bpc_qvga), forest_ns_per_visit(runs[2].best, ojr_vga),
-               forest_ns_per_visit(runs[3].best, ojr_qvga), tsc_per_ns());
+               forest_ns_per_visit(runs[3].best, ojr_qvga), tsc_per_ns(), cycle_counter_unit());
   std::fclose(j);
   std::printf("wrote build/bench/runtime.json\n");
   return 0;

@@ -2,7 +2,7 @@
 // ref/forest_eval.cc by the probe arithmetic stated in forest_eval_simd.h. No gathers: they are
 // slow on Zen 4 and on Intel. Two pixels per step, not four per 256-bit register: the extra vector
 // ops per visit cost less than the lane crossings (vinserti128, vextracti128) and the deeper blend
-// did on a visit's chain (docs/runtime_speed.md, seventh session: 2-4 % faster on the Intel host).
+// did on a visit's chain (docs/runtime_speed.md: 2-4 % faster on the Intel host).
 #include "runtime/kernels/forest_eval_simd.h"
 
 namespace dp::kernels::avx2 {

@@ -15,7 +15,7 @@
 namespace dp::kernels::avx512 {
 namespace {
 
-// GCC 12 reports the intrinsics' own undefined pass-through operands (srli, cvtepi64_epi32,
+// GCC 12 reports the intrinsics' own undefined carried-through operands (srli, cvtepi64_epi32,
 // extracti32x4) as maybe-uninitialized once inlined here; no value of ours is uninitialized.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"

@@ -1,5 +1,6 @@
 // Scalar reference kernel: the specification every SIMD kernel must reproduce bit for bit.
 // It reads the blob's nodes and checks image bounds itself (it never relies on the border).
+#include "runtime/debug_check.h"
 #include "runtime/fixed_point.h"
 #include "runtime/kernels/forest_kernel.h"
 
@@ -15,9 +16,11 @@ inline int32_t probe(const ForestKernelArgs& a, int32_t u, int32_t v) {
 }  // namespace
 
 void evaluate_tree(const ForestKernelArgs& a) {
+  DP_DCHECK(a.depth >= 1 && a.depth <= blob::kMaxDepth && a.probe_stride == a.width + 2);
   const uint32_t first_leaf = (1u << a.depth) - 1;
   for (int32_t i = 0; i < a.pixel_count; ++i) {
     const EvaluatedPixel p = a.pixels[i];
+    DP_DCHECK(p.z_mm > 0 && p.u < a.width && p.v < a.height);
     const int32_t s = scale_q13(a.focal_factor, p.z_mm);
     uint32_t n = 0;
     for (int32_t level = 0; level < a.depth; ++level) {

@@ -1,0 +1,30 @@
+// Reference OJR vote scan: vote_kernel.h's contract written as plain C++, one lane at a time.
+// The specification the SIMD scan reproduces bit for bit.
+#include "runtime/kernels/vote_kernel.h"
+
+namespace dp::kernels::ref {
+
+void ojr_scan(const OjrScanArgs& a) {
+  for (int32_t i = 0; i < a.count; ++i) {
+    const EvaluatedPixel px = a.pixels[i];
+    if (skipped(a, px)) continue;
+    const float z = float(px.z_mm) * 0.001f;
+    const float z2 = z * z;
+    const float x = (float(px.u) - a.cx) * z * a.inv_fx;
+    const float y = -(float(px.v) - a.cy) * z * a.inv_fy;
+    prefetch_ojr_leaves_ahead(a, i);
+    for (int t = 0; t < a.trees; ++t) {
+      const blob::OjrVote* leaf = ojr_leaf_of(a, t, i);
+      for (int l = 0; l < a.lanes; ++l) {
+        const blob::OjrVote& ov = leaf[l];
+        if (!ojr_live(ov, a.lane_len2[l])) continue;
+        if (a.lane_candidates) ++a.lane_candidates[l];
+        const float weight = float(ov.weight) * z2;
+        if (weight < a.lane_floor[l]) continue;
+        append_ojr_vote(a, i, t, l, x, y, z, weight, ov);
+      }
+    }
+  }
+}
+
+}  // namespace dp::kernels::ref

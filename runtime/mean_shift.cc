@@ -1,0 +1,102 @@
+#include "runtime/mean_shift.h"
+
+#include <algorithm>
+
+#include "runtime/debug_check.h"
+
+namespace dp {
+
+void aggregate_proposals(const blob::RuntimeConfig& cfg, int joints, const VoteSets& sets, const MeanShiftScratch& scratch,
+                         const MeanShiftKernels& k, FrameResult* r) {
+  DP_DCHECK(k.sums != nullptr && k.mode_weights != nullptr);
+  DP_DCHECK(r->starts_per_joint_used >= 1 && r->starts_per_joint_used <= blob::kMaxStartsCap);
+  float* const sx_row = scratch.soa;
+  float* const sy_row = scratch.soa + kSoaRow;
+  float* const sz_row = scratch.soa + 2 * kSoaRow;
+  float* const sw_row = scratch.soa + 3 * kSoaRow;
+  float* const modes = scratch.modes;
+  for (int j = 0; j < joints; ++j) {
+    Vote* votes = sets.votes + size_t(j) * kVoteSlots;
+    const int32_t nv = sets.counts[j];
+    DP_DCHECK(nv >= 0 && nv <= blob::kMaxVotesCap);
+    if (nv == 0) continue;
+    // Canonical order (casting order, unique) so results do not depend on heap internals. The fast
+    // casters keep their votes in casting order already; the reference's heap does not.
+    auto by_order = [](const Vote& a, const Vote& b) { return a.order < b.order; };
+    if (!std::is_sorted(votes, votes + nv, by_order)) std::sort(votes, votes + nv, by_order);
+    // Starting points: eligible votes, evenly strided down to the cap.
+    int32_t eligible = 0;
+    for (int32_t i = 0; i < nv; ++i) eligible += votes[i].start ? 1 : 0;
+    if (eligible == 0) continue;
+    const int32_t cap = r->starts_per_joint_used;
+    const int32_t step = (eligible + cap - 1) / cap;
+    if (step > 1) r->flags |= kFlagStartsTruncated;
+    int32_t ns = 0, e = 0;
+    for (int32_t i = 0; i < nv && ns < cap; ++i)
+      if (votes[i].start && (e++ % step) == 0) scratch.starts[ns++] = votes[i];
+    // Votes as structure of arrays, padded to a multiple of 16 lanes with weightless votes.
+    const int32_t padded = (nv + kernels::kMeanShiftLanes - 1) & ~(kernels::kMeanShiftLanes - 1);
+    for (int32_t i = 0; i < padded; ++i) {
+      const bool real = i < nv;
+      sx_row[i] = real ? votes[i].x : 0.0f;
+      sy_row[i] = real ? votes[i].y : 0.0f;
+      sz_row[i] = real ? votes[i].z : 0.0f;
+      sw_row[i] = real ? votes[i].weight : 0.0f;
+    }
+
+    const float b = float(cfg.joints[j].bandwidth_mm) * 0.001f;
+    const float inv_b2 = 1.0f / (b * b);
+    const float tol = float(cfg.merge_tolerance_mm) * 0.001f;
+    const float tol2 = tol * tol;
+    const float stop2 = 1e-6f;  // (1 mm)²
+    int32_t nm = 0;             // modes: x, y, z, confidence
+    for (int32_t s = 0; s < ns; ++s) {
+      float mx = scratch.starts[s].x, my = scratch.starts[s].y, mz = scratch.starts[s].z;
+      for (int it = 0; it < r->iterations_used; ++it) {
+        float sum[4];
+        k.sums(sx_row, sy_row, sz_row, sw_row, padded, mx, my, mz, inv_b2, sum);
+        const float sw = sum[0];
+        if (!(sw > 0.0f)) break;
+        const float nx = sum[1] / sw, ny = sum[2] / sw, nz = sum[3] / sw;
+        const float d2 = (nx - mx) * (nx - mx) + (ny - my) * (ny - my) + (nz - mz) * (nz - mz);
+        mx = nx; my = ny; mz = nz;
+        if (d2 < stop2) break;
+        // A path that reaches a known mode ends there (same basin): saves most iterations.
+        bool joined = false;
+        for (int32_t m = 0; m < nm && !joined; ++m) {
+          const float* q = modes + 4 * m;
+          joined = (q[0] - mx) * (q[0] - mx) + (q[1] - my) * (q[1] - my) + (q[2] - mz) * (q[2] - mz) < 0.25f * tol2;
+        }
+        if (joined) break;
+      }
+      int32_t m = 0;
+      for (; m < nm; ++m) {
+        const float* q = modes + 4 * m;
+        if ((q[0] - mx) * (q[0] - mx) + (q[1] - my) * (q[1] - my) + (q[2] - mz) * (q[2] - mz) < tol2) break;
+      }
+      if (m == nm) {
+        float* q = modes + 4 * nm++;
+        q[0] = mx; q[1] = my; q[2] = mz; q[3] = 0.0f;
+      }
+    }
+    // Confidence: every vote adds its weight to the nearest mode within 3 bandwidths.
+    k.mode_weights(sx_row, sy_row, sz_row, sw_row, nv, modes, nm, 9.0f * b * b);
+    // Top proposals by confidence (selection: nm ≤ kMaxStartsCap, output ≤ kMaxProposals).
+    const int32_t out_cap = cfg.max_proposals_per_joint;
+    int32_t out = 0;
+    int32_t nonzero = 0;
+    for (int32_t m = 0; m < nm; ++m) nonzero += modes[4 * m + 3] > 0.0f;
+    if (nonzero > out_cap) r->flags |= kFlagProposalsTruncated;
+    while (out < out_cap) {
+      int32_t best = -1;
+      for (int32_t m = 0; m < nm; ++m)
+        if (modes[4 * m + 3] > 0.0f && (best < 0 || modes[4 * m + 3] > modes[4 * best + 3])) best = m;
+      if (best < 0) break;
+      r->proposals[j][out++] = JointProposal{modes[4 * best], modes[4 * best + 1], modes[4 * best + 2], modes[4 * best + 3]};
+      modes[4 * best + 3] = -1.0f;
+    }
+    r->proposal_count[j] = out;
+  }
+}
+
+}  // namespace dp
