@@ -23,7 +23,7 @@ A64_TEST_SRCS := tests/runtime_kernel_test.cc tests/runtime_pipeline_test.cc for
 A64_TEST_OBJS := $(A64_TEST_SRCS:%.cc=$(A64)/testobj/%.o)
 A64_GTEST_OBJS := $(A64)/gtest/gtest-all.o $(A64)/gtest/gtest_main.o
 A64_CXXFLAGS := $(CXXSTD) $(OPT) -g $(WARN) -I. $(DEBUGFLAGS) -ffp-contract=off -pthread -DDP_NO_BZIP2=1 $(EXTRA_CXXFLAGS)
-PCL_TREES    := $(foreach i,1 2 3,../shared/data/pcl-people-trees/forest$(i)_tree_20.txt.bz2)
+PCL_TREES    := $(foreach i,1 2 3,$(DEPTHPOSE_SHARED)/data/pcl-people-trees/forest$(i)_tree_20.txt.bz2)
 
 .PHONY: aarch64 test-aarch64 check-runtime-aarch64 FORCE_A64
 aarch64: $(A64_LIB) $(A64_TEST_BIN)
@@ -52,13 +52,16 @@ $(A64)/data/pcl.blob: $(CLI)
 # The x86-64 reference's digests of the real frames, which the aarch64 run must reproduce bit for bit.
 $(A64)/data/x86_digests.txt: $(BUILD)/bin/runtime_tests
 	@mkdir -p $(@D)
-	@DP_DIGESTS_OUT=$@ $(BUILD)/bin/runtime_tests --gtest_filter=PclRealFrames.ReferenceDigestsAgreeAcrossArchitectures \
+	@DP_DIGESTS_OUT=$@ $(BUILD)/bin/runtime_tests --gtest_filter=PclRealFramesSharedData.ReferenceDigestsAgreeAcrossArchitectures \
 	  > $(A64)/data/x86_digests.log 2>&1 || { cat $(A64)/data/x86_digests.log; rm -f $@; exit 1; }
 
 test-aarch64: $(A64_TEST_BIN) $(A64)/data/pcl.blob $(A64)/data/x86_digests.txt
 	@mkdir -p $(A64)/test-logs
 	@cd $(CURDIR) && DP_PCL_BLOB=$(A64)/data/pcl.blob DP_DIGESTS_EXPECTED=$(A64)/data/x86_digests.txt \
-	  $(QEMU_A64) $(A64_TEST_BIN) $(GTEST_ARGS) 2>&1 | tee $(A64)/test-logs/unit.log; exit $${PIPESTATUS[0]}
+	  $(QEMU_A64) $(A64_TEST_BIN) $(GTEST_ARGS) > $(A64)/test-logs/unit.log 2>&1; rc=$$?; \
+	  echo $$rc > $(A64)/test-logs/unit.log.rc; \
+	  grep -E '^\[  (FAILED|SKIPPED) \]|^\[==========\]|^\[  PASSED  \]' $(A64)/test-logs/unit.log | sed 's|^|$(A64): |'; \
+	  exit $$rc
 
 check-runtime-aarch64: $(A64_LIB)
 	@$(MAKE) --no-print-directory BUILD=$(A64) CXX="$(A64_CCACHE)$(A64_CXX)" NM=$(A64_NM) check-runtime

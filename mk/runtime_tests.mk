@@ -23,7 +23,9 @@ test-runtime: $(RUNTIME_TEST_BIN)
 test-debug:
 	@$(MAKE) --no-print-directory BUILD=$(BUILD)/debug DEBUG=1 $(BUILD)/debug/bin/runtime_tests
 	@mkdir -p $(BUILD)/debug/test-logs
-	@cd $(CURDIR) && $(BUILD)/debug/bin/runtime_tests $(GTEST_ARGS) 2>&1 | tee $(BUILD)/debug/test-logs/unit.log; \
-	  exit $${PIPESTATUS[0]}
+	@cd $(CURDIR) && $(BUILD)/debug/bin/runtime_tests $(GTEST_ARGS) > $(BUILD)/debug/test-logs/unit.log 2>&1; rc=$$?; \
+	  echo $$rc > $(BUILD)/debug/test-logs/unit.log.rc; \
+	  grep -E '^\[  (FAILED|SKIPPED) \]|^\[==========\]|^\[  PASSED  \]' $(BUILD)/debug/test-logs/unit.log | sed 's|^|$(BUILD)/debug: |'; \
+	  exit $$rc
 
 -include $(RUNTIME_TEST_OBJS:.o=.d)
