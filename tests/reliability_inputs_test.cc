@@ -285,7 +285,7 @@ TEST(ReliabilityInputs, SegevalSetToleranceIsRangeChecked) {
   write_joint_dataset(dir, std::string("{\"id\":\"000000\",\"joints\":") + kTwoJoints + "}\n");
   const std::string m = error_of([&] { testsupport::run_cli({"segeval", "--data", dir, "--set", "join_mm=1e30"}); });
   EXPECT_HAS(m, "join_mm");
-  EXPECT_HAS(m, "outside 0..65535 mm");
+  EXPECT_HAS(m, "out of range (float in (0, 65535])");
 }
 
 TEST(ReliabilityInputs, PlotsOfFarOffPointsStayOnTheCanvas) {
