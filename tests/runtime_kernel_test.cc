@@ -183,7 +183,9 @@ TEST(KernelDispatch, FollowsTheCpu) {
   EXPECT_EQ(widest_kernel_isa(), widest);
   EXPECT_EQ(kernels::forest_kernel(KernelIsa::kBest), kernels::forest_kernel(best_forest));
   EXPECT_EQ(kernels::forest_trees_kernel(KernelIsa::kBest), kernels::forest_trees_kernel(best_forest));
-  if (avx2) EXPECT_NE(kernels::forest_kernel(KernelIsa::kAvx2), kernels::forest_kernel(KernelIsa::kScalar));
+  if (avx2) {
+    EXPECT_NE(kernels::forest_kernel(KernelIsa::kAvx2), kernels::forest_kernel(KernelIsa::kScalar));
+  }
   EXPECT_EQ(kernels::bpc_scan_kernel(KernelIsa::kBest), kernels::bpc_scan_kernel(widest));
   EXPECT_EQ(kernels::mean_shift_sums_kernel(KernelIsa::kBest), kernels::mean_shift_sums_kernel(widest));
   Pipeline p;
@@ -1003,8 +1005,9 @@ TEST(Sse41Kernels, ModeWeightsEqualTheReference) {
       ref_modes = modes;
       kernels::ref::mode_weights(x.data(), y.data(), z.data(), w.data(), nv, ref_modes.data(), nm, 0.09f);
       kernels::sse41::mode_weights(x.data(), y.data(), z.data(), w.data(), nv, modes.data(), nm, 0.09f);
-      if (nm > 0)  // (no modes: nothing to compare; memcmp may not be handed the empty vectors' null data)
+      if (nm > 0) {  // no modes: nothing to compare (memcmp may not be handed an empty vector's null data)
         EXPECT_EQ(0, std::memcmp(modes.data(), ref_modes.data(), modes.size() * sizeof(float))) << nv << " " << nm;
+      }
     }
   }
 }
