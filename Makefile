@@ -176,13 +176,17 @@ test-runs: test-run-unit test-run-asan test-debug test-aarch64 chain-smoke test-
 test-run-unit: test-unit
 test-run-asan:
 	@$(MAKE) --no-print-directory test-unit BUILD=$(BUILD)/asan SAN=1 OPT=-O1
-test-run-check-runtime:
+# After the libraries are built (by this make and by test-aarch64), so no second make builds them at once.
+test-run-check-runtime: $(RUNTIME_LIB) test-aarch64
 	@mkdir -p $(BUILD)/test-logs
-	@$(MAKE) --no-print-directory check-runtime > $(BUILD)/test-logs/check-runtime.out 2>&1; rc=$$?; \
-	  cat $(BUILD)/test-logs/check-runtime.out; \
-	  { if [ $$rc -eq 0 ]; then echo "[       OK ] CheckRuntime.NoHeapOrExceptionSymbols"; \
-	    else echo "[  FAILED  ] CheckRuntime.NoHeapOrExceptionSymbols"; fi; \
-	    echo "[==========] 1 tests ran."; } > $(BUILD)/test-logs/check-runtime.log; exit $$rc
+	@log=$(BUILD)/test-logs/check-runtime; rc=0; : > $$log.out; : > $$log.log; \
+	for arch in x86_64 aarch64; do \
+	  target=check-runtime; [ $$arch = aarch64 ] && target=check-runtime-aarch64; \
+	  $(MAKE) --no-print-directory $$target >> $$log.out 2>&1; r=$$?; \
+	  if [ $$r -eq 0 ]; then echo "[       OK ] CheckRuntime.NoHeapOrExceptionSymbols_$$arch"; \
+	  else echo "[  FAILED  ] CheckRuntime.NoHeapOrExceptionSymbols_$$arch"; rc=1; fi >> $$log.log; \
+	done; \
+	cat $$log.out; echo "[==========] 2 tests ran." >> $$log.log; exit $$rc
 $(BUILD)/bin/summary_probe: tests/probes/summary_probe.cc
 	@mkdir -p $(@D)
 	$(CXX) $(TOOLS_CXXFLAGS) -o $@ $< -lgtest -lgtest_main
