@@ -113,15 +113,6 @@ void guess_bpc_floors(const CastInputs& in, float* floor) {
   for (int j = 0; j < joints; ++j) floor[j] = floor_at_rank(in.guess_hist + j * kGuessBuckets, rank, kGuessLowestKey);
 }
 
-struct CutContext {
-  const VoteSets* sets;
-  int32_t cap;
-};
-float cut_when_full(void* ctx, int joint) {
-  const CutContext* c = static_cast<const CutContext*>(ctx);
-  return cut_votes(*c->sets, joint, c->cap);
-}
-
 }  // namespace
 
 // The kept votes equal the reference's: a candidate's weight is computed by the same float
@@ -146,7 +137,7 @@ uint32_t cast_bpc_votes_fast(const CastInputs& in, kernels::BpcScanFn scan, cons
     start_threshold[j] = uint32_t(cfg.joints[j].prob_threshold_q15) * uint32_t(trees);
   }
   guess_bpc_floors(in, floor);
-  CutContext ctx{&sets, cap};
+  CutWhenFull ctx{&sets, cap};
   kernels::BpcScanArgs a{in.pixels, in.count, in.leaves, in.leaf_stride, trees, in.joint_mass,
                          1.0f / (32768.0f * float(trees)), in.intrinsics.cx, in.intrinsics.cy,
                          1.0f / in.intrinsics.fx, 1.0f / in.intrinsics.fy, push_back_m, start_threshold, floor,

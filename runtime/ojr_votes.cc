@@ -100,15 +100,6 @@ void guess_ojr_floors(const CastInputs& in, const uint32_t* lane_len2, float* fl
     if (sampled[j] >= 2 * rank) floor[j] = floor_at_rank(in.guess_hist + j * kGuessBuckets, rank, kGuessLowestKeyOjr);
 }
 
-struct CutContext {
-  const VoteSets* sets;
-  int32_t cap;
-};
-float cut_when_full(void* ctx, int joint) {
-  const CutContext* c = static_cast<const CutContext*>(ctx);
-  return cut_votes(*c->sets, joint, c->cap);
-}
-
 }  // namespace
 
 // Exact for the reasons given at cast_bpc_votes_fast (bpc_votes.cc): same weights, same total order,
@@ -133,7 +124,7 @@ uint32_t cast_ojr_votes_fast(const CastInputs& in, kernels::OjrScanFn scan, cons
   // scan and that joint is scanned again without one.
   guess_ojr_floors(in, lane_len2, floor_weight);
   for (int l = 0; l < lanes; ++l) lane_floor[l] = floor_weight[l / k_votes];
-  CutContext ctx{&sets, cap};
+  CutWhenFull ctx{&sets, cap};
   kernels::OjrScanArgs a{in.pixels, in.count, in.leaves, in.leaf_stride, in.blob->tree_count(), in.blob->leaves,
                          in.blob->meta->leaf_stride_bytes, lanes, k_votes, in.intrinsics.cx, in.intrinsics.cy,
                          1.0f / in.intrinsics.fx, 1.0f / in.intrinsics.fy, lane_len2, lane_floor, in.user_filter,

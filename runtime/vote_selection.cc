@@ -56,6 +56,11 @@ bool push_top_n(Vote* heap, int32_t* count, int32_t capacity, const Vote& v) {
 }
 
 // The selection runs on weight bits alone and hashes orders only for the votes tied at the boundary.
+float cut_when_full(void* ctx, int joint) {
+  const CutWhenFull* c = static_cast<const CutWhenFull*>(ctx);
+  return cut_votes(*c->sets, joint, c->cap);
+}
+
 float cut_votes(const VoteSets& sets, int j, int32_t cap) {
   Vote* buf = sets.votes + size_t(j) * kVoteSlots;
   const int32_t n = sets.counts[j];

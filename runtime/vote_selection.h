@@ -49,6 +49,12 @@ bool push_top_n(Vote* heap, int32_t* count, int32_t capacity, const Vote& v);
 // Cuts joint j's buffer (count > cap ≥ 1) to its cap heaviest votes, keeping their casting order;
 // returns the lightest kept weight (the joint's floor from then on).
 float cut_votes(const VoteSets& sets, int joint, int32_t cap);
+// cut_votes as the scan kernels' callback for a full buffer: `ctx` is a CutWhenFull.
+struct CutWhenFull {
+  const VoteSets* sets;
+  int32_t cap;
+};
+float cut_when_full(void* ctx, int joint);
 // Cuts every joint's buffer to its cap heaviest votes. Returns true when votes were dropped.
 bool finish_votes(const VoteSets& sets, int32_t cap);
 
