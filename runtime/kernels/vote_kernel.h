@@ -185,6 +185,18 @@ inline bool ojr_live(const blob::OjrVote& ov, uint32_t len2) {
   return ov.weight != 0 && d2 <= len2;
 }
 
+// The reference's handling of one lane of tree t's leaf for pixel i: the candidate test, the
+// candidate count, the vote's weight (its weight times z², as float) against the lane's floor, and
+// the append. The SIMD scans use it for the lanes that do not fill a vector.
+inline void scan_ojr_lane(const OjrScanArgs& a, int32_t i, int t, int l, float x, float y, float z, float z2,
+                          const blob::OjrVote& ov) {
+  if (!ojr_live(ov, a.lane_len2[l])) return;
+  if (a.lane_candidates) ++a.lane_candidates[l];
+  const float weight = float(ov.weight) * z2;
+  if (weight < a.lane_floor[l]) return;
+  append_ojr_vote(a, i, t, l, x, y, z, weight, ov);
+}
+
 }  // namespace
 }  // namespace kernels
 }  // namespace dp

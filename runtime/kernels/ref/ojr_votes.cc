@@ -15,14 +15,7 @@ void ojr_scan(const OjrScanArgs& a) {
     prefetch_ojr_leaves_ahead(a, i);
     for (int t = 0; t < a.trees; ++t) {
       const blob::OjrVote* leaf = ojr_leaf_of(a, t, i);
-      for (int l = 0; l < a.lanes; ++l) {
-        const blob::OjrVote& ov = leaf[l];
-        if (!ojr_live(ov, a.lane_len2[l])) continue;
-        if (a.lane_candidates) ++a.lane_candidates[l];
-        const float weight = float(ov.weight) * z2;
-        if (weight < a.lane_floor[l]) continue;
-        append_ojr_vote(a, i, t, l, x, y, z, weight, ov);
-      }
+      for (int l = 0; l < a.lanes; ++l) scan_ojr_lane(a, i, t, l, x, y, z, z2, leaf[l]);
     }
   }
 }

@@ -60,14 +60,7 @@ void ojr_scan(const OjrScanArgs& a) {
           append_ojr_vote(a, i, t, lane, x, y, z, wl[lane - l], leaf[lane]);
         }
       }
-      for (; l < a.lanes; ++l) {  // the reference's test for the last lanes
-        const blob::OjrVote& ov = leaf[l];
-        if (!ojr_live(ov, a.lane_len2[l])) continue;
-        if (a.lane_candidates) ++a.lane_candidates[l];
-        const float weight = float(ov.weight) * z2;
-        if (weight < a.lane_floor[l]) continue;
-        append_ojr_vote(a, i, t, l, x, y, z, weight, ov);
-      }
+      for (; l < a.lanes; ++l) scan_ojr_lane(a, i, t, l, x, y, z, z2, leaf[l]);  // the last lanes
     }
   }
 }
