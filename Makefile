@@ -22,6 +22,9 @@ BUILD    ?= build
 SAN      ?=
 CXX      ?= g++
 OPT      ?= -O2
+# Debug information: full by default; the ASan+UBSan run of `make test` uses -g1 (line tables, enough
+# for its reports' stack traces), which compiles its tools and tests about 20 % faster.
+DEBUGINFO ?= -g
 DEBUG    ?=
 CXXSTD   := -std=c++20
 # The target architecture, from the compiler (x86_64, aarch64, ...): it picks the kernel folders.
@@ -46,7 +49,7 @@ else
   DEBUGFLAGS :=
 endif
 
-CXXFLAGS_COMMON := $(CXXSTD) $(OPT) -g $(BASE_ISA) $(WARN) $(INCLUDES) $(SANFLAGS) $(DEBUGFLAGS) $(EXTRA_CXXFLAGS)
+CXXFLAGS_COMMON := $(CXXSTD) $(OPT) $(DEBUGINFO) $(BASE_ISA) $(WARN) $(INCLUDES) $(SANFLAGS) $(DEBUGFLAGS) $(EXTRA_CXXFLAGS)
 # -ffp-contract=off: every float product and sum of the runtime is rounded on its own, as the
 # reference kernels define it (no fused multiply-add on FMA-capable x86 kernels or on aarch64, where
 # GCC would otherwise fuse), so every ISA gives the same bits.
@@ -175,7 +178,7 @@ test: ensure-deps
 test-runs: test-run-unit test-run-asan test-debug test-aarch64 chain-smoke test-run-check-runtime test-summary-selftest
 test-run-unit: test-unit
 test-run-asan:
-	@$(MAKE) --no-print-directory test-unit BUILD=$(BUILD)/asan SAN=1 OPT=-O1
+	@$(MAKE) --no-print-directory test-unit BUILD=$(BUILD)/asan SAN=1 OPT=-O1 DEBUGINFO=-g1
 # After the libraries are built (by this make and by test-aarch64), so no second make builds them at once.
 test-run-check-runtime: $(RUNTIME_LIB) test-aarch64
 	@mkdir -p $(BUILD)/test-logs

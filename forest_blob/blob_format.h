@@ -144,7 +144,7 @@ struct RuntimeConfig {
   uint16_t reserved0;
   uint32_t max_evaluated_pixels;   // budget: above this, foreground pixels are strided
   uint32_t reserved1;
-  uint64_t cycle_budget;           // per-frame budget in TSC cycles (0 = none); overruns are flagged
+  uint64_t cycle_budget;           // per-frame budget in counter ticks (runtime/cycle_counter.h; 0 = none); overruns are flagged
 };
 static_assert(sizeof(RuntimeConfig) == 16 * kMaxJoints + 32, "RuntimeConfig layout");
 

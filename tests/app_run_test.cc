@@ -130,6 +130,14 @@ TEST(AppRun, JsonLinePerFrameWithTheDocumentedSchema) {
     EXPECT_EQ(j.at("timestamp_us").get<uint64_t>(), uint64_t(i) * 33333u);
     EXPECT_TRUE(j.at("frame_ms").is_number());
     EXPECT_TRUE(j.at("kernel").is_string());
+    // The unit of the *_cycles fields is the build's platform counter.
+#if defined(__x86_64__)
+    EXPECT_EQ(j.at("counter_unit"), "tsc_cycles");
+#elif defined(__aarch64__)
+    EXPECT_EQ(j.at("counter_unit"), "cntvct_ticks");
+#else
+    EXPECT_EQ(j.at("counter_unit"), "ns");
+#endif
     ASSERT_EQ(j.at("joints").size(), 3u);
     EXPECT_EQ(j["joints"][0].at("name"), "head");
     EXPECT_EQ(j["joints"][2].at("name"), "hand_l");

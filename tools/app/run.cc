@@ -17,6 +17,7 @@
 #include "platform/arena_memory.h"
 #include "platform/hotplug_source.h"
 #include "platform/usb_devices.h"
+#include "runtime/cycle_counter.h"
 #include "runtime/segmentation/segmenter.h"
 #include "tools/segeval/segmenter_config_text.h"
 #include "tools/app/overlay.h"
@@ -196,7 +197,10 @@ void write_frame_json(LineBuffer& line, const RunOptions& options, const blob::L
   line.add("{\"frame\":%lld,\"source_index\":%lld,\"timestamp_us\":%llu,\"frame_ms\":", (long long)frame,
            (long long)info.index, (unsigned long long)info.timestamp_us);
   line.number(frame_ms, "%.3f");
-  line.add(",\"kernel\":\"%s\",\"joints\":", kernel_isa_name(pipeline.kernel()));
+  // The unit of every *_cycles field of this line (runtime/cycle_counter.h): "tsc_cycles" on x86-64,
+  // "cntvct_ticks" on aarch64.
+  line.add(",\"kernel\":\"%s\",\"counter_unit\":\"%s\",\"joints\":", kernel_isa_name(pipeline.kernel()),
+           cycle_counter_unit());
   write_joints_json(line, b, r);
   if (options.all_proposals) {
     line.add(",\"proposals\":[");

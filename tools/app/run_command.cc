@@ -9,18 +9,11 @@
 #include "tools/common/budget_options.h"
 #include "tools/common/error.h"
 #include "tools/common/file_io.h"
+#include "tools/common/kernel_option.h"
 
 namespace dp::tools {
 
 static void on_interrupt(int) { request_stop(); }
-
-static KernelIsa parse_kernel(const std::string& name) {
-  if (name == "scalar") return KernelIsa::kScalar;
-  if (name == "avx2") return KernelIsa::kAvx2;
-  if (name == "avx512") return KernelIsa::kAvx512;
-  if (name == "best") return KernelIsa::kBest;
-  fail("--kernel wants scalar, avx2, avx512 or best, got '" + name + "'");
-}
 
 static int run_run(int argc, char** argv) {
   std::vector<std::string> options = kSourceOptionNames;
@@ -43,9 +36,8 @@ static int run_run(int argc, char** argv) {
                 "  --realtime           replay files at their recorded pace, dropping frames when late\n"
                 "                       (live sources always deliver the newest frame)\n"
                 "  --frames N           stop after N processed frames\n"
-                "  --loop N             play a file source N times (rewound at its end): soak runs (docs/app.md)\n"
-                "  --kernel K           forest kernel: scalar, avx2, avx512 or best (default best)\n" +
-                std::string(kBudgetOptionsUsage) +
+                "  --loop N             play a file source N times (rewound at its end): soak runs (docs/app.md)\n" +
+                kKernelOptionUsage + kBudgetOptionsUsage +
                 "  --segment MODE       on, off or auto (default): find the people first (floor, background model,\n"
                 "                       users with stable ids; docs/segmentation.md) and report joints per user.\n"
                 "                       auto = on for live sources and .oni files, off for raw files and datasets\n"
@@ -73,7 +65,7 @@ static int run_run(int argc, char** argv) {
   if (args.has("--frames") && o.max_frames < 1) fail("--frames must be at least 1");
   o.loop = args.get_int("--loop", 1);
   if (o.loop < 1) fail("--loop must be at least 1");
-  o.kernel = parse_kernel(args.get("--kernel", "best"));
+  o.kernel = parse_kernel_option(args.get("--kernel", "best"));
   o.usb_watch = !args.flag("--no-usb-watch");
   o.budget = budget_overrides_from_args(args);
   const std::string segment = args.get("--segment", "auto");

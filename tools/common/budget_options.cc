@@ -7,7 +7,8 @@ namespace dp::tools {
 const char* const kBudgetOptionNames[2] = {"--pixel-budget", "--cycle-budget"};
 const char* const kBudgetOptionsUsage =
     "  --pixel-budget N     evaluate at most N foreground pixels per frame (strided above; at most the blob's)\n"
-    "  --cycle-budget C     per-frame budget in TSC cycles (0 = none): the pipeline degrades to fit and flags it\n";
+    "  --cycle-budget C     per-frame budget in counter ticks (0 = none; x86-64: TSC cycles, aarch64: generic-timer\n"
+    "                       ticks, runtime/cycle_counter.h): the pipeline degrades to fit and flags it\n";
 
 BudgetOverrides budget_overrides_from_args(const Args& a) {
   BudgetOverrides o;
@@ -17,7 +18,7 @@ BudgetOverrides budget_overrides_from_args(const Args& a) {
   }
   if (a.has("--cycle-budget")) {
     o.cycle_budget = a.get_int("--cycle-budget", -1);
-    if (o.cycle_budget < 0) fail("--cycle-budget must be ≥ 0 TSC cycles (0 = no budget)");
+    if (o.cycle_budget < 0) fail("--cycle-budget must be ≥ 0 counter ticks (0 = no budget)");
   }
   return o;
 }

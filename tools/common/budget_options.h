@@ -1,6 +1,6 @@
 // Command-line overrides of a blob's per-frame budget (docs/budget.md), shared by `run` and `eval`:
 //   --pixel-budget N   max_evaluated_pixels: above N foreground pixels, pixels are strided
-//   --cycle-budget C   cycle_budget in TSC cycles per frame (0 = none): the pipeline degrades its plan
+//   --cycle-budget C   cycle_budget in counter ticks per frame (runtime/cycle_counter.h; 0 = none): the pipeline degrades its plan
 //                      (stride, Nsub, starts, iterations) to fit, and flags what it did
 // The blob file is never changed; the override lives in the caller's copy of the config.
 #pragma once

@@ -9,6 +9,7 @@
 #include "tools/common/args.h"
 #include "tools/common/error.h"
 #include "tools/common/file_io.h"
+#include "tools/common/kernel_option.h"
 #include "tools/eval/evaluator.h"
 #include "tools/eval/plots.h"
 #include "tools/eval/report.h"
@@ -24,7 +25,7 @@ EvalOptions eval_options_from_args(const Args& a) {
   o.penalize_occluded = a.flag("--penalize-occluded");
   o.max_frames = long(a.get_int("--frames", 0));
   if (o.max_frames < 0) fail("--frames must be ≥ 0");
-  o.kernel = parse_kernel(a.get("--kernel", "best"));
+  o.kernel = parse_kernel_option(a.get("--kernel", "best"));
   if (a.has("--map-joints")) o.joint_map = parse_name_map(a.get("--map-joints"), "--map-joints");
   if (a.has("--map-parts")) o.part_map = parse_name_map(a.get("--map-parts"), "--map-parts");
   o.budget = budget_overrides_from_args(a);
@@ -33,7 +34,7 @@ EvalOptions eval_options_from_args(const Args& a) {
 
 static const std::string kUsage =
     std::string("usage: depthpose eval --blob BLOB --data DATASET [--json OUT.json] [--plots DIR] [--dtp D]\n"
-    "                      [--penalize-occluded] [--silhouette] [--frames N] [--kernel scalar|avx2|avx512|best]\n"
+    "                      [--penalize-occluded] [--silhouette] [--frames N] [--kernel K]\n"
     "                      [--map-joints DS=BLOB,...] [--map-parts DS=BLOB,...] [--pixel-budget N] [--cycle-budget C]\n"
     "  Runs the blob through the runtime over every frame of a dataset (layout v1) and reports per-joint\n"
     "  average precision and mAP (paper section 4.2), mAP against D_tp, per-class segmentation accuracy and\n"
@@ -44,7 +45,7 @@ static const std::string kUsage =
     "  --silhouette         flatten the foreground to 2 m (paper 4.6.4); D_tp in pixels\n"
     "  --map-joints/--map-parts  rename dataset names to blob names (unmatched names are then skipped);\n"
     "                       the value may be @FILE (pairs separated by commas, spaces or newlines)\n") +
-    kBudgetOptionsUsage +
+    kKernelOptionUsage + kBudgetOptionsUsage +
     "  --segment            measure segmentation instead (floor, background, users: foreground IoU, people\n"
     "                       found, false users per frame, joint mAP with the segmenter's mask vs the ground-truth\n"
     "                       mask); the same as `depthpose segeval` (its options: docs/segmentation.md)\n"

@@ -37,14 +37,6 @@ NameMap parse_name_map(const std::string& text_or_file, const std::string& optio
   return map;
 }
 
-KernelIsa parse_kernel(const std::string& name) {
-  if (name == "scalar") return KernelIsa::kScalar;
-  if (name == "avx2") return KernelIsa::kAvx2;
-  if (name == "avx512") return KernelIsa::kAvx512;
-  if (name == "best") return KernelIsa::kBest;
-  fail("--kernel: unknown kernel '" + name + "' (scalar, avx2, avx512, best)");
-}
-
 namespace {
 
 std::string fixed_name(const char (&raw)[blob::kNameBytes]) { return std::string(raw, strnlen(raw, blob::kNameBytes)); }

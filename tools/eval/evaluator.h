@@ -136,7 +136,4 @@ class EvalSession {
 std::unique_ptr<EvalSession> open_eval_session(const std::string& blob_path, const std::string& dataset_dir,
                                                const EvalOptions& options);
 
-// Parses "scalar", "avx2", "avx512" or "best".
-KernelIsa parse_kernel(const std::string& name);
-
 }  // namespace dp::tools
