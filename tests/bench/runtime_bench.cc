@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <random>
 #include <string>
@@ -197,6 +199,9 @@ void run_variant(const Variant& v, const kernels::ForestKernelArgs* a, int trees
 // of frames (the pipeline's case), not cold after another variant's node copy evicted its nodes from
 // L2/L3 (that penalty, ~9 % for the split kernel on the PCL trees, is no property of the kernel). Every variant's leaves are
 // checked against the first variant's (a layout that read wrongly would be timed for nothing).
+// The figure of a variant this CPU cannot run (printed "n/a", null in the JSON).
+constexpr double kNotRun = std::numeric_limits<double>::quiet_NaN();
+
 std::vector<double> kernel_ns_per_visit(const Layouts& layouts, const std::vector<Variant>& variants,
                                         const std::vector<KernelInput>& inputs, int rounds) {
   const blob::LoadedBlob& b = *layouts.blob;
@@ -228,8 +233,15 @@ std::vector<double> kernel_ns_per_visit(const Layouts& layouts, const std::vecto
       }
     for (size_t v = 0; v < variants.size(); ++v) total[v] += best[v];
   }
-  for (double& t : total) t = t * 1e9 / double(visits);
+  for (size_t v = 0; v < variants.size(); ++v)
+    total[v] = kernel_isa_supported(variants[v].isa) ? total[v] * 1e9 / double(visits) : kNotRun;
   return total;
+}
+
+// One cell of a kernel table: ns per visit, or "n/a" for a kernel this CPU does not run.
+void print_ns_cell(double ns) {
+  if (std::isnan(ns)) std::printf(" %17s", "n/a");
+  else std::printf(" %17.3f", ns);
 }
 
 struct Runner {
@@ -379,7 +391,7 @@ int main(int argc, char** argv) {
     double best = 1e30;
     for (int v = 1; v < kVariantCount; ++v) best = std::min(best, ns[v]);
     std::printf("  %-24s", s.name);
-    for (double x : ns) std::printf(" %17.3f", x);
+    for (double x : ns) print_ns_cell(x);
     std::printf("  x%.2f\n", ns[0] / best);
     if (s.frames == &real_vga) real_vga_ns = ns;
     if (kernels_only) break;
@@ -394,7 +406,7 @@ int main(int argc, char** argv) {
     for (const Frame& f : real_vga) inputs.push_back(kernel_input(f, pb.meta->reference_focal_px));
     layout_ns = kernel_ns_per_visit(layouts, std::vector<Variant>(std::begin(kLayoutStudy), std::end(kLayoutStudy)),
                                     inputs, 4);
-    for (double x : layout_ns) std::printf(" %17.3f", x);
+    for (double x : layout_ns) print_ns_cell(x);
     std::printf("\n");
   }
   if (kernels_only || layouts_only) return 0;
@@ -453,7 +465,7 @@ int main(int argc, char** argv) {
               kVariants[best_variant].name, scalar_ns, scalar_ns / simd_ns, runs[1].best.fps, runs[0].best.fps);
   std::string layout_json;
   for (size_t v = 0; v < layout_ns.size(); ++v)
-    layout_json += std::string(v ? ", " : "") + "\"" + kLayoutStudy[v].name + "\": " + std::to_string(layout_ns[v]);
+    layout_json += std::string(v ? ", " : "") + "\"" + kLayoutStudy[v].name + "\": " + (std::isnan(layout_ns[v]) ? std::string("null") : std::to_string(layout_ns[v]));
   std::system("mkdir -p build/bench");
   FILE* j = std::fopen("build/bench/runtime.json", "w");
   if (!j) return 1;
