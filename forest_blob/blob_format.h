@@ -1,4 +1,4 @@
-// forest_blob v1 — the on-disk (and in-memory) model of depthpose. This header is the single
+// forest_blob v2 — the on-disk (and in-memory) model of depthpose. This header is the single
 // definition of the format; docs/blob_format.md mirrors it with a revision history.
 //
 // Layout (all integers little endian, all floats IEEE-754 binary32 little endian):
@@ -12,7 +12,7 @@
 //                   computed with the header_crc32 field itself set to zero.
 //   payload_crc32 = CRC-32 of bytes [header_bytes, total_bytes).
 //
-// Sections (each kind exactly once):
+// Sections (each kind exactly once, kinds 1..7):
 //   kMeta      ForestMeta: method, tree count, depth, part/joint counts and names, reference focal
 //              length, leaf table shape, the maximum frame and arena size computed by the converter.
 //   kConfig    RuntimeConfig: per-joint aggregation parameters and the per-frame budget.
@@ -22,9 +22,15 @@
 //              traversal is exactly `depth` steps.
 //   kLeafIndex tree_count × 2^depth uint32: for heap slot s = node − (2^depth − 1) reached by a
 //              traversal, the index of its record in kLeaves (shared by all trees).
-//   kLeaves    leaf_count records of leaf_stride_bytes each:
-//                BPC: uint16 probability_q15[part_count] (Σ ≤ 32768), zero padded to the stride.
-//                OJR: for each joint, votes_per_joint × OjrVote (weight 0 = no vote).
+//   kLeafOffsets (leaf_count + 1) uint32: leaf record r owns entries [offsets[r], offsets[r + 1]);
+//              offsets[0] = 0, non-decreasing, offsets[leaf_count] = entry_count.
+//   kLeafEntries entry_count entries, leaf after leaf (compact leaves: only what a leaf holds):
+//                BPC: uint16 probability_q15 (1..32768; a record's entries sum to ≤ 32768).
+//                OJR: OjrVote (weight ≥ 1; |dx|,|dy|,|dz| ≤ kMaxVoteOffsetMm).
+//   kEntryTags entry_count uint8, one per entry, strictly increasing within a record:
+//                BPC: the entry's part (< part_count); OJR: its lane j·K + k (< joint_count·K),
+//                i.e. joint j's k-th vote. A part or lane a record lacks has probability / weight 0.
+//              So a record holds at most part_count (BPC) or joint_count·K (OJR) entries.
 //
 // Semantics of a node (runtime/fixed_point.h has the exact integer rule): feature =
 // depth(probe 1) − depth(probe 2) with probe offsets du/dv in pixel·metres at
@@ -37,7 +43,7 @@ namespace dp::blob {
 
 constexpr uint32_t kMagic = 0x42465044u;      // "DPFB" read as little-endian bytes 'D''P''F''B'
 constexpr uint32_t kEndianTag = 0x01020304u;  // reads 0x04030201 on a big-endian host
-constexpr uint16_t kVersionMajor = 1;         // readers refuse any other major version
+constexpr uint16_t kVersionMajor = 2;         // readers refuse any other major version (v1: dense leaves)
 constexpr uint16_t kVersionMinor = 0;         // readers accept older and newer minors of their major
 constexpr uint32_t kSectionAlignment = 64;
 
@@ -61,8 +67,11 @@ enum class SectionKind : uint32_t {
   kConfig = 2,
   kNodes = 3,
   kLeafIndex = 4,
-  kLeaves = 5,
+  kLeafOffsets = 5,
+  kLeafEntries = 6,
+  kEntryTags = 7,
 };
+constexpr uint32_t kSectionKinds = 7;  // kinds 1..kSectionKinds, each exactly once
 
 struct BlobHeader {
   uint32_t magic;            // kMagic
@@ -74,7 +83,7 @@ struct BlobHeader {
   uint32_t section_count;    // 1..kMaxSections
   uint32_t header_crc32;
   uint32_t payload_crc32;
-  uint32_t flags;            // 0 in v1.0
+  uint32_t flags;            // 0 in v2.0
   uint8_t reserved[24];      // zero
 };
 static_assert(sizeof(BlobHeader) == 64, "BlobHeader is 64 bytes on disk");
@@ -96,8 +105,8 @@ struct ForestMeta {
   uint8_t votes_per_joint;   // OJR: 1..kMaxVotesPerLeafJoint; BPC: 0
   uint16_t reserved0;
   float reference_focal_px;  // focal length the offsets are expressed for, > 0
-  uint32_t leaf_count;       // records in kLeaves, ≥ 1
-  uint32_t leaf_stride_bytes;// BPC: ≥ 2·part_count, multiple of 4; OJR: joint_count·K·8
+  uint32_t leaf_count;       // leaf records (kLeafOffsets has leaf_count + 1 entries), ≥ 1
+  uint32_t entry_count;      // kLeafEntries / kEntryTags length, ≤ leaf_count · max_entries_per_leaf
   uint32_t max_width;        // frame size the converter sized arena_bytes for
   uint32_t max_height;
   uint32_t max_abs_offset_pxm;  // largest |du|,|dv| in kNodes (≤ kMaxProbeOffsetPxm)
@@ -168,6 +177,15 @@ constexpr int kMaxFarMm = 32766;
 constexpr uint32_t kMaxEvaluatedPixels = uint32_t(kMaxFrameDimension) * uint32_t(kMaxFrameDimension);
 // cycle_budget: any uint64 (0 = none); the budget model computes in uint64 with per-pixel costs
 // ≥ 65 cycles, so no quotient it forms overflows int64.
+
+// The most entries one leaf record can hold: its tags are strictly increasing below this.
+inline constexpr int max_entries_per_leaf(const ForestMeta& m) {
+  return m.method == uint8_t(Method::kBpc) ? int(m.part_count) : int(m.joint_count) * int(m.votes_per_joint);
+}
+// Bytes of one kLeafEntries entry.
+inline constexpr size_t leaf_entry_bytes(const ForestMeta& m) {
+  return m.method == uint8_t(Method::kBpc) ? sizeof(uint16_t) : sizeof(OjrVote);
+}
 
 inline constexpr size_t nodes_per_tree(int depth) { return (size_t(1) << depth) - 1; }
 inline constexpr size_t leaves_per_tree(int depth) { return size_t(1) << depth; }

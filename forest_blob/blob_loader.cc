@@ -13,7 +13,9 @@ const char* blob_status_message(BlobStatus s) {
     case BlobStatus::kBadMagic: return "not a depthpose blob (bad magic)";
     case BlobStatus::kWrongEndianness: return "blob was written big-endian; this build reads little-endian only";
     case BlobStatus::kBadEndianTag: return "corrupt endianness tag";
-    case BlobStatus::kVersionTooOld: return "blob format major version too old for this build";
+    case BlobStatus::kVersionTooOld:
+      return "blob format major version too old: version 1 (dense leaves) is no longer read, this build reads "
+             "version 2 (compact leaves); rewrite it with `depthpose convert --upgrade-blob OLD.blob --out NEW.blob`";
     case BlobStatus::kVersionTooNew: return "blob format major version too new for this build";
     case BlobStatus::kBadHeaderSize: return "header size disagrees with the section count";
     case BlobStatus::kTruncated: return "blob truncated (fewer bytes than its header declares)";
@@ -36,17 +38,19 @@ const char* blob_status_message(BlobStatus s) {
     case BlobStatus::kBadVotesPerJoint: return "votes per joint out of range";
     case BlobStatus::kBadFocalLength: return "reference focal length not positive and finite";
     case BlobStatus::kBadLeafCount: return "leaf count out of range";
-    case BlobStatus::kBadLeafStride: return "leaf stride disagrees with the method and counts";
+    case BlobStatus::kBadEntryCount: return "leaf entry count above leaf count times the entries a leaf can hold";
     case BlobStatus::kBadFrameSize: return "maximum frame size out of range";
     case BlobStatus::kBadName: return "a part or joint name is not NUL-terminated printable ASCII";
     case BlobStatus::kOffsetTooLarge: return "a node's probe offset exceeds the allowed radius";
     case BlobStatus::kBadLeafIndex: return "a leaf index points outside the leaf table";
-    case BlobStatus::kBadLeafDistribution: return "a BPC leaf distribution sums above 1";
-    case BlobStatus::kBadVote: return "an OJR vote offset exceeds the allowed length";
+    case BlobStatus::kBadLeafDistribution: return "a BPC leaf entry is 0 or a leaf distribution sums above 1";
+    case BlobStatus::kBadVote: return "an OJR vote has weight 0 or an offset beyond the allowed length";
     case BlobStatus::kBadPartMask: return "a joint's part mask names a part the forest lacks";
     case BlobStatus::kBadConfig: return "a runtime config value is outside its range";
     case BlobStatus::kReservedNotZero: return "a reserved field is not zero";
     case BlobStatus::kEmpty: return "blob is empty (0 bytes)";
+    case BlobStatus::kBadLeafOffsets: return "leaf offsets do not start at 0, decrease, or do not end at the entry count";
+    case BlobStatus::kBadEntryTag: return "a leaf entry's part or lane is out of range or not strictly increasing";
   }
   return "unknown status";
 }
@@ -99,14 +103,8 @@ BlobStatus validate_meta(const ForestMeta& m, BlobProblem* p) {
   if (!(m.reference_focal_px > 0.0f && m.reference_focal_px < 1e6f)) return BlobStatus::kBadFocalLength;
   if (!in_range(p, "meta.leaf_count", -1, m.leaf_count, 1, int64_t(m.tree_count) * int64_t(leaves_per_tree(m.depth))))
     return BlobStatus::kBadLeafCount;
-  if (bpc) {
-    if (!in_range(p, "meta.leaf_stride_bytes", -1, m.leaf_stride_bytes, 2 * m.part_count, 4 * kMaxParts) ||
-        m.leaf_stride_bytes % 4 != 0)
-      return BlobStatus::kBadLeafStride;
-  } else {
-    const int64_t stride = int64_t(m.joint_count) * m.votes_per_joint * int64_t(sizeof(OjrVote));
-    if (!in_range(p, "meta.leaf_stride_bytes", -1, m.leaf_stride_bytes, stride, stride)) return BlobStatus::kBadLeafStride;
-  }
+  if (!in_range(p, "meta.entry_count", -1, m.entry_count, 0, int64_t(m.leaf_count) * max_entries_per_leaf(m)))
+    return BlobStatus::kBadEntryCount;
   if (!in_range(p, "meta.max_width", -1, m.max_width, 1, kMaxFrameDimension) ||
       !in_range(p, "meta.max_height", -1, m.max_height, 1, kMaxFrameDimension))
     return BlobStatus::kBadFrameSize;
@@ -192,10 +190,10 @@ BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out, BlobProblem
   // Section table.
   SectionEntry sections[kMaxSections];
   memcpy(sections, bytes + sizeof(BlobHeader), h.section_count * sizeof(SectionEntry));
-  const SectionEntry* by_kind[6] = {};
+  const SectionEntry* by_kind[kSectionKinds + 1] = {};
   for (uint32_t i = 0; i < h.section_count; ++i) {
     const SectionEntry& s = sections[i];
-    if (s.kind < 1 || s.kind > 5) return BlobStatus::kUnknownSection;
+    if (s.kind < 1 || s.kind > kSectionKinds) return BlobStatus::kUnknownSection;
     if (s.reserved != 0) return BlobStatus::kReservedNotZero;
     if (by_kind[s.kind]) return BlobStatus::kSectionDuplicate;
     by_kind[s.kind] = &sections[i];
@@ -207,7 +205,7 @@ BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out, BlobProblem
       if (s.offset < o.offset + o.size && o.offset < s.offset + s.size) return BlobStatus::kSectionOverlap;
     }
   }
-  for (int k = 1; k <= 5; ++k)
+  for (uint32_t k = 1; k <= kSectionKinds; ++k)
     if (!by_kind[k]) return BlobStatus::kSectionMissing;
 
   const SectionEntry& meta_s = *by_kind[int(SectionKind::kMeta)];
@@ -224,10 +222,15 @@ BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out, BlobProblem
   const size_t slot_count = size_t(meta->tree_count) * leaves_per_tree(meta->depth);
   const SectionEntry& nodes_s = *by_kind[int(SectionKind::kNodes)];
   const SectionEntry& index_s = *by_kind[int(SectionKind::kLeafIndex)];
-  const SectionEntry& leaves_s = *by_kind[int(SectionKind::kLeaves)];
+  const SectionEntry& offsets_s = *by_kind[int(SectionKind::kLeafOffsets)];
+  const SectionEntry& entries_s = *by_kind[int(SectionKind::kLeafEntries)];
+  const SectionEntry& tags_s = *by_kind[int(SectionKind::kEntryTags)];
   if (nodes_s.size != node_count * sizeof(TreeNode)) return BlobStatus::kBadSectionSize;
   if (index_s.size != slot_count * sizeof(uint32_t)) return BlobStatus::kBadSectionSize;
-  if (leaves_s.size != size_t(meta->leaf_count) * meta->leaf_stride_bytes) return BlobStatus::kBadSectionSize;
+  if (offsets_s.size != (size_t(meta->leaf_count) + 1) * sizeof(uint32_t) ||
+      entries_s.size != size_t(meta->entry_count) * leaf_entry_bytes(*meta) ||
+      tags_s.size != size_t(meta->entry_count))
+    return BlobStatus::kBadSectionSize;
 
   const TreeNode* nodes = reinterpret_cast<const TreeNode*>(bytes + nodes_s.offset);
   const int limit = int(meta->max_abs_offset_pxm);
@@ -240,21 +243,35 @@ BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out, BlobProblem
   for (size_t i = 0; i < slot_count; ++i)
     if (leaf_index[i] >= meta->leaf_count) return BlobStatus::kBadLeafIndex;
 
-  const uint8_t* leaves = bytes + leaves_s.offset;
-  if (meta->method == uint8_t(Method::kBpc)) {
-    for (uint32_t l = 0; l < meta->leaf_count; ++l) {
-      const uint16_t* p = reinterpret_cast<const uint16_t*>(leaves + size_t(l) * meta->leaf_stride_bytes);
-      uint32_t sum = 0;
-      for (int c = 0; c < meta->part_count; ++c) sum += p[c];
-      if (sum > 32768u) return BlobStatus::kBadLeafDistribution;
+  // Compact leaves: each record's entry range inside the table, its tags strictly increasing below
+  // the record's capacity (so no record exceeds max_entries_per_leaf), every entry nonzero.
+  const uint32_t* offsets = reinterpret_cast<const uint32_t*>(bytes + offsets_s.offset);
+  const uint8_t* entries = bytes + entries_s.offset;
+  const uint8_t* tags = bytes + tags_s.offset;
+  if (offsets[0] != 0 || offsets[meta->leaf_count] != meta->entry_count) return BlobStatus::kBadLeafOffsets;
+  for (uint32_t l = 0; l < meta->leaf_count; ++l)
+    if (offsets[l + 1] < offsets[l]) return BlobStatus::kBadLeafOffsets;
+  const int capacity = max_entries_per_leaf(*meta);
+  const bool bpc = meta->method == uint8_t(Method::kBpc);
+  const uint16_t* probabilities = reinterpret_cast<const uint16_t*>(entries);
+  const OjrVote* votes = reinterpret_cast<const OjrVote*>(entries);
+  for (uint32_t l = 0; l < meta->leaf_count; ++l) {
+    uint32_t sum = 0;
+    int previous_tag = -1;
+    for (uint32_t e = offsets[l]; e < offsets[l + 1]; ++e) {
+      if (int(tags[e]) <= previous_tag || int(tags[e]) >= capacity) return BlobStatus::kBadEntryTag;
+      previous_tag = tags[e];
+      if (bpc) {
+        if (probabilities[e] == 0) return BlobStatus::kBadLeafDistribution;
+        sum += probabilities[e];  // ≤ 32 entries of ≤ 65535: no overflow
+      } else {
+        const OjrVote& v = votes[e];
+        if (v.weight == 0 || abs16(v.dx_mm) > kMaxVoteOffsetMm || abs16(v.dy_mm) > kMaxVoteOffsetMm ||
+            abs16(v.dz_mm) > kMaxVoteOffsetMm)
+          return BlobStatus::kBadVote;
+      }
     }
-  } else {
-    const size_t votes = size_t(meta->leaf_count) * meta->joint_count * meta->votes_per_joint;
-    const OjrVote* v = reinterpret_cast<const OjrVote*>(leaves);
-    for (size_t i = 0; i < votes; ++i)
-      if (abs16(v[i].dx_mm) > kMaxVoteOffsetMm || abs16(v[i].dy_mm) > kMaxVoteOffsetMm ||
-          abs16(v[i].dz_mm) > kMaxVoteOffsetMm)
-        return BlobStatus::kBadVote;
+    if (sum > kProbabilityOneQ15) return BlobStatus::kBadLeafDistribution;
   }
 
   out->header = reinterpret_cast<const BlobHeader*>(bytes);
@@ -262,7 +279,9 @@ BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out, BlobProblem
   out->config = config;
   out->nodes = nodes;
   out->leaf_index = leaf_index;
-  out->leaves = leaves;
+  out->leaf_offsets = offsets;
+  out->leaf_entries = entries;
+  out->entry_tags = tags;
   return BlobStatus::kOk;
 }
 

@@ -19,7 +19,7 @@ enum class BlobStatus : int32_t {
   kBadMagic,
   kWrongEndianness,     // endian tag byte-swapped: written on a big-endian host
   kBadEndianTag,        // neither order of the tag
-  kVersionTooOld,       // major version below ours
+  kVersionTooOld,       // major version below ours (v1: dense leaves; `depthpose convert --upgrade-blob`)
   kVersionTooNew,       // major version above ours
   kBadHeaderSize,
   kTruncated,           // total_bytes larger than the bytes given
@@ -42,17 +42,19 @@ enum class BlobStatus : int32_t {
   kBadVotesPerJoint,
   kBadFocalLength,
   kBadLeafCount,
-  kBadLeafStride,
+  kBadEntryCount,       // entry_count above leaf_count · max_entries_per_leaf
   kBadFrameSize,
   kBadName,             // a name not NUL terminated / not printable
   kOffsetTooLarge,      // |du|,|dv| beyond kMaxProbeOffsetPxm or max_abs_offset_pxm
   kBadLeafIndex,        // a leaf-index entry ≥ leaf_count
-  kBadLeafDistribution, // BPC probabilities summing above 32768
-  kBadVote,             // OJR vote component outside ±kMaxVoteOffsetMm
+  kBadLeafDistribution, // BPC entry probability 0, or a record's probabilities summing above 32768
+  kBadVote,             // OJR vote weight 0 or component outside ±kMaxVoteOffsetMm
   kBadPartMask,         // joint part mask names a part ≥ part_count
   kBadConfig,           // a runtime config value outside its documented range
   kReservedNotZero,
   kEmpty,               // zero bytes given
+  kBadLeafOffsets,      // leaf offsets not starting at 0, decreasing, or not ending at entry_count
+  kBadEntryTag,         // an entry's part/lane out of range or not strictly increasing in its record
 };
 
 // One line naming the problem, for messages ("payload checksum mismatch").
@@ -77,20 +79,30 @@ struct LoadedBlob {
   const RuntimeConfig* config = nullptr;
   const TreeNode* nodes = nullptr;       // tree t starts at nodes + t · nodes_per_tree(depth)
   const uint32_t* leaf_index = nullptr;  // tree t starts at leaf_index + t · leaves_per_tree(depth)
-  const uint8_t* leaves = nullptr;       // leaf_count · leaf_stride_bytes
+  const uint32_t* leaf_offsets = nullptr;  // leaf_count + 1, validated (blob_format.h kLeafOffsets)
+  const uint8_t* leaf_entries = nullptr;   // entry_count · leaf_entry_bytes(*meta)
+  const uint8_t* entry_tags = nullptr;     // entry_count: part (BPC) or lane j·K + k (OJR)
 
   Method method() const { return static_cast<Method>(meta->method); }
   int tree_count() const { return meta->tree_count; }
   int depth() const { return meta->depth; }
   const TreeNode* tree_nodes(int t) const { return nodes + size_t(t) * nodes_per_tree(meta->depth); }
   const uint32_t* tree_leaf_index(int t) const { return leaf_index + size_t(t) * leaves_per_tree(meta->depth); }
-  const uint16_t* bpc_leaf(uint32_t leaf) const {
-    return reinterpret_cast<const uint16_t*>(leaves + size_t(leaf) * meta->leaf_stride_bytes);
-  }
-  const OjrVote* ojr_leaf(uint32_t leaf) const {
-    return reinterpret_cast<const OjrVote*>(leaves + size_t(leaf) * meta->leaf_stride_bytes);
-  }
+  // Record `leaf` (< leaf_count) owns entries [leaf_first(leaf), leaf_first(leaf) + leaf_size(leaf)),
+  // leaf_size ≤ max_entries_per_leaf(*meta) ≤ 64 (validated at load).
+  uint32_t leaf_first(uint32_t leaf) const { return leaf_offsets[leaf]; }
+  uint32_t leaf_size(uint32_t leaf) const { return leaf_offsets[leaf + 1] - leaf_offsets[leaf]; }
+  const uint16_t* bpc_probabilities() const { return reinterpret_cast<const uint16_t*>(leaf_entries); }
+  const OjrVote* ojr_votes() const { return reinterpret_cast<const OjrVote*>(leaf_entries); }
 };
+
+// Adds BPC record `leaf`'s Q15 probabilities to acc[part] (acc: part_count counters). At most
+// part_count additions, parts < part_count (validated at load).
+inline void add_bpc_leaf(const LoadedBlob& b, uint32_t leaf, uint32_t* acc) {
+  const uint32_t first = b.leaf_first(leaf), end = b.leaf_offsets[leaf + 1];
+  const uint16_t* p = b.bpc_probabilities();
+  for (uint32_t e = first; e < end; ++e) acc[b.entry_tags[e]] += p[e];
+}
 
 // Validates `size` bytes at `data` and fills `out` (untouched unless kOk). On a field refusal
 // `problem` (optional) names the field, its value and its range.

@@ -65,17 +65,35 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
   meta.reference_focal_px = in.reference_focal_px;
   for (size_t i = 0; i < in.part_names.size(); ++i) put_name(meta.part_names[i], in.part_names[i], "part");
   for (size_t i = 0; i < in.joint_names.size(); ++i) put_name(meta.joint_names[i], in.joint_names[i], "joint");
+  // Compact leaves: per record the nonzero entries, tagged by part / lane (blob_format.h).
+  std::vector<uint32_t> leaf_offsets{0};
+  std::vector<uint8_t> entry_bytes, tags;
   if (bpc) {
-    meta.leaf_stride_bytes = uint32_t((2 * meta.part_count + 3) / 4 * 4);
-    if (in.part_names.empty() || in.bpc_leaves.size() % in.part_names.size() != 0)
-      fail("BPC leaf table size is not a multiple of the part count");
-    meta.leaf_count = uint32_t(in.bpc_leaves.size() / in.part_names.size());
+    const size_t parts = in.part_names.size();
+    if (parts == 0 || in.bpc_leaves.size() % parts != 0) fail("BPC leaf table size is not a multiple of the part count");
+    meta.leaf_count = uint32_t(in.bpc_leaves.size() / parts);
+    for (size_t i = 0; i < in.bpc_leaves.size(); ++i) {
+      if (in.bpc_leaves[i] != 0) {
+        const uint16_t q = in.bpc_leaves[i];
+        entry_bytes.insert(entry_bytes.end(), reinterpret_cast<const uint8_t*>(&q), reinterpret_cast<const uint8_t*>(&q) + 2);
+        tags.push_back(uint8_t(i % parts));
+      }
+      if (i % parts == parts - 1) leaf_offsets.push_back(uint32_t(tags.size()));
+    }
   } else {
     const size_t per_leaf = in.joint_names.size() * size_t(in.votes_per_joint);
-    meta.leaf_stride_bytes = uint32_t(per_leaf * sizeof(OjrVote));
     if (per_leaf == 0 || in.ojr_leaves.size() % per_leaf != 0) fail("OJR vote table size is not a multiple of joints × K");
     meta.leaf_count = uint32_t(in.ojr_leaves.size() / per_leaf);
+    for (size_t i = 0; i < in.ojr_leaves.size(); ++i) {
+      const OjrVote& v = in.ojr_leaves[i];
+      if (v.weight != 0) {
+        entry_bytes.insert(entry_bytes.end(), reinterpret_cast<const uint8_t*>(&v), reinterpret_cast<const uint8_t*>(&v) + sizeof v);
+        tags.push_back(uint8_t(i % per_leaf));
+      }
+      if (i % per_leaf == per_leaf - 1) leaf_offsets.push_back(uint32_t(tags.size()));
+    }
   }
+  meta.entry_count = uint32_t(tags.size());
   meta.max_width = in.max_width;
   meta.max_height = in.max_height;
   uint32_t max_off = 0;
@@ -88,14 +106,14 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
     if (t.size() != leaves_per_tree(in.depth)) fail("a tree has the wrong leaf-index count for its depth");
   meta.max_abs_offset_pxm = max_off;
 
-  // Sections in fixed order: meta, config, nodes, leaf index, leaves.
-  const uint32_t section_count = 5;
+  // Sections in fixed order: meta, config, nodes, leaf index, leaf offsets, leaf entries, entry tags.
+  const uint32_t section_count = kSectionKinds;
   const size_t header_bytes = sizeof(BlobHeader) + section_count * sizeof(SectionEntry);
-  SectionEntry entries[5]{};
-  const size_t sizes[5] = {sizeof(ForestMeta), sizeof(RuntimeConfig),
-                           size_t(trees) * nodes_per_tree(in.depth) * sizeof(TreeNode),
-                           size_t(trees) * leaves_per_tree(in.depth) * sizeof(uint32_t),
-                           size_t(meta.leaf_count) * meta.leaf_stride_bytes};
+  SectionEntry entries[kSectionKinds]{};
+  const size_t sizes[kSectionKinds] = {sizeof(ForestMeta), sizeof(RuntimeConfig),
+                                       size_t(trees) * nodes_per_tree(in.depth) * sizeof(TreeNode),
+                                       size_t(trees) * leaves_per_tree(in.depth) * sizeof(uint32_t),
+                                       leaf_offsets.size() * sizeof(uint32_t), entry_bytes.size(), tags.size()};
   size_t at = align_up(header_bytes);
   for (uint32_t i = 0; i < section_count; ++i) {
     entries[i].kind = i + 1;
@@ -103,7 +121,7 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
     entries[i].size = sizes[i];
     at = align_up(at + sizes[i]);
   }
-  const size_t total = entries[4].offset + entries[4].size;
+  const size_t total = entries[kSectionKinds - 1].offset + entries[kSectionKinds - 1].size;
   std::vector<uint8_t> out(total, 0);
 
   RuntimeConfig config = in.config;
@@ -119,14 +137,9 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
     std::memcpy(p, t.data(), t.size() * sizeof(uint32_t));
     p += t.size() * sizeof(uint32_t);
   }
-  p = out.data() + entries[4].offset;
-  if (bpc) {
-    const size_t parts = in.part_names.size();
-    for (uint32_t l = 0; l < meta.leaf_count; ++l)
-      std::memcpy(p + size_t(l) * meta.leaf_stride_bytes, &in.bpc_leaves[l * parts], parts * 2);
-  } else {
-    std::memcpy(p, in.ojr_leaves.data(), in.ojr_leaves.size() * sizeof(OjrVote));
-  }
+  std::memcpy(out.data() + entries[4].offset, leaf_offsets.data(), leaf_offsets.size() * sizeof(uint32_t));
+  if (!entry_bytes.empty()) std::memcpy(out.data() + entries[5].offset, entry_bytes.data(), entry_bytes.size());
+  if (!tags.empty()) std::memcpy(out.data() + entries[6].offset, tags.data(), tags.size());
 
   auto finish = [&]() {
     std::memcpy(out.data() + entries[0].offset, &meta, sizeof meta);
@@ -153,6 +166,38 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
   s = load_blob(out.data(), out.size(), &view);
   if (s != BlobStatus::kOk) fail(std::string("refusing to write an invalid blob: ") + blob_status_message(s));
   return out;
+}
+
+BlobContents dense_contents(const LoadedBlob& b) {
+  const ForestMeta& m = *b.meta;
+  BlobContents c;
+  c.method = b.method();
+  c.depth = m.depth;
+  c.reference_focal_px = m.reference_focal_px;
+  for (int i = 0; i < m.part_count; ++i) c.part_names.emplace_back(m.part_names[i], strnlen(m.part_names[i], kNameBytes));
+  for (int i = 0; i < m.joint_count; ++i) c.joint_names.emplace_back(m.joint_names[i], strnlen(m.joint_names[i], kNameBytes));
+  c.votes_per_joint = c.method == Method::kOjr ? m.votes_per_joint : 0;
+  for (int t = 0; t < b.tree_count(); ++t) {
+    c.tree_nodes.emplace_back(b.tree_nodes(t), b.tree_nodes(t) + nodes_per_tree(m.depth));
+    c.tree_leaf_index.emplace_back(b.tree_leaf_index(t), b.tree_leaf_index(t) + leaves_per_tree(m.depth));
+  }
+  const size_t per_leaf = size_t(max_entries_per_leaf(m));
+  if (c.method == Method::kBpc)
+    c.bpc_leaves.assign(size_t(m.leaf_count) * per_leaf, 0);
+  else
+    c.ojr_leaves.assign(size_t(m.leaf_count) * per_leaf, OjrVote{0, 0, 0, 0});
+  for (uint32_t l = 0; l < m.leaf_count; ++l)
+    for (uint32_t e = b.leaf_first(l); e < b.leaf_offsets[l + 1]; ++e) {
+      const size_t at = size_t(l) * per_leaf + b.entry_tags[e];
+      if (c.method == Method::kBpc)
+        c.bpc_leaves[at] = b.bpc_probabilities()[e];
+      else
+        c.ojr_leaves[at] = b.ojr_votes()[e];
+    }
+  c.config = *b.config;
+  c.max_width = m.max_width;
+  c.max_height = m.max_height;
+  return c;
 }
 
 void save_blob_file(const std::string& path, const std::vector<uint8_t>& bytes) {

@@ -1,12 +1,16 @@
 // Blob writer (tools side: may allocate, throws dp::tools::ToolError on invalid contents).
 // Produces byte-identical output for identical input: fixed section order, zeroed padding and
 // reserved fields, no timestamps. dp::blob::load_blob() always accepts the result.
+// The contents are given dense (every part / every (joint, k) vote of every leaf); the writer stores
+// them compactly, without loss: a BPC probability of 0 and an OJR vote of weight 0 are simply not
+// stored (blob_format.h). Dropping small parts or long votes is the converter's choice, not the writer's.
 #pragma once
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "forest_blob/blob_format.h"
+#include "forest_blob/blob_loader.h"
 
 namespace dp::blob {
 
@@ -20,7 +24,8 @@ struct BlobContents {
   // Per tree: nodes_per_tree(depth) nodes, leaves_per_tree(depth) leaf indices.
   std::vector<std::vector<TreeNode>> tree_nodes;
   std::vector<std::vector<uint32_t>> tree_leaf_index;
-  // Leaf table: BPC: leaf_count × part_count Q15 probabilities; OJR: leaf_count × joints × K votes.
+  // Leaf table, dense: BPC: leaf_count × part_count Q15 probabilities; OJR: leaf_count × joints × K
+  // votes (weight 0 = no vote).
   std::vector<uint16_t> bpc_leaves;
   std::vector<OjrVote> ojr_leaves;
   RuntimeConfig config{};
@@ -29,6 +34,10 @@ struct BlobContents {
 
 // Serializes, computing header, CRCs, max_abs_offset_pxm and arena_bytes.
 std::vector<uint8_t> write_blob(const BlobContents& contents);
+
+// The dense contents of a loaded blob (missing parts / votes as zeros): write_blob(dense_contents(b))
+// reproduces b's bytes.
+BlobContents dense_contents(const LoadedBlob& b);
 
 // A RuntimeConfig with the documented defaults (docs/blob_format.md) for `joint_count` joints.
 RuntimeConfig default_runtime_config(int joint_count);

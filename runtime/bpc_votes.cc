@@ -7,15 +7,14 @@
 namespace dp {
 
 void build_joint_mass(const blob::LoadedBlob& b, const blob::RuntimeConfig& config, uint16_t* table) {
-  const int parts = b.meta->part_count;
   for (uint32_t l = 0; l < b.meta->leaf_count; ++l) {
-    const uint16_t* p = b.bpc_leaf(l);
+    uint32_t p[blob::kMaxParts] = {};  // the record's distribution, 0 for the parts it lacks
+    blob::add_bpc_leaf(b, l, p);
     uint16_t* out = table + size_t(l) * blob::kMaxJoints;
     for (int j = 0; j < blob::kMaxJoints; ++j) {
       uint32_t mass = 0;
       if (j < b.meta->joint_count)
-        for (uint32_t m = config.joints[j].part_mask; m; m &= m - 1)
-          if (int(__builtin_ctz(m)) < parts) mass += p[__builtin_ctz(m)];
+        for (uint32_t m = config.joints[j].part_mask; m; m &= m - 1) mass += p[__builtin_ctz(m)];
       out[j] = uint16_t(mass);  // Σ ≤ 32768 (validated at load)
     }
   }
@@ -26,7 +25,6 @@ uint32_t cast_bpc_votes_reference(const CastInputs& in, const VoteSets& sets) {
   const blob::RuntimeConfig& cfg = *in.config;
   const int joints = b.meta->joint_count;
   const int trees = b.tree_count();
-  const int parts = b.meta->part_count;
   const float inv_fx = 1.0f / in.intrinsics.fx, inv_fy = 1.0f / in.intrinsics.fy;
   const float inv_total = 1.0f / (32768.0f * float(trees));
   uint32_t flags = 0;
@@ -45,10 +43,7 @@ uint32_t cast_bpc_votes_reference(const CastInputs& in, const VoteSets& sets) {
       }
     } else {
       uint32_t acc[blob::kMaxParts] = {};
-      for (int t = 0; t < trees; ++t) {
-        const uint16_t* p = b.bpc_leaf(in.leaves[size_t(t) * in.leaf_stride + i]);
-        for (int c = 0; c < parts; ++c) acc[c] += p[c];
-      }
+      for (int t = 0; t < trees; ++t) blob::add_bpc_leaf(b, in.leaves[size_t(t) * in.leaf_stride + i], acc);
       for (int j = 0; j < joints; ++j)
         for (uint32_t m = cfg.joints[j].part_mask; m; m &= m - 1) mass[j] += acc[__builtin_ctz(m)];
     }

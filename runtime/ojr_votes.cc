@@ -7,14 +7,13 @@
 namespace dp {
 
 namespace {
-inline const blob::OjrVote* leaf_of(const CastInputs& in, int t, int32_t i) {
-  return in.blob->ojr_leaf(in.leaves[size_t(t) * in.leaf_stride + i]);
-}
+// Pixel i's leaf record in tree t.
+inline uint32_t record_of(const CastInputs& in, int t, int32_t i) { return in.leaves[size_t(t) * in.leaf_stride + i]; }
 }  // namespace
 
 uint32_t cast_ojr_votes_reference(const CastInputs& in, const VoteSets& sets) {
+  const blob::LoadedBlob& b = *in.blob;
   const blob::RuntimeConfig& cfg = *in.config;
-  const int joints = in.blob->meta->joint_count;
   const int trees = in.blob->tree_count();
   const int k_votes = in.blob->meta->votes_per_joint;
   const float inv_fx = 1.0f / in.intrinsics.fx, inv_fy = 1.0f / in.intrinsics.fy;
@@ -34,25 +33,24 @@ uint32_t cast_ojr_votes_reference(const CastInputs& in, const VoteSets& sets) {
     const float x = (float(px.u) - in.intrinsics.cx) * z * inv_fx;
     const float y = -(float(px.v) - in.intrinsics.cy) * z * inv_fy;
     for (int t = 0; t < trees; ++t) {
-      const blob::OjrVote* leaf = leaf_of(in, t, i);
-      for (int j = 0; j < joints; ++j) {
-        for (int k = 0; k < k_votes; ++k) {
-          const blob::OjrVote& ov = leaf[j * k_votes + k];
-          if (ov.weight == 0) continue;
-          const int64_t d2 = int64_t(ov.dx_mm) * ov.dx_mm + int64_t(ov.dy_mm) * ov.dy_mm + int64_t(ov.dz_mm) * ov.dz_mm;
-          if (d2 > len2[j]) continue;
-          const float weight = float(ov.weight) * z2;
-          if (weight < floor_weight[j]) {
-            flags |= kFlagVotesTruncated;
-            continue;
-          }
-          const uint32_t order = (uint32_t(i) * uint32_t(trees) + uint32_t(t)) * uint32_t(k_votes) + uint32_t(k);
-          Vote v{x + float(ov.dx_mm) * 0.001f, y + float(ov.dy_mm) * 0.001f, z + float(ov.dz_mm) * 0.001f, weight,
-                 order, 1};
-          Vote* heap = sets.votes + size_t(j) * kVoteSlots;
-          if (push_top_n(heap, &sets.counts[j], in.cap, v)) flags |= kFlagVotesTruncated;
-          if (sets.counts[j] == in.cap) floor_weight[j] = heap[0].weight;
+      const uint32_t r = record_of(in, t, i);
+      // The record's votes in lane (joint, k) order: at most joints·K of them (validated at load).
+      for (uint32_t e = b.leaf_first(r); e < b.leaf_offsets[r + 1]; ++e) {
+        const int j = b.entry_tags[e] / k_votes, k = b.entry_tags[e] % k_votes;
+        const blob::OjrVote& ov = b.ojr_votes()[e];
+        const int64_t d2 = int64_t(ov.dx_mm) * ov.dx_mm + int64_t(ov.dy_mm) * ov.dy_mm + int64_t(ov.dz_mm) * ov.dz_mm;
+        if (d2 > len2[j]) continue;
+        const float weight = float(ov.weight) * z2;
+        if (weight < floor_weight[j]) {
+          flags |= kFlagVotesTruncated;
+          continue;
         }
+        const uint32_t order = (uint32_t(i) * uint32_t(trees) + uint32_t(t)) * uint32_t(k_votes) + uint32_t(k);
+        Vote v{x + float(ov.dx_mm) * 0.001f, y + float(ov.dy_mm) * 0.001f, z + float(ov.dz_mm) * 0.001f, weight,
+               order, 1};
+        Vote* heap = sets.votes + size_t(j) * kVoteSlots;
+        if (push_top_n(heap, &sets.counts[j], in.cap, v)) flags |= kFlagVotesTruncated;
+        if (sets.counts[j] == in.cap) floor_weight[j] = heap[0].weight;
       }
     }
   }
@@ -64,6 +62,7 @@ namespace {
 // The fast caster's floor guess: as the BPC guess (bpc_votes.cc), over each sampled pixel's live
 // votes (trees × K per joint); a joint whose sampled votes are fewer than twice the rank gets no guess.
 void guess_ojr_floors(const CastInputs& in, const uint32_t* lane_len2, float* floor) {
+  const blob::LoadedBlob& b = *in.blob;
   for (int j = 0; j < blob::kMaxJoints; ++j) floor[j] = -1.0f;
   const int trees = in.blob->tree_count();
   const int joints = in.blob->meta->joint_count;
@@ -79,15 +78,18 @@ void guess_ojr_floors(const CastInputs& in, const uint32_t* lane_len2, float* fl
     const int32_t ahead = i + kGuessPrefetchAhead * step;
     if (ahead < in.count)
       for (int t = 0; t < trees; ++t) {
-        const char* leaf = reinterpret_cast<const char*>(leaf_of(in, t, ahead));
-        for (size_t b = 0; b < size_t(joints * k_votes) * sizeof(blob::OjrVote); b += 64) __builtin_prefetch(leaf + b, 0, 3);
+        const uint32_t r = record_of(in, t, ahead);
+        __builtin_prefetch(b.leaf_offsets + r, 0, 3);
+        __builtin_prefetch(b.ojr_votes() + b.leaf_first(r), 0, 3);
+        __builtin_prefetch(b.entry_tags + b.leaf_first(r), 0, 3);
       }
     const float z = float(px.z_mm) * 0.001f;
     const float z2 = z * z;
     for (int t = 0; t < trees; ++t) {
-      const blob::OjrVote* leaf = leaf_of(in, t, i);
-      for (int l = 0; l < joints * k_votes; ++l) {
-        const blob::OjrVote& ov = leaf[l];
+      const uint32_t r = record_of(in, t, i);
+      for (uint32_t e = b.leaf_first(r); e < b.leaf_offsets[r + 1]; ++e) {
+        const int l = b.entry_tags[e];
+        const blob::OjrVote& ov = b.ojr_votes()[e];
         if (!kernels::ojr_live(ov, lane_len2[l])) continue;
         const int j = l / k_votes;
         ++in.guess_hist[j * kGuessBuckets + guess_bucket(float(ov.weight) * z2, kGuessLowestKeyOjr)];
@@ -125,8 +127,8 @@ uint32_t cast_ojr_votes_fast(const CastInputs& in, kernels::OjrScanFn scan, cons
   guess_ojr_floors(in, lane_len2, floor_weight);
   for (int l = 0; l < lanes; ++l) lane_floor[l] = floor_weight[l / k_votes];
   CutWhenFull ctx{&sets, cap};
-  kernels::OjrScanArgs a{in.pixels, in.count, in.leaves, in.leaf_stride, in.blob->tree_count(), in.blob->leaves,
-                         in.blob->meta->leaf_stride_bytes, lanes, k_votes, in.intrinsics.cx, in.intrinsics.cy,
+  kernels::OjrScanArgs a{in.pixels, in.count, in.leaves, in.leaf_stride, in.blob->tree_count(), in.blob->leaf_offsets,
+                         in.blob->ojr_votes(), in.blob->entry_tags, lanes, k_votes, in.intrinsics.cx, in.intrinsics.cy,
                          1.0f / in.intrinsics.fx, 1.0f / in.intrinsics.fy, lane_len2, lane_floor, in.user_filter,
                          in.user_stride, in.user_id, sets.votes, kVoteSlots, 2 * cap, sets.counts, lane_candidates,
                          &cut_when_full, &ctx};

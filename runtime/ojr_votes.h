@@ -1,7 +1,7 @@
 // OJR vote casting (stage 3 for offset-joint-regression forests; votes.h describes the stage).
-// Each leaf holds K votes per joint (offsets in mm, a uint16 weight); a pixel's vote for joint j is
-// its 3D point plus the offset, weight w·z², dropped when w = 0 or |offset| > vote_length_mm
-// (0 = no limit). A vote's casting order depends on (pixel, tree, k) only, never on other joints'
+// Each leaf record holds up to K votes per joint (offsets in mm, a uint16 weight ≥ 1), stored
+// compactly in lane (joint, k) order (forest_blob/blob_format.h); a pixel's vote for joint j is its
+// 3D point plus the offset, weight w·z², dropped when |offset| > vote_length_mm (0 = no limit). A vote's casting order depends on (pixel, tree, k) only, never on other joints'
 // length filters, so each joint's proposals depend only on its own JointConfig (tune relies on this).
 #pragma once
 #include <stdint.h>

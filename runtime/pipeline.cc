@@ -194,10 +194,7 @@ void Pipeline::part_distribution(int32_t i, uint16_t* out) const {
   const int parts = s_.blob.meta->part_count;
   const int trees = s_.blob.tree_count();
   uint32_t acc[blob::kMaxParts] = {};
-  for (int t = 0; t < trees; ++t) {
-    const uint16_t* p = s_.blob.bpc_leaf(leaf_of(i, t));
-    for (int c = 0; c < parts; ++c) acc[c] += p[c];
-  }
+  for (int t = 0; t < trees; ++t) blob::add_bpc_leaf(s_.blob, leaf_of(i, t), acc);
   for (int c = 0; c < parts; ++c) out[c] = uint16_t(acc[c] / uint32_t(trees));
 }
 

@@ -20,6 +20,7 @@
 #include "tools/common/error.h"
 #include "tools/convert/forest_convert.h"
 #include "tools/convert/pcl_import.h"
+#include "tools/demo/fixtures.h"
 #include "tools/train/forest_file.h"
 
 using namespace dp;
@@ -121,7 +122,9 @@ int run_command(std::vector<std::string> args) {
 TEST(ConvertForest, BpcLeavesMatchTheTrainedForestExactly) {
   const train::TrainedForest f = random_trained_forest(1, "bpc", 3, 9, 0.8);
   tools::QuantizationReport rep;
-  const std::vector<uint8_t> bytes = blob::write_blob(tools::convert_forest(f, {}, "test", &rep));
+  tools::ConvertOptions lossless;
+  lossless.bpc = tools::BpcCompaction{blob::kMaxParts, 1};
+  const std::vector<uint8_t> bytes = blob::write_blob(tools::convert_forest(f, lossless, "test", &rep));
   blob::LoadedBlob b;
   ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
   int deepest = 0;
@@ -140,9 +143,10 @@ TEST(ConvertForest, BpcLeavesMatchTheTrainedForestExactly) {
   size_t record = 0;
   for (const auto& t : f.trees)
     for (size_t l = 0; l < t.leaf_count(); ++l, ++record) {
-      uint32_t sum = 0;
+      uint32_t sum = 0, dense[blob::kMaxParts] = {};
+      blob::add_bpc_leaf(b, uint32_t(record), dense);
       for (int p = 0; p < tools::kPartCount; ++p) {
-        const uint16_t q = b.bpc_leaf(uint32_t(record))[p];
+        const uint32_t q = dense[p];
         sum += q;
         EXPECT_LT(std::fabs(q / 32768.0 - t.part_probabilities[l * tools::kPartCount + p]), 1.0 / 32768.0);
       }
@@ -253,8 +257,12 @@ TEST(ConvertPcl, ReadsTheTreeFormatAndWritesABlob) {
   // Labels used: 3, 10, 19, 24 → records 0..3, one-hot on their part.
   EXPECT_EQ(b.meta->leaf_count, 4u);
   EXPECT_EQ(b.tree_leaf_index(1)[3], 3u);
-  EXPECT_EQ(b.bpc_leaf(3)[24], 32768);
-  EXPECT_EQ(b.bpc_leaf(0)[3], 32768);
+  for (uint32_t record : {0u, 3u}) {
+    ASSERT_EQ(b.leaf_size(record), 1u) << "a one-hot record stores one entry";
+    EXPECT_EQ(b.bpc_probabilities()[b.leaf_first(record)], 32768);
+  }
+  EXPECT_EQ(b.entry_tags[b.leaf_first(3)], 24);
+  EXPECT_EQ(b.entry_tags[b.leaf_first(0)], 3);
   EXPECT_STREQ(b.meta->part_names[24], "Lchest");
 }
 
@@ -273,4 +281,26 @@ TEST(ConvertPcl, RefusesBrokenFiles) {
   std::fclose(plain);
   EXPECT_THROW(tools::read_pcl_tree(dir.path + "/plain.bz2"), tools::ToolError);  // not bzip2
   EXPECT_THROW(tools::read_pcl_tree(dir.path + "/absent.bz2"), tools::ToolError);
+}
+
+TEST(ConvertForest, BpcCompactionKeepsTheHeaviestPartsAboveTheFloor) {
+  blob::BlobContents c = tools::single_part_bpc(6, 0, 1, 40);
+  // One record: parts 1 and 4 tie at 8000; part 5 (300) is below a floor of 656.
+  c.bpc_leaves = {0, 8000, 12000, 4000, 8000, 300};
+  tools::CompactionReport r = tools::compact_bpc_leaves(&c, tools::BpcCompaction{2, 656});
+  EXPECT_EQ(c.bpc_leaves, (std::vector<uint16_t>{0, 8000, 12000, 0, 0, 0})) << "ties go to the lower part";
+  EXPECT_EQ(r.dropped_parts, 3u);
+  EXPECT_DOUBLE_EQ(r.worst_dropped_mass, 12300 / 32768.0);
+  c.bpc_leaves = {0, 8000, 12000, 4000, 8000, 300};
+  r = tools::compact_bpc_leaves(&c, tools::BpcCompaction{blob::kMaxParts, 1});
+  EXPECT_EQ(r.dropped_parts, 0u) << "the lossless setting keeps every nonzero part";
+  EXPECT_THROW(tools::compact_bpc_leaves(&c, tools::BpcCompaction{0, 1}), tools::ToolError);
+  EXPECT_THROW(tools::compact_bpc_leaves(&c, tools::BpcCompaction{4, 0}), tools::ToolError);
+  // The blob stores only what is left: 2 entries.
+  c.bpc_leaves = {0, 8000, 12000, 4000, 8000, 300};
+  tools::compact_bpc_leaves(&c, tools::BpcCompaction{});
+  std::vector<uint8_t> bytes = blob::write_blob(c);
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+  EXPECT_EQ(b.meta->entry_count, 4u);  // the default keeps 4 parts ≥ 0.02: 8000, 12000, 4000, 8000
 }

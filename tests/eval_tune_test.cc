@@ -54,7 +54,10 @@ TEST(EvalTune, BlobRebuildIsLossless) {
     const blob::LoadedBlob t = load(tuned);
     EXPECT_EQ(t.config->joints[0].bandwidth_mm, 77);
     EXPECT_EQ(std::memcmp(t.nodes, b.nodes, blob::nodes_per_tree(b.depth()) * b.tree_count() * sizeof(blob::TreeNode)), 0);
-    EXPECT_EQ(std::memcmp(t.leaves, b.leaves, size_t(b.meta->leaf_count) * b.meta->leaf_stride_bytes), 0);
+    ASSERT_EQ(t.meta->entry_count, b.meta->entry_count);
+    EXPECT_EQ(std::memcmp(t.leaf_offsets, b.leaf_offsets, (size_t(b.meta->leaf_count) + 1) * sizeof(uint32_t)), 0);
+    EXPECT_EQ(std::memcmp(t.leaf_entries, b.leaf_entries, size_t(b.meta->entry_count) * blob::leaf_entry_bytes(*b.meta)), 0);
+    EXPECT_EQ(std::memcmp(t.entry_tags, b.entry_tags, b.meta->entry_count), 0);
     cfg.joints[0].bandwidth_mm = 0;  // invalid
     EXPECT_THROW(tools::blob_with_config(b, cfg), tools::ToolError);
   }

@@ -501,8 +501,11 @@ TEST_F(PclRealFramesSharedData, BlobDescribesPclForest) {
   // Head = the four face parts.
   EXPECT_EQ(b.config->joints[0].part_mask, (1u << 19) | (1u << 20) | (1u << 21) | (1u << 22));
   // One-hot leaves.
-  for (uint32_t l = 0; l < b.meta->leaf_count; ++l)
-    for (int p = 0; p < 25; ++p) EXPECT_EQ(b.bpc_leaf(l)[p], p == int(l) ? 32768 : 0);
+  for (uint32_t l = 0; l < b.meta->leaf_count; ++l) {
+    ASSERT_EQ(b.leaf_size(l), 1u) << "record " << l;
+    EXPECT_EQ(b.entry_tags[b.leaf_first(l)], l);
+    EXPECT_EQ(b.bpc_probabilities()[b.leaf_first(l)], 32768);
+  }
 }
 
 namespace {
@@ -1012,16 +1015,32 @@ TEST(Sse41Kernels, ModeWeightsEqualTheReference) {
   }
 }
 
+// Compact leaves of every shape: empty records, full ones (all joints·K lanes), every length mod 4
+// (the vector steps and the scalar tail), lanes in any increasing subset, extreme offsets (±32768:
+// pmaddwd's wrap) and weights 0 (outside validated blobs, but inside the kernel's contract).
 TEST(Sse41Kernels, OjrScanEqualsTheReference) {
   std::mt19937_64 rng(33);
   const int32_t n = 1500, trees = 3, records = 200;
   for (int k_votes : {1, 2, 3, 4}) {
-    const int joints = 1 + int(rng() % 16), lanes = joints * k_votes;
-    std::vector<blob::OjrVote> table(size_t(records) * lanes);
-    for (auto& v : table) {
-      auto off = [&] { return int16_t(rng() % 8 == 0 ? (rng() % 2 ? 32767 : -32768) : int(rng() % 4001) - 2000); };
-      v = blob::OjrVote{off(), off(), off(), uint16_t(rng() % 4 == 0 ? 0 : rng() % 5)};
+    const int joints = k_votes == 4 ? 16 : 1 + int(rng() % 16), lanes = joints * k_votes;
+    std::vector<blob::OjrVote> votes;
+    std::vector<uint8_t> vote_lanes;
+    std::vector<uint32_t> offsets{0};
+    for (int r = 0; r < records; ++r) {
+      const int shape = r % 4;  // 0: random subset, 1: every lane, 2: none, 3: 1..3 lanes from a random start
+      const int few = 1 + (r / 4) % 3, start = int(rng() % uint64_t(lanes));
+      for (int l = 0; l < lanes; ++l) {
+        const bool stored = shape == 1 || (shape == 0 && rng() % 2 == 0) || (shape == 3 && l >= start && l < start + few);
+        if (!stored) continue;
+        auto off = [&] { return int16_t(rng() % 8 == 0 ? (rng() % 2 ? 32767 : -32768) : int(rng() % 4001) - 2000); };
+        votes.push_back(blob::OjrVote{off(), off(), off(), uint16_t(rng() % 4 == 0 ? 0 : rng() % 5)});
+        vote_lanes.push_back(uint8_t(l));
+      }
+      offsets.push_back(uint32_t(votes.size()));
     }
+    std::vector<bool> length_seen(static_cast<size_t>(lanes) + 1, false);
+    for (int r = 0; r < records; ++r) length_seen[offsets[r + 1] - offsets[r]] = true;
+    for (int len : {0, 1, 2, 3, lanes}) EXPECT_TRUE(len > lanes || length_seen[size_t(len)]) << "record length " << len;
     std::vector<EvaluatedPixel> px(n);
     std::vector<uint32_t> leaf(size_t(trees) * n);
     for (int32_t i = 0; i < n; ++i) {
@@ -1045,8 +1064,8 @@ TEST(Sse41Kernels, OjrScanEqualsTheReference) {
         for (int l = 0; l < kernels::kMaxOjrLanes; ++l) lane_floor[l] = trial == 0 ? -1.0f : float((l / k_votes) % 4) * 2.0f;
         for (int j = 0; j < kMaxJoints; ++j) sink->last_floor[j] = trial == 0 ? -1.0f : float(j % 4) * 2.0f;
         alignas(16) int32_t counted[kernels::kMaxOjrLanes] = {};
-        const kernels::OjrScanArgs a{px.data(), n, leaf.data(), n, trees, reinterpret_cast<const uint8_t*>(table.data()),
-                                     size_t(lanes) * sizeof(blob::OjrVote), lanes, k_votes, 31.5f, 30.0f, 1.0f / 285.0f,
+        const kernels::OjrScanArgs a{px.data(), n, leaf.data(), n, trees, offsets.data(), votes.data(),
+                                     vote_lanes.data(), lanes, k_votes, 31.5f, 30.0f, 1.0f / 285.0f,
                                      1.0f / 286.0f, len2.data(), lane_floor, trial % 2 ? users.data() : nullptr, 64,
                                      uint8_t(2), sink->votes.data(), 64, 48, sink->counts.data(), counted, &sink_cut, sink};
         fn(a);

@@ -12,8 +12,9 @@
 // A buffer that reaches `slots` votes is handed to on_full(ctx, j), which must cut it (keeping
 // casting order) and return joint j's new floor; the scan reads floor[] again after the call.
 //
-// OJR scan contract: for every evaluated pixel i (same filter), tree t and lane l (a leaf's votes
-// in (joint, k) order, lane l = j·K + k), a vote with weight ≠ 0 and squared length
+// OJR scan contract: for every evaluated pixel i (same filter), tree t and stored vote of its leaf
+// record (compact leaves, blob_format.h: in increasing lane order, lane l = j·K + k), a vote with
+// weight ≠ 0 and squared length
 // dx² + dy² + dz² ≤ lane_len2[l] is a candidate (counted in lane_candidates[l] when that pointer is
 // set); it is appended when weight·z² (one IEEE single product) is not below lane_floor[l], as
 //     Vote{x + dx·0.001f, y + dy·0.001f, z + dz·0.001f, weight·z², order = (i·trees + t)·K + k, 1}.
@@ -23,8 +24,8 @@
 // Both: on_full must return a floor no lower than the joint's floor before the call (the pipeline's
 // cut does: it keeps the heaviest votes of a buffer that holds only votes at or above that floor).
 // x = (u − cx)·z·inv_fx, y = −(v − cy)·z·inv_fy. Votes are appended in casting order. Loops
-// are bounded by count ≤ the pixel budget, trees ≤ kMaxTrees, lanes ≤ kMaxOjrLanes (validated at
-// blob load). No allocation, no state between calls.
+// are bounded by count ≤ the pixel budget, trees ≤ kMaxTrees, a record's votes ≤ lanes ≤ kMaxOjrLanes
+// (validated at blob load). No allocation, no state between calls.
 //
 // Every helper below has internal linkage: each ISA folder compiles this header with its own
 // instruction-set flags, and an externally visible inline copy could be the one the linker keeps
@@ -80,8 +81,9 @@ struct OjrScanArgs {
   const uint32_t* leaves;       // tree-major, as BpcScanArgs
   int32_t leaf_stride;
   int32_t trees;
-  const uint8_t* leaf_table;    // leaf record r's votes at leaf_table + r · leaf_bytes
-  size_t leaf_bytes;
+  const uint32_t* leaf_offsets; // record r's votes are [leaf_offsets[r], leaf_offsets[r + 1]) (validated)
+  const blob::OjrVote* leaf_votes;
+  const uint8_t* vote_lanes;    // per vote its lane j·K + k < lanes, increasing within a record
   int32_t lanes;                // joint_count · K ≤ kMaxOjrLanes
   int32_t k_votes;              // K
   float cx, cy, inv_fx, inv_fy;
@@ -150,16 +152,26 @@ inline bool skipped(const OjrScanArgs& a, const EvaluatedPixel& px) {
   return skipped(a.user_filter, a.user_stride, a.user_id, px);
 }
 
-// Pixel i's OJR leaf in tree t.
-inline const blob::OjrVote* ojr_leaf_of(const OjrScanArgs& a, int t, int32_t i) {
-  return reinterpret_cast<const blob::OjrVote*>(a.leaf_table + size_t(a.leaves[size_t(t) * a.leaf_stride + i]) * a.leaf_bytes);
+// Pixel i's OJR leaf record in tree t: its votes are [*first, *end) of leaf_votes / vote_lanes.
+inline void ojr_leaf_range(const OjrScanArgs& a, int t, int32_t i, uint32_t* first, uint32_t* end) {
+  const uint32_t r = a.leaves[size_t(t) * a.leaf_stride + i];
+  *first = a.leaf_offsets[r];
+  *end = a.leaf_offsets[r + 1];
 }
 
+// The votes and lanes of the pixel kVotePrefetchAhead ahead (its offsets are prefetched one step
+// earlier, kVotePrefetchAhead further ahead, so they are usually in cache by now).
 inline void prefetch_ojr_leaves_ahead(const OjrScanArgs& a, int32_t i) {
+  if (i + 2 * kVotePrefetchAhead < a.count)
+    for (int t = 0; t < a.trees; ++t)
+      __builtin_prefetch(a.leaf_offsets + a.leaves[size_t(t) * a.leaf_stride + i + 2 * kVotePrefetchAhead], 0, 3);
   if (i + kVotePrefetchAhead < a.count)
     for (int t = 0; t < a.trees; ++t) {
-      const char* ahead = reinterpret_cast<const char*>(ojr_leaf_of(a, t, i + kVotePrefetchAhead));
-      for (size_t b = 0; b < size_t(a.lanes) * sizeof(blob::OjrVote); b += 64) __builtin_prefetch(ahead + b, 0, 3);
+      uint32_t first, end;
+      ojr_leaf_range(a, t, i + kVotePrefetchAhead, &first, &end);
+      const char* ahead = reinterpret_cast<const char*>(a.leaf_votes + first);
+      for (size_t b = 0; b < size_t(end - first) * sizeof(blob::OjrVote); b += 64) __builtin_prefetch(ahead + b, 0, 3);
+      __builtin_prefetch(a.vote_lanes + first, 0, 3);
     }
 }
 

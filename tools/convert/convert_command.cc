@@ -1,5 +1,7 @@
-// `depthpose convert`: model files → forest blob v1 (docs/convert.md).
+// `depthpose convert`: model files → forest blob (docs/convert.md).
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -10,6 +12,7 @@
 #include "tools/common/args.h"
 #include "tools/common/error.h"
 #include "tools/common/limits.h"
+#include "tools/convert/blob_upgrade.h"
 #include "tools/convert/forest_convert.h"
 #include "tools/convert/pcl_import.h"
 #include "tools/train/forest_file.h"
@@ -20,12 +23,40 @@ namespace {
 const char* const kUsage =
     "usage: depthpose convert FOREST --out BLOB [--max-size 640x480] [--check-frames 12]\n"
     "       depthpose convert --from-pcl TREE.txt.bz2 [TREE2 ...] --out BLOB\n"
+    "       depthpose convert --upgrade-blob OLD.blob --out BLOB\n"
     "  FOREST: a trained forest (depthpose train) quantized to fixed point (docs/convert.md); reports the\n"
     "  worst quantization error and checks that the blob's leaves equal the trained forest's on sample frames.\n"
     "  --from-pcl: imports PCL people-detector trees (bzip2 ASCII, read in place) as a 25-part BPC blob.\n"
+    "  --upgrade-blob: rewrites a format-1 blob (dense leaves) as the current format (compact leaves),\n"
+    "  losslessly unless --bpc-* options are given: same trees, leaves and config (docs/blob_format.md).\n"
     "  --out BLOB       blob to write (byte-identical for identical input)\n"
     "  --max-size WxH   largest frame the blob's arena size is computed for (default 640x480)\n"
-    "  --check-frames N sample frames for the leaf check (default 12, 0 = skip, at most 256)\n";
+    "  --check-frames N sample frames for the leaf check (default 12, 0 = skip, at most 256)\n"
+    "  --bpc-max-parts N          BPC leaves keep their N most probable parts (1..32, default %d)\n"
+    "  --bpc-min-probability P    BPC leaves drop parts below P (0..1, default %.4f); dropped mass is\n"
+    "                             not renormalized (docs/convert.md). 32 and 0: lossless\n";
+
+// The BPC compaction options over `k` (convert: BpcCompaction's measured defaults; --upgrade-blob:
+// lossless unless asked).
+BpcCompaction bpc_compaction_of(const Args& args, BpcCompaction k) {
+  const long long parts = args.get_int("--bpc-max-parts", k.max_parts);
+  if (parts < 1 || parts > blob::kMaxParts) fail("convert: --bpc-max-parts " + std::to_string(parts) + " is outside 1..32");
+  k.max_parts = int(parts);
+  if (args.has("--bpc-min-probability")) {
+    const std::string text = args.get("--bpc-min-probability");
+    char* end = nullptr;
+    const double p = std::strtod(text.c_str(), &end);
+    if (end == text.c_str() || *end != 0 || !(p >= 0.0 && p <= 1.0))
+      fail("convert: --bpc-min-probability '" + text + "' is not a probability in 0..1");
+    k.min_q15 = uint16_t(std::clamp<double>(std::ceil(p * 32768.0), 1.0, 32768.0));
+  }
+  return k;
+}
+
+void print_compaction(const CompactionReport& r) {
+  std::printf("BPC compaction: %llu parts dropped, dropped mass per leaf mean %.5f, worst %.4f\n",
+              (unsigned long long)r.dropped_parts, r.mean_dropped_mass, r.worst_dropped_mass);
+}
 
 int convert_trained(const Args& args) {
   if (args.positional().size() != 1) fail("convert: give exactly one FOREST file\n" + args.usage());
@@ -40,6 +71,7 @@ int convert_trained(const Args& args) {
     fail("convert: --max-size '" + size + "' is not WxH within 1.." + std::to_string(blob::kMaxFrameDimension));
   options.max_width = w;
   options.max_height = h;
+  options.bpc = bpc_compaction_of(args, BpcCompaction{});
   const long long check_frames = args.get_int("--check-frames", 12);
   if (check_frames < 0 || check_frames > limits::kMaxCheckFrames)
     fail("convert: --check-frames " + std::to_string(check_frames) + " is outside 0.." +
@@ -57,6 +89,7 @@ int convert_trained(const Args& args) {
                 rep.worst_vote_offset_error_mm, (unsigned long long)rep.clamped_vote_components,
                 rep.worst_vote_weight_rel_error, (unsigned long long)rep.dropped_votes, blob::kMaxVotesPerLeafJoint);
   std::printf("\n");
+  if (forest.method == "bpc") print_compaction(rep.bpc_compaction);
   if (check_frames > 0) {
     const int cw = int(std::min<unsigned>(w, 320)), ch = int(std::min<unsigned>(h, 240));
     const LeafCheck check = check_leaves(forest, bytes, sample_frames(cw, ch, int(check_frames)), cw, ch,
@@ -87,13 +120,37 @@ int convert_from_pcl(const Args& args) {
   return 0;
 }
 
+int convert_upgrade(const Args& args) {
+  const std::string in = args.get("--upgrade-blob");
+  if (!args.positional().empty()) fail("convert --upgrade-blob: takes no FOREST\n" + args.usage());
+  const std::string out = args.get("--out");
+  const std::vector<uint8_t> old_bytes = blob::read_blob_file(in);
+  blob::BlobContents contents = read_v1_blob(old_bytes, in);
+  const CompactionReport compaction =
+      compact_bpc_leaves(&contents, bpc_compaction_of(args, BpcCompaction{blob::kMaxParts, 1}));
+  if (contents.method == blob::Method::kBpc) print_compaction(compaction);
+  const std::vector<uint8_t> bytes = blob::write_blob(contents);
+  blob::save_blob_file(out, bytes);
+  std::printf("wrote %s: %zu bytes (format 1: %zu bytes)\n", out.c_str(), bytes.size(), old_bytes.size());
+  return 0;
+}
+
 int convert_main(int argc, char** argv) {
-  Args args(argc, argv, kUsage, {"--out", "--max-size", "--check-frames"}, {"--from-pcl"});
+  static const std::string usage = [] {
+    const BpcCompaction k;
+    char text[4096];
+    std::snprintf(text, sizeof text, kUsage, k.max_parts, k.min_q15 / 32768.0);
+    return std::string(text);
+  }();
+  Args args(argc, argv, usage.c_str(),
+            {"--out", "--max-size", "--check-frames", "--upgrade-blob", "--bpc-max-parts", "--bpc-min-probability"},
+            {"--from-pcl"});
   if (args.help_requested()) {
     std::printf("%s", args.usage().c_str());
     return 0;
   }
   if (args.flag("--from-pcl")) return convert_from_pcl(args);
+  if (args.has("--upgrade-blob")) return convert_upgrade(args);
   return convert_trained(args);
 }
 

@@ -60,6 +60,35 @@ double quantize_distribution(const float* p, int parts, uint16_t* out) {
 
 }  // namespace
 
+CompactionReport compact_bpc_leaves(blob::BlobContents* c, const BpcCompaction& k) {
+  CompactionReport rep;
+  if (c->method != blob::Method::kBpc) return rep;
+  if (k.max_parts < 1 || k.max_parts > blob::kMaxParts || k.min_q15 < 1 || k.min_q15 > blob::kProbabilityOneQ15)
+    fail("BPC compaction: max parts " + std::to_string(k.max_parts) + " outside 1.." + std::to_string(blob::kMaxParts) +
+         " or min probability " + std::to_string(k.min_q15) + " outside 1..32768 (Q15)");
+  const size_t parts = c->part_names.size();
+  if (parts == 0) return rep;
+  const size_t records = c->bpc_leaves.size() / parts;
+  std::vector<int> order(parts);
+  for (size_t r = 0; r < records; ++r) {
+    uint16_t* p = &c->bpc_leaves[r * parts];
+    for (size_t i = 0; i < parts; ++i) order[i] = int(i);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return p[a] > p[b]; });
+    uint32_t dropped = 0;
+    for (size_t rank = 0; rank < parts; ++rank) {
+      uint16_t& q = p[order[rank]];
+      if (q == 0 || (rank < size_t(k.max_parts) && q >= k.min_q15)) continue;
+      dropped += q;
+      q = 0;
+      ++rep.dropped_parts;
+    }
+    rep.mean_dropped_mass += dropped / 32768.0;
+    rep.worst_dropped_mass = std::max(rep.worst_dropped_mass, dropped / 32768.0);
+  }
+  if (records) rep.mean_dropped_mass /= double(records);
+  return rep;
+}
+
 blob::BlobContents convert_forest(const train::TrainedForest& forest, const ConvertOptions& options,
                                   const std::string& what, QuantizationReport* report) {
   QuantizationReport rep;
@@ -178,6 +207,7 @@ blob::BlobContents convert_forest(const train::TrainedForest& forest, const Conv
   }
   c.config = blob::default_runtime_config(int(c.joint_names.size()));
   for (size_t j = 0; j < masks.size(); ++j) c.config.joints[j].part_mask = masks[j];
+  rep.bpc_compaction = compact_bpc_leaves(&c, options.bpc);
   if (report) *report = rep;
   return c;
 }

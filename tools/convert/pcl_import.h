@@ -4,7 +4,7 @@
 // A PCL tree file holds its height H, then 2^H − 1 lines `du1 dv1 du2 dv2 thresh` in implicit heap
 // order, then 2^H leaf labels (argmax part, 0..24). Offsets are pixels at 1 m for a 525 px
 // camera, thresholds millimetres, "go right iff d1 − d2 > thresh": the same units and the same
-// branch rule as blob v1, so nodes are copied unchanged. Differences from PCL kept deliberately:
+// branch rule as the blob, so nodes are copied unchanged. Differences from PCL kept deliberately:
 //   - probes off the image read the background constant (our rule) where PCL clamps to the border;
 //   - the probe scale is the integer rule of runtime/fixed_point.h, PCL uses float 1000/z.
 // Each leaf label becomes a one-hot Q15 distribution (32768 on that part), one record per label

@@ -20,7 +20,9 @@ static const char* kind_name(uint32_t k) {
     case 2: return "config";
     case 3: return "nodes";
     case 4: return "leaf_index";
-    case 5: return "leaves";
+    case 5: return "leaf_offsets";
+    case 6: return "leaf_entries";
+    case 7: return "entry_tags";
   }
   return "?";
 }
@@ -33,10 +35,11 @@ void describe_blob(const blob::LoadedBlob& b, FILE* out) {
                h.version_major, h.version_minor, (unsigned long long)h.total_bytes, h.header_crc32, h.payload_crc32);
   const auto* sections = reinterpret_cast<const blob::SectionEntry*>(reinterpret_cast<const uint8_t*>(&h) + sizeof h);
   for (uint32_t i = 0; i < h.section_count; ++i)
-    std::fprintf(out, "  section %-10s offset %10llu size %10llu\n", kind_name(sections[i].kind),
+    std::fprintf(out, "  section %-12s offset %10llu size %10llu\n", kind_name(sections[i].kind),
                  (unsigned long long)sections[i].offset, (unsigned long long)sections[i].size);
-  std::fprintf(out, "method %s, %d trees, depth %d, %u leaf records (%u bytes each), reference focal %.1f px\n",
-               bpc ? "BPC" : "OJR", m.tree_count, m.depth, m.leaf_count, m.leaf_stride_bytes, m.reference_focal_px);
+  std::fprintf(out, "method %s, %d trees, depth %d, %u leaf records holding %u %s (%.2f per record), reference "
+               "focal %.1f px\n", bpc ? "BPC" : "OJR", m.tree_count, m.depth, m.leaf_count, m.entry_count,
+               bpc ? "part probabilities" : "votes", double(m.entry_count) / double(m.leaf_count), m.reference_focal_px);
   // The recorded figure is what the converting runtime needed; a later runtime may carve more
   // scratch, so the figure to size an arena by is the linked runtime's own.
   std::fprintf(out, "max probe offset %u pixel·m; arena for %ux%u frames: %zu bytes with this runtime, "

@@ -14,8 +14,9 @@ void ojr_scan(const OjrScanArgs& a) {
     const float y = -(float(px.v) - a.cy) * z * a.inv_fy;
     prefetch_ojr_leaves_ahead(a, i);
     for (int t = 0; t < a.trees; ++t) {
-      const blob::OjrVote* leaf = ojr_leaf_of(a, t, i);
-      for (int l = 0; l < a.lanes; ++l) scan_ojr_lane(a, i, t, l, x, y, z, z2, leaf[l]);
+      uint32_t first, end;
+      ojr_leaf_range(a, t, i, &first, &end);
+      for (uint32_t e = first; e < end; ++e) scan_ojr_lane(a, i, t, a.vote_lanes[e], x, y, z, z2, a.leaf_votes[e]);
     }
   }
 }
