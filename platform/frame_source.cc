@@ -6,10 +6,12 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <vector>
 
+#include "platform/oni_file_source.h"
 #include "platform/openni_source.h"
 #include "platform/v4l2_source.h"
 #include "tools/common/dataset.h"
@@ -35,6 +37,13 @@ CameraIntrinsics kinect_v1_intrinsics(int width, int height) {
   // 525 px is the Kinect v1 depth focal length at 640x480; scale it with the width.
   float f = 525.0f * float(width) / 640.0f;
   return CameraIntrinsics{f, f, (float(width) - 1.0f) / 2.0f, (float(height) - 1.0f) / 2.0f};
+}
+
+CameraIntrinsics intrinsics_from_fov(int width, int height, float hfov, float vfov) {
+  if (!(hfov > 0.01f && hfov < 3.1f) || !(vfov > 0.01f && vfov < 3.1f)) return kinect_v1_intrinsics(width, height);
+  return CameraIntrinsics{float(width) / (2.0f * std::tan(hfov / 2.0f)),
+                          float(height) / (2.0f * std::tan(vfov / 2.0f)), (float(width) - 1.0f) / 2.0f,
+                          (float(height) - 1.0f) / 2.0f};
 }
 
 void parse_size(const std::string& text, const std::string& what, int* width, int* height) {
@@ -205,7 +214,7 @@ std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOp
     source = open_dataset_source(rest);
   } else if (kind == "oni") {
     if (rest.empty()) fail("source '" + spec + "': want oni:FILE");
-    source = open_oni_source(rest, options.oni_repeat);
+    source = open_oni_source(rest);
   } else if (kind == "openni") {
     source = open_openni_device_source(rest, options);
   } else if (kind == "v4l2") {

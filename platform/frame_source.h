@@ -21,7 +21,8 @@
 //   raw:GLOB:WxH        uint16 little-endian millimetre files, sorted by name (e.g.
 //                       ../shared/data/skeltrack-frames/*.raw:640x480)
 //   dataset:DIR         dataset layout v1 (tools/common/dataset.h), depth/NNNNNN.png in order
-//   oni:FILE            OpenNI2 recording, each frame once, as fast as it can be read
+//   oni:FILE            OpenNI .oni recording, each frame once, as fast as it can be read, by
+//                       depthpose's own reader (platform/oni_file_source.h)
 //   openni              first OpenNI2 device;  openni:URI  a given device URI
 //   v4l2:/dev/videoN    V4L2 depth capture (mmap streaming, Z16 preferred, Y16 accepted)
 #pragma once
@@ -52,6 +53,9 @@ struct SourceStats {
 
 // Kinect v1 depth camera defaults (fx = fy = 525, principal point at the image centre).
 CameraIntrinsics kinect_v1_intrinsics(int width, int height);
+// Pinhole intrinsics from a field of view in radians (principal point at the image centre); the
+// Kinect v1 defaults when either angle is outside 0.01..3.1.
+CameraIntrinsics intrinsics_from_fov(int width, int height, float horizontal_fov, float vertical_fov);
 
 class FrameSource {
  public:
@@ -64,9 +68,9 @@ class FrameSource {
   virtual int64_t frame_count() const { return -1; }
   // See the contract above. `depth_mm` holds width()·height() elements.
   virtual NextStatus next(uint16_t* depth_mm, FrameInfo* info) = 0;
-  // Starts again at the first frame, allocating nothing (raw and dataset sources, .oni recordings
-  // opened with SourceOptions::oni_repeat); the stats keep counting. False when the source cannot:
-  // live sources, .oni without oni_repeat (OpenNI2 2.2's PlaybackControl::seek crashes).
+  // Starts again at the first frame, allocating nothing (raw, dataset and oni: sources); the stats
+  // keep counting. False when the source cannot: live sources, OpenNI2's own .oni player
+  // (open_openni_oni_source) without repeat (OpenNI2 2.2's PlaybackControl::seek crashes).
   virtual bool rewind() { return false; }
   const std::string& last_error() const { return error_; }
   // Last non-fatal problem (a skipped corrupt frame, a lost device), for logs. Empty if none.
@@ -95,9 +99,6 @@ struct SourceOptions {
   // Live sources: hand over only the newest frame, counting older queued ones as dropped
   // (`run --realtime`). OpenNI2 streams always do; V4L2 otherwise delivers its queue in order.
   bool latest_only = false;
-  // oni: recordings: let OpenNI2 play the file in a loop so rewind() is possible without a seek
-  // (`run --loop`); next() still returns kEnd at the end of every play-through.
-  bool oni_repeat = false;
 };
 
 // Opens a source from its spec (see above). Throws ToolError naming the problem.

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "platform/frame_source.h"
+#include "platform/oni_file_source.h"
 #include "platform/oni_recorder.h"
 #include "platform/openni_driver/feed_abi.h"
 #include "platform/openni_source.h"
