@@ -13,7 +13,7 @@ bool refuse(OniDecodeProblem* problem, size_t offset, const char* field, uint64_
   return false;
 }
 
-// 16z stream in in[begin, end) → out[0, pixels), each running value passed through `lookup(v, at,
+// 16z stream in in[begin, end) → out[0, pixels), each running value handed to `lookup(v, at,
 // &pixel)` (identity for 16zP, table lookup for 16zT; `at` is the code's payload byte for
 // messages), which returns false (problem filled) for a value it cannot map.
 template <typename Lookup>
