@@ -160,7 +160,50 @@ class DatasetSource final : public FrameSource {
   size_t position_ = 0;
 };
 
+class SubsampledSource final : public FrameSource {
+ public:
+  SubsampledSource(std::unique_ptr<FrameSource> inner, int factor)
+      : inner_(std::move(inner)), factor_(factor), full_(size_t(inner_->width()) * size_t(inner_->height())) {}
+  int width() const override { return inner_->width() / factor_; }
+  int height() const override { return inner_->height() / factor_; }
+  CameraIntrinsics intrinsics() const override {
+    const CameraIntrinsics k = inner_->intrinsics();
+    const float f = float(factor_);
+    return resolve(CameraIntrinsics{k.fx / f, k.fy / f, k.cx / f, k.cy / f});
+  }
+  bool live() const override { return inner_->live(); }
+  int64_t frame_count() const override { return inner_->frame_count(); }
+  NextStatus next(uint16_t* depth_mm, FrameInfo* info) override {
+    const NextStatus status = inner_->next(full_.data(), info);
+    stats_ = inner_->stats();
+    warning_ = inner_->last_warning();
+    error_ = inner_->last_error();
+    if (status != NextStatus::kFrame) return status;
+    const int w = width(), h = height(), full_width = inner_->width();
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        depth_mm[size_t(y) * w + x] = full_[size_t(y) * factor_ * full_width + size_t(x) * factor_];
+    return status;
+  }
+  bool rewind() override { return inner_->rewind(); }
+
+ private:
+  std::unique_ptr<FrameSource> inner_;
+  int factor_;
+  std::vector<uint16_t> full_;  // one frame of inner's, allocated once
+};
+
 }  // namespace
+
+std::unique_ptr<FrameSource> subsample_source(std::unique_ptr<FrameSource> inner, int factor) {
+  if (factor < 1 || factor > kMaxSubsample)
+    fail("subsample factor " + std::to_string(factor) + " outside 1.." + std::to_string(kMaxSubsample));
+  if (inner->width() / factor < 1 || inner->height() / factor < 1)
+    fail("subsample factor " + std::to_string(factor) + " leaves no pixel of a " + std::to_string(inner->width()) + "x" +
+         std::to_string(inner->height()) + " frame");
+  if (factor == 1) return inner;
+  return std::make_unique<SubsampledSource>(std::move(inner), factor);
+}
 
 std::unique_ptr<FrameSource> open_raw_source(const std::string& glob_pattern, int width, int height) {
   glob_t g{};

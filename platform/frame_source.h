@@ -108,6 +108,14 @@ std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOp
 std::unique_ptr<FrameSource> open_raw_source(const std::string& glob_pattern, int width, int height);
 std::unique_ptr<FrameSource> open_dataset_source(const std::string& dir);
 
+// Every `factor`-th pixel of every `factor`-th row of `inner`'s frames (pixel (x, y) of a frame is
+// inner's (factor·x, factor·y)): a floor(W/factor) × floor(H/factor) source with the intrinsics
+// scaled by 1/factor (the same field of view), for small recordings (`record --subsample`, soak
+// runs). Statuses, stats, warnings and rewind() are inner's. Throws ToolError when factor is
+// outside 1..kMaxSubsample or leaves less than one pixel per side.
+constexpr int kMaxSubsample = 16;
+std::unique_ptr<FrameSource> subsample_source(std::unique_ptr<FrameSource> inner, int factor);
+
 // Parses "WxH" (e.g. "640x480"); throws ToolError naming `what` on malformed text.
 void parse_size(const std::string& text, const std::string& what, int* width, int* height);
 

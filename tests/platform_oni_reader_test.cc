@@ -397,3 +397,31 @@ TEST(OniReader, DemoFramesEqualOpenNi2PlayerFrameForFrame) {
   EXPECT_EQ(crc_openni, kDemoFramesCrc32) << std::hex << "OpenNI2's frames: 0x" << crc_openni;
   EXPECT_EQ(crc_ours, kDemoFramesCrc32) << std::hex << "our frames: 0x" << crc_ours;
 }
+
+TEST(OniReader, SubsampledSourceKeepsEveryKthPixelAndTheFieldOfView) {
+  const std::string demo = "models/demo.oni";
+  ASSERT_TRUE(std::filesystem::exists(demo)) << demo << " is missing (make model builds it)";
+  auto full = open_oni_source(demo);
+  auto small = subsample_source(open_oni_source(demo), 4);
+  ASSERT_EQ(small->width(), full->width() / 4);
+  ASSERT_EQ(small->height(), full->height() / 4);
+  EXPECT_FLOAT_EQ(small->intrinsics().fx, full->intrinsics().fx / 4);
+  EXPECT_FLOAT_EQ(small->intrinsics().cy, full->intrinsics().cy / 4);
+  std::vector<uint16_t> a(size_t(full->width()) * size_t(full->height())), b(size_t(small->width()) * size_t(small->height()));
+  FrameInfo ia, ib;
+  for (int round = 0; round < 2; ++round) {
+    for (int i = 0; i < 3; ++i) {
+      ASSERT_EQ(full->next(a.data(), &ia), NextStatus::kFrame);
+      ASSERT_EQ(small->next(b.data(), &ib), NextStatus::kFrame);
+      EXPECT_EQ(ia.timestamp_us, ib.timestamp_us);
+      for (int y = 0; y < small->height(); ++y)
+        for (int x = 0; x < small->width(); ++x)
+          ASSERT_EQ(b[size_t(y) * small->width() + x], a[size_t(4 * y) * full->width() + size_t(4 * x)]) << x << "," << y;
+    }
+    ASSERT_TRUE(full->rewind());
+    ASSERT_TRUE(small->rewind());
+  }
+  EXPECT_EQ(small->stats().frames, 6);
+  EXPECT_HAS(error_of([&] { subsample_source(open_oni_source(demo), 17); }), "subsample factor 17 outside 1..16");
+  EXPECT_HAS(error_of([&] { subsample_source(open_oni_source(demo), 0); }), "subsample factor 0 outside 1..16");
+}
