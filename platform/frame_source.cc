@@ -57,107 +57,95 @@ void parse_size(const std::string& text, const std::string& what, int* width, in
   *height = h;
 }
 
+NextStatus IndexedFileSource::next(uint16_t* depth_mm, FrameInfo* info) {
+  while (position_ < count_) {
+    const size_t index = position_++;
+    uint64_t timestamp_us = 0;
+    if (!read_frame(index, depth_mm, &timestamp_us, &warning_)) {
+      ++stats_.corrupt_frames;
+      continue;
+    }
+    info->index = int64_t(index);
+    info->timestamp_us = timestamp_us;
+    ++stats_.frames;
+    return NextStatus::kFrame;
+  }
+  return NextStatus::kEnd;
+}
+
 namespace {
 
 constexpr uint64_t kFilePeriodUs = 33333;  // files without timestamps play as 30 frames/s
 
-class RawSource final : public FrameSource {
+class RawSource final : public IndexedFileSource {
  public:
   RawSource(std::vector<std::string> files, int width, int height)
-      : files_(std::move(files)), width_(width), height_(height) {}
+      : IndexedFileSource(files.size()), files_(std::move(files)), width_(width), height_(height) {}
   int width() const override { return width_; }
   int height() const override { return height_; }
   CameraIntrinsics intrinsics() const override { return resolve(kinect_v1_intrinsics(width_, height_)); }
-  int64_t frame_count() const override { return int64_t(files_.size()); }
 
-  NextStatus next(uint16_t* depth_mm, FrameInfo* info) override {
+ private:
+  bool read_frame(size_t index, uint16_t* depth_mm, uint64_t* timestamp_us, std::string* why) override {
     const size_t want = size_t(width_) * size_t(height_) * 2;
-    while (position_ < files_.size()) {
-      const size_t index = position_++;
-      const std::string& path = files_[index];
-      // Plain system calls: no stdio buffer is allocated per frame.
-      const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-      if (fd < 0) {
-        skip(path + ": cannot open (frame skipped)");
-        continue;
-      }
-      size_t got = 0;
-      auto* bytes = reinterpret_cast<uint8_t*>(depth_mm);
-      while (got < want) {
-        const ssize_t n = ::read(fd, bytes + got, want - got);
-        if (n <= 0) break;
-        got += size_t(n);
-      }
-      uint8_t extra;
-      const bool longer = got == want && ::read(fd, &extra, 1) > 0;
-      ::close(fd);
-      if (got != want || longer) {
-        skip(path + ": not " + std::to_string(width_) + "x" + std::to_string(height_) +
-             " uint16 depth (" + (got < want ? "too short" : "too long") + ", frame skipped)");
-        continue;
-      }
-      // Files are little endian, as is every host we build for (x86-64).
-      info->index = int64_t(index);
-      info->timestamp_us = uint64_t(index) * kFilePeriodUs;
-      ++stats_.frames;
-      return NextStatus::kFrame;
+    const std::string& path = files_[index];
+    // Plain system calls: no stdio buffer is allocated per frame.
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) {
+      *why = path + ": cannot open (frame skipped)";
+      return false;
     }
-    return NextStatus::kEnd;
-  }
-  bool rewind() override {
-    position_ = 0;
+    size_t got = 0;
+    auto* bytes = reinterpret_cast<uint8_t*>(depth_mm);
+    while (got < want) {
+      const ssize_t n = ::read(fd, bytes + got, want - got);
+      if (n <= 0) break;
+      got += size_t(n);
+    }
+    uint8_t extra;
+    const bool longer = got == want && ::read(fd, &extra, 1) > 0;
+    ::close(fd);
+    if (got != want || longer) {
+      *why = path + ": not " + std::to_string(width_) + "x" + std::to_string(height_) + " uint16 depth (" +
+             (got < want ? "too short" : "too long") + ", frame skipped)";
+      return false;
+    }
+    // Files are little endian, as is every host we build for (x86-64).
+    *timestamp_us = uint64_t(index) * kFilePeriodUs;
     return true;
   }
 
- private:
-  void skip(const std::string& why) {
-    warning_ = why;
-    ++stats_.corrupt_frames;
-  }
   std::vector<std::string> files_;
   int width_, height_;
-  size_t position_ = 0;
 };
 
-class DatasetSource final : public FrameSource {
+class DatasetSource final : public IndexedFileSource {
  public:
-  explicit DatasetSource(tools::Dataset dataset) : dataset_(std::move(dataset)) {
+  explicit DatasetSource(tools::Dataset dataset)
+      : IndexedFileSource(dataset.frames.size()), dataset_(std::move(dataset)) {
     const auto& m = dataset_.meta;
     own_ = CameraIntrinsics{float(m.fx), float(m.fy), float(m.cx), float(m.cy)};
   }
   int width() const override { return dataset_.meta.width; }
   int height() const override { return dataset_.meta.height; }
   CameraIntrinsics intrinsics() const override { return resolve(own_); }
-  int64_t frame_count() const override { return int64_t(dataset_.frames.size()); }
 
-  NextStatus next(uint16_t* depth_mm, FrameInfo* info) override {
-    while (position_ < dataset_.frames.size()) {
-      const size_t index = position_++;
-      try {
-        // Dataset::load_depth checks the PNG's presence, format and size against meta.json.
-        tools::ImageU16 image = dataset_.load_depth(index);
-        std::memcpy(depth_mm, image.pixels.data(), image.pixels.size() * sizeof(uint16_t));
-      } catch (const std::exception& e) {
-        warning_ = std::string(e.what()) + " (frame skipped)";
-        ++stats_.corrupt_frames;
-        continue;
-      }
-      info->index = int64_t(index);
-      info->timestamp_us = uint64_t(index) * kFilePeriodUs;
-      ++stats_.frames;
-      return NextStatus::kFrame;
+ private:
+  bool read_frame(size_t index, uint16_t* depth_mm, uint64_t* timestamp_us, std::string* why) override {
+    try {
+      // Dataset::load_depth checks the PNG's presence, format and size against meta.json.
+      tools::ImageU16 image = dataset_.load_depth(index);
+      std::memcpy(depth_mm, image.pixels.data(), image.pixels.size() * sizeof(uint16_t));
+    } catch (const std::exception& e) {
+      *why = std::string(e.what()) + " (frame skipped)";
+      return false;
     }
-    return NextStatus::kEnd;
-  }
-  bool rewind() override {
-    position_ = 0;
+    *timestamp_us = uint64_t(index) * kFilePeriodUs;
     return true;
   }
 
- private:
   tools::Dataset dataset_;
   CameraIntrinsics own_{};
-  size_t position_ = 0;
 };
 
 class SubsampledSource final : public FrameSource {

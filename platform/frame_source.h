@@ -89,6 +89,30 @@ class FrameSource {
   bool has_override_ = false;
 };
 
+// A file source whose frames are read by index (raw files, datasets, .oni recordings): next()
+// walks 0..frame_count()−1 in order, skipping and counting the frames read_frame() refuses
+// (stats().corrupt_frames, last_warning() = its reason); rewind() starts again at 0, allocating
+// nothing.
+class IndexedFileSource : public FrameSource {
+ public:
+  int64_t frame_count() const override { return int64_t(count_); }
+  NextStatus next(uint16_t* depth_mm, FrameInfo* info) final;
+  bool rewind() final {
+    position_ = 0;
+    return true;
+  }
+
+ protected:
+  explicit IndexedFileSource(size_t count) : count_(count) {}
+  // Writes frame `index` (width()·height() pixels) and its timestamp; false with `why` (a one-line
+  // warning ending in "frame skipped") for a frame that cannot be read.
+  virtual bool read_frame(size_t index, uint16_t* depth_mm, uint64_t* timestamp_us, std::string* why) = 0;
+
+ private:
+  size_t count_;
+  size_t position_ = 0;
+};
+
 struct SourceOptions {
   bool has_intrinsics = false;
   CameraIntrinsics intrinsics{};  // used when has_intrinsics

@@ -21,14 +21,7 @@ using dp::apptest::TempDir;
 
 namespace {
 
-std::string error_of(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const tools::ToolError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using apptest::error_of;
 
 #define EXPECT_HAS(text, part) EXPECT_NE(std::string(text).find(part), std::string::npos) << (text)
 
@@ -327,13 +320,16 @@ TEST(OniReader, CorruptRecordsAreRefusedNamingFileByteAndField) {
     EXPECT_HAS(m, c.field);
     EXPECT_HAS(m, " at byte " + std::to_string(c.at) + ")");
   }
-  // Truncated anywhere after the header: refused with the file named, never a crash.
-  for (size_t cut = 24; cut < good.bytes.size(); ++cut) {
-    const std::string path = t / "cut.oni";
-    write_file(path, std::vector<uint8_t>(good.bytes.begin(), good.bytes.begin() + std::ptrdiff_t(cut)));
-    const std::string m = error_of([&] { open_oni_source(path); });
-    EXPECT_HAS(m, "oni:" + path + ": not a readable OpenNI2 recording (truncated or corrupt: ");
+  // Truncated anywhere: refused with the label named, never a crash (an exact-size copy, so ASan
+  // sees any read past the end); once through a file too.
+  for (size_t cut = 0; cut < good.bytes.size(); ++cut) {
+    const std::vector<uint8_t> part(good.bytes.begin(), good.bytes.begin() + std::ptrdiff_t(cut));
+    const std::string m = error_of([&] { check_oni_bytes(part.data(), part.size(), "oni:cut.oni"); });
+    EXPECT_HAS(m, "oni:cut.oni: not a readable OpenNI2 recording (truncated or corrupt: ");
   }
+  const std::string path = t / "cut.oni";
+  write_file(path, std::vector<uint8_t>(good.bytes.begin(), good.bytes.end() - 28));
+  EXPECT_HAS(error_of([&] { open_oni_source(path); }), "oni:" + path + ": not a readable OpenNI2 recording (truncated or corrupt: no end record (the file ends after 2 depth frames) at byte " + std::to_string(good.bytes.size() - 28) + ")");
 }
 
 TEST(OniReader, AFrameThatDoesNotDecodeIsSkippedWithItsByte) {

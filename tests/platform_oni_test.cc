@@ -33,14 +33,7 @@ void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
   f.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
 }
 
-std::string error_of(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const tools::ToolError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using apptest::error_of;
 
 // Records a 6-frame dataset once for the tests that need a valid recording.
 struct Recording {
