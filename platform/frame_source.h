@@ -21,7 +21,8 @@
 //   raw:GLOB:WxH        uint16 little-endian millimetre files, sorted by name (e.g.
 //                       ../shared/data/skeltrack-frames/*.raw:640x480)
 //   dataset:DIR         dataset layout v1 (tools/common/dataset.h), depth/NNNNNN.png in order
-//   oni:FILE            OpenNI2 recording, each frame once, as fast as it can be read
+//   oni:FILE            OpenNI .oni recording, each frame once, as fast as it can be read, by
+//                       depthpose's own reader (platform/oni_file_source.h)
 //   openni              first OpenNI2 device;  openni:URI  a given device URI
 //   v4l2:/dev/videoN    V4L2 depth capture (mmap streaming, Z16 preferred, Y16 accepted)
 #pragma once
@@ -52,6 +53,9 @@ struct SourceStats {
 
 // Kinect v1 depth camera defaults (fx = fy = 525, principal point at the image centre).
 CameraIntrinsics kinect_v1_intrinsics(int width, int height);
+// Pinhole intrinsics from a field of view in radians (principal point at the image centre); the
+// Kinect v1 defaults when either angle is outside 0.01..3.1.
+CameraIntrinsics intrinsics_from_fov(int width, int height, float horizontal_fov, float vertical_fov);
 
 class FrameSource {
  public:
@@ -64,9 +68,9 @@ class FrameSource {
   virtual int64_t frame_count() const { return -1; }
   // See the contract above. `depth_mm` holds width()·height() elements.
   virtual NextStatus next(uint16_t* depth_mm, FrameInfo* info) = 0;
-  // Starts again at the first frame, allocating nothing (raw and dataset sources, .oni recordings
-  // opened with SourceOptions::oni_repeat); the stats keep counting. False when the source cannot:
-  // live sources, .oni without oni_repeat (OpenNI2 2.2's PlaybackControl::seek crashes).
+  // Starts again at the first frame, allocating nothing (raw, dataset and oni: sources); the stats
+  // keep counting. False when the source cannot: live sources, OpenNI2's own .oni player
+  // (open_openni_oni_source) without repeat (OpenNI2 2.2's PlaybackControl::seek crashes).
   virtual bool rewind() { return false; }
   const std::string& last_error() const { return error_; }
   // Last non-fatal problem (a skipped corrupt frame, a lost device), for logs. Empty if none.
@@ -85,6 +89,30 @@ class FrameSource {
   bool has_override_ = false;
 };
 
+// A file source whose frames are read by index (raw files, datasets, .oni recordings): next()
+// walks 0..frame_count()−1 in order, skipping and counting the frames read_frame() refuses
+// (stats().corrupt_frames, last_warning() = its reason); rewind() starts again at 0, allocating
+// nothing.
+class IndexedFileSource : public FrameSource {
+ public:
+  int64_t frame_count() const override { return int64_t(count_); }
+  NextStatus next(uint16_t* depth_mm, FrameInfo* info) final;
+  bool rewind() final {
+    position_ = 0;
+    return true;
+  }
+
+ protected:
+  explicit IndexedFileSource(size_t count) : count_(count) {}
+  // Writes frame `index` (width()·height() pixels) and its timestamp; false with `why` (a one-line
+  // warning ending in "frame skipped") for a frame that cannot be read.
+  virtual bool read_frame(size_t index, uint16_t* depth_mm, uint64_t* timestamp_us, std::string* why) = 0;
+
+ private:
+  size_t count_;
+  size_t position_ = 0;
+};
+
 struct SourceOptions {
   bool has_intrinsics = false;
   CameraIntrinsics intrinsics{};  // used when has_intrinsics
@@ -95,9 +123,6 @@ struct SourceOptions {
   // Live sources: hand over only the newest frame, counting older queued ones as dropped
   // (`run --realtime`). OpenNI2 streams always do; V4L2 otherwise delivers its queue in order.
   bool latest_only = false;
-  // oni: recordings: let OpenNI2 play the file in a loop so rewind() is possible without a seek
-  // (`run --loop`); next() still returns kEnd at the end of every play-through.
-  bool oni_repeat = false;
 };
 
 // Opens a source from its spec (see above). Throws ToolError naming the problem.
@@ -106,6 +131,14 @@ std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOp
 // The individual sources, for tests and tools that already parsed the spec.
 std::unique_ptr<FrameSource> open_raw_source(const std::string& glob_pattern, int width, int height);
 std::unique_ptr<FrameSource> open_dataset_source(const std::string& dir);
+
+// Every `factor`-th pixel of every `factor`-th row of `inner`'s frames (pixel (x, y) of a frame is
+// inner's (factor·x, factor·y)): a floor(W/factor) × floor(H/factor) source with the intrinsics
+// scaled by 1/factor (the same field of view), for small recordings (`record --subsample`, soak
+// runs). Statuses, stats, warnings and rewind() are inner's. Throws ToolError when factor is
+// outside 1..kMaxSubsample or leaves less than one pixel per side.
+constexpr int kMaxSubsample = 16;
+std::unique_ptr<FrameSource> subsample_source(std::unique_ptr<FrameSource> inner, int factor);
 
 // Parses "WxH" (e.g. "640x480"); throws ToolError naming `what` on malformed text.
 void parse_size(const std::string& text, const std::string& what, int* width, int* height);

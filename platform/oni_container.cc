@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "forest_blob/blob_format.h"
+#include "platform/oni_codec.h"
 #include "tools/common/error.h"
 
 namespace dp::platform {
@@ -51,7 +52,7 @@ struct Cursor {
 
 struct Node {
   bool added = false;
-  uint32_t type = 0;
+  uint32_t type = 0, codec = 0;
   int64_t declared_frames = 0, frames = 0;
 };
 
@@ -71,7 +72,8 @@ uint64_t check_name(const Cursor& c, uint64_t at, uint64_t end, std::string* nam
 
 }  // namespace
 
-OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std::string& label) {
+OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std::string& label,
+                                    std::vector<OniFrameRecord>* frames) {
   const Cursor c{data, size, label};
   OniContainerSummary out;
   out.file_bytes = size;
@@ -107,8 +109,18 @@ OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std:
         if (node.added) c.bad("node " + std::to_string(node_id) + " added twice", at);
         node.added = true;
         node.type = c.u32(p);
+        node.codec = c.u32(p + 4);
         if (type != kNodeAdded_1_0_0_4) node.declared_frames = c.u32(p + 8);
-        if (node.type == kNodeTypeDepth && !depth_node) depth_node = node_id;
+        if (node.type == kNodeTypeDepth && !depth_node) {
+          depth_node = node_id;
+          if (!oni_codec_supported(node.codec))
+            c.bad("depth codec '" + oni_codec_name(node.codec) + "' (this build reads NONE, 16zP and 16zT)", p + 4);
+          if (node.declared_frames > kMaxOniFrames)
+            c.bad("depth frame count " + std::to_string(node.declared_frames) + " above the limit " +
+                      std::to_string(kMaxOniFrames),
+                  p + 8);
+          out.codec = node.codec;
+        }
         break;
       }
       case kIntProperty:
@@ -129,8 +141,26 @@ OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std:
             c.bad("depth resolution " + std::to_string(w) + "x" + std::to_string(h) + " outside 1.." +
                       std::to_string(blob::kMaxFrameDimension),
                   p + 4);
+          if (out.depth_frames)
+            c.bad("xnMapOutputMode changes the depth resolution after the first frame", p + 4);
           out.width = int(w);
           out.height = int(h);
+        }
+        if (node_id == depth_node && depth_node) {
+          if (name == "oniPixelFormat") {
+            if (value != 8) c.bad("oniPixelFormat of " + std::to_string(value) + " bytes (8 expected)", p);
+            const uint64_t format = c.u64(p + 4);
+            if (format != uint64_t(kOniPixelFormatDepth1mm) && format != uint64_t(kOniPixelFormatDepth100um))
+              c.bad("depth pixel format " + std::to_string(format) +
+                        " (100 = 1 mm or 101 = 100 µm; raw shift formats are not supported)",
+                    p + 4);
+            out.pixel_format = int(format);
+          } else if (name == "xnFOV") {
+            if (value != 16) c.bad("xnFOV of " + std::to_string(value) + " bytes (two doubles expected)", p);
+            std::memcpy(&out.horizontal_fov, data + p + 4, 8);
+            std::memcpy(&out.vertical_fov, data + p + 12, 8);
+            out.has_fov = true;
+          }
         }
         break;
       }
@@ -143,14 +173,23 @@ OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std:
                     std::to_string(node.declared_frames) + ")",
                 at);
         if (node_id == depth_node) {
-          // A compressed frame is never larger than the raw frame plus the codec's tables.
-          const uint64_t raw = uint64_t(out.width ? out.width : blob::kMaxFrameDimension) *
-                               uint64_t(out.height ? out.height : blob::kMaxFrameDimension) * 2;
-          if (payload == 0 || payload > raw + 65536 * 2 + 64)
-            c.bad("depth frame payload of " + std::to_string(payload) + " bytes for a frame of " +
-                      std::to_string(raw) + " raw bytes",
+          // The largest payload the codec writes for the declared resolution (the exact size for
+          // NONE): a frame of another resolution is refused here or when it is decoded.
+          const uint64_t pixels = uint64_t(out.width ? out.width : blob::kMaxFrameDimension) *
+                                  uint64_t(out.height ? out.height : blob::kMaxFrameDimension);
+          const uint64_t most = max_oni_payload_bytes(node.codec, pixels);
+          const bool exact = node.codec == kOniCodecUncompressed && out.width;
+          if (payload == 0 || payload > most || (exact && payload != most))
+            c.bad("depth frame payload of " + std::to_string(payload) + " bytes for a " +
+                      (out.width ? std::to_string(out.width) + "x" + std::to_string(out.height) : std::string("")) +
+                      " " + oni_codec_name(node.codec) + " frame (" + (exact ? "exactly " : "at most ") +
+                      std::to_string(most) + ")",
                   at + 16);
+          if (out.depth_frames >= kMaxOniFrames)
+            c.bad("more than " + std::to_string(kMaxOniFrames) + " depth frames (the limit)", at);
           ++out.depth_frames;
+          if (frames)
+            frames->push_back(OniFrameRecord{at, body_end, payload, c.u32(body + 8), c.u64(body)});
         }
         break;
       }
@@ -168,40 +207,45 @@ OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std:
     at = body_end + payload;
   }
   if (!depth_node) c.bad("no depth stream", at);
-  out.records_end = ended ? at : size;
+  // OpenNI2's recorder always ends a file with an end record; without one the file was cut short.
+  if (!ended) c.bad("no end record (the file ends after " + std::to_string(out.depth_frames) + " depth frames)", at);
+  out.records_end = at;
   for (uint64_t k = at; k < size; ++k)
     if (data[k] != 0) c.bad("data after the end record", k);
   if (out.depth_frames == 0) c.bad("the depth stream holds no frame", at);
   const Node& d = nodes[depth_node];
-  if (d.declared_frames && ended && d.frames != d.declared_frames)
+  if (d.declared_frames && d.frames != d.declared_frames)
     c.bad("depth node declares " + std::to_string(d.declared_frames) + " frames but holds " + std::to_string(d.frames), at);
   return out;
 }
 
-OniContainerSummary check_oni_container(const std::string& path) {
-  // Mapped, not read: the walk touches the record headers only, so a long recording costs a few
-  // pages of memory, not its size.
+MappedOniFile::MappedOniFile(const std::string& path, const std::string& label) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) tools::fail("oni:" + path + ": cannot open the file (" + std::strerror(errno) + ")");
+  if (fd < 0) tools::fail(label + ": cannot open the file (" + std::strerror(errno) + ")");
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     ::close(fd);
-    tools::fail("oni:" + path + ": not a regular file");
+    tools::fail(label + ": not a regular file");
   }
-  const size_t size = size_t(st.st_size);
-  if (size == 0) {
-    ::close(fd);
-    return check_oni_bytes(nullptr, 0, "oni:" + path);  // refused: shorter than the header
+  size_ = size_t(st.st_size);
+  if (size_ > 0) {
+    void* map = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
+    if (map == MAP_FAILED) {
+      ::close(fd);
+      tools::fail(label + ": cannot map the file (" + std::strerror(errno) + ")");
+    }
+    data_ = static_cast<const uint8_t*>(map);
   }
-  void* map = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
   ::close(fd);
-  if (map == MAP_FAILED) tools::fail("oni:" + path + ": cannot map the file (" + std::strerror(errno) + ")");
-  struct Unmap {
-    void* p;
-    size_t n;
-    ~Unmap() { ::munmap(p, n); }
-  } unmap{map, size};
-  return check_oni_bytes(static_cast<const uint8_t*>(map), size, "oni:" + path);
+}
+
+MappedOniFile::~MappedOniFile() {
+  if (data_) ::munmap(const_cast<uint8_t*>(data_), size_);
+}
+
+OniContainerSummary check_oni_container(const std::string& path) {
+  const MappedOniFile file(path, "oni:" + path);
+  return check_oni_bytes(file.data(), file.size(), "oni:" + path);  // an empty file: shorter than the header
 }
 
 }  // namespace dp::platform

@@ -1,6 +1,8 @@
-// Structural check of an OpenNI .oni recording, done by depthpose before OpenNI2's file driver
-// (libOniFile) sees the file: libOniFile trusts the lengths it reads and crashes on a corrupt one
-// (a property name length of 0x7fffffff, a record running past the end of the file).
+// Structural check and frame index of an OpenNI .oni recording. depthpose plays recordings from
+// this index with its own decoders (platform/oni_codec.h, open_oni_source); where OpenNI2's file
+// driver (libOniFile) still reads one (`record` verifying its output, open_openni_oni_source) the
+// check comes first: libOniFile trusts the lengths it reads and crashes on a corrupt one (a
+// property name length of 0x7fffffff, a record running past the end of the file).
 //
 // Container facts (the format OpenNI2 2.2 writes; all integers little endian):
 //   file header, 24 bytes: "NI10", version {u8 major, u8 minor, u16 maintenance, u32 build},
@@ -15,25 +17,67 @@
 //     10 new data:        u64 timestamp, u32 frame id; payload = one compressed frame
 //     11 end              (the last record)
 //     14 seek table:      payload = 20-byte entries {u64 timestamp, u32 config, u64 offset}
-// The format has no checksum: a flipped byte inside a frame's compressed payload cannot be
-// detected here (the decoded frame's size is still checked when it is read, and `record`
-// compares its output with the source). Bytes after the end record must be zero (OpenNI2 2.2's
-// recorder leaves the file at twice its length, the second half zeros: `record` trims it).
-// Everything else is checked: every length against the
-// bytes that remain, names NUL-terminated printable ASCII, node ids within the header's maximum,
-// the depth resolution within blob::kMaxFrameDimension, frame records against their node's frame
-// count, each frame payload no larger than an uncompressed frame (+ codec tables).
+// Everything is checked: every length against the bytes that remain, names NUL-terminated
+// printable ASCII, node ids within the header's maximum, the depth resolution within
+// blob::kMaxFrameDimension, the depth codec (NONE, 16zP, 16zT: platform/oni_codec.h) and pixel
+// format (oniPixelFormat 100 = 1 mm or 101 = 100 µm), frame records against their node's frame
+// count and kMaxOniFrames, each depth payload against the largest its codec can write for the
+// declared resolution (exactly width·height·2 bytes uncompressed), seek table entries against the
+// file, the end record present. Bytes after the end record must be zero (OpenNI2 2.2's recorder leaves the file at twice
+// its length, the second half zeros: `record` trims it). The format has no checksum: a flipped
+// byte inside a compressed payload is found only when it breaks the code (platform/oni_codec.h:
+// a code never written, a frame of the wrong pixel count), not when it changes a depth value.
 #pragma once
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace dp::platform {
+
+// The most depth frames a recording may hold: 4·10⁶ (37 h at 30 frames/s; the frame index of
+// OniFrameRecord costs 32 bytes a frame, 128 MB at the limit). A longer file is refused at open.
+constexpr int64_t kMaxOniFrames = 4000000;
+
+// OpenNI pixel formats of the depth node's oniPixelFormat property.
+constexpr int kOniPixelFormatDepth1mm = 100;
+constexpr int kOniPixelFormatDepth100um = 101;
+
+// Where one depth frame lies in the file.
+struct OniFrameRecord {
+  uint64_t record_offset = 0;   // the new-data record's first byte (for messages)
+  uint64_t payload_offset = 0;  // the compressed frame's first byte
+  uint32_t payload_bytes = 0;
+  uint32_t frame_id = 0;        // as recorded (1-based in OpenNI2 recordings)
+  uint64_t timestamp_us = 0;
+};
 
 struct OniContainerSummary {
   int64_t depth_frames = 0;     // new-data records of the depth node
   int width = 0, height = 0;    // from the depth node's xnMapOutputMode property (0 if absent)
+  uint32_t codec = 0;           // the depth node's codec FourCC (platform/oni_codec.h)
+  int pixel_format = kOniPixelFormatDepth1mm;  // oniPixelFormat (1 mm when absent)
+  bool has_fov = false;         // the depth node's xnFOV property: field of view in radians
+  double horizontal_fov = 0, vertical_fov = 0;
   uint64_t file_bytes = 0;
-  uint64_t records_end = 0;     // offset just past the end record (= file_bytes when it has none)
+  uint64_t records_end = 0;     // offset just past the end record (zeros may follow)
+};
+
+// A recording mapped read-only (the whole file, for the object's lifetime): the walk touches only
+// the record headers and a player only the frames it decodes, so a long recording costs the pages
+// used, not its size. Throws ToolError "<label>: cannot open the file (...)" / "not a regular
+// file" / "cannot map the file (...)". An empty file maps to data() == nullptr, size() == 0.
+class MappedOniFile {
+ public:
+  MappedOniFile(const std::string& path, const std::string& label);
+  ~MappedOniFile();
+  MappedOniFile(const MappedOniFile&) = delete;
+  MappedOniFile& operator=(const MappedOniFile&) = delete;
+  const uint8_t* data() const { return data_; }
+  size_t size() const { return size_; }
+
+ private:
+  const uint8_t* data_ = nullptr;
+  size_t size_ = 0;
 };
 
 // Maps `path` (a regular file; only the record headers are touched) and checks its structure.
@@ -41,7 +85,9 @@ struct OniContainerSummary {
 // wrong> at byte <offset>)" on the first problem.
 OniContainerSummary check_oni_container(const std::string& path);
 
-// The same on bytes in memory (`label` names them in messages); used by the fuzz target.
-OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std::string& label);
+// The same on bytes in memory (`label` names them in messages); used by the fuzz target and the
+// reader. With `frames`, the depth frames' records are appended to it in file order.
+OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std::string& label,
+                                    std::vector<OniFrameRecord>* frames = nullptr);
 
 }  // namespace dp::platform

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "platform/oni_container.h"
+#include "platform/oni_file_source.h"
 #include "platform/openni_driver/feed_abi.h"
 #include "platform/openni_source.h"
 #include "tools/common/error.h"
@@ -179,7 +180,7 @@ RecordReport record_oni(const SourceFactory& reopen, bool replayable, const std:
       report.attempts = a;
       if (attempt.served == 0) fail("record: the source delivered no frame; nothing recorded");
       trim_recording(path);
-      in_file = open_oni_source(path)->frame_count();
+      in_file = open_openni_oni_source(path)->frame_count();  // OpenNI2 itself reads the file
     } catch (...) {
       ::unlink(path.c_str());  // a failed attempt leaves no .partial file behind
       throw;
@@ -213,7 +214,8 @@ namespace {
 // name `out_path`, the file the user asked for.
 void verify(const std::string& path, const std::string& out_path, const SourceFactory& reopen,
             const Attempt& attempt, int64_t in_file, const RecordOptions& options, RecordReport* report) {
-  // Verification: replay the file and compare with the source frame by frame.
+  // Verification: replay the file with the reader `run` uses and compare with the source frame by
+  // frame.
   auto replay = open_oni_source(path);
   const int w = replay->width(), h = replay->height();
   if (w != report->width || h != report->height)

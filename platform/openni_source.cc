@@ -30,13 +30,6 @@ std::string extended_error() {
   return s.empty() ? "no detail from OpenNI2" : s;
 }
 
-CameraIntrinsics intrinsics_from_fov(int width, int height, float hfov, float vfov) {
-  if (!(hfov > 0.01f && hfov < 3.1f) || !(vfov > 0.01f && vfov < 3.1f)) return kinect_v1_intrinsics(width, height);
-  return CameraIntrinsics{float(width) / (2.0f * std::tan(hfov / 2.0f)),
-                          float(height) / (2.0f * std::tan(vfov / 2.0f)), (float(width) - 1.0f) / 2.0f,
-                          (float(height) - 1.0f) / 2.0f};
-}
-
 // Copies one OpenNI2 depth frame into the caller's buffer. False when its geometry or format
 // does not match the stream's (a corrupt frame).
 bool copy_depth(const openni::VideoFrameRef& frame, int width, int height, uint16_t* out) {
@@ -321,7 +314,7 @@ std::string openni_library_dir() {
   return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
 }
 
-std::unique_ptr<FrameSource> open_oni_source(const std::string& path, bool repeat) {
+std::unique_ptr<FrameSource> open_openni_oni_source(const std::string& path, bool repeat) {
   return std::make_unique<OniSource>(path, repeat);
 }
 

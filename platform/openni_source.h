@@ -21,12 +21,15 @@ void ensure_openni();
 // Directory libOpenNI2.so.0 was loaded from (where OpenNI2 looks for OpenNI2/Drivers/).
 std::string openni_library_dir();
 
-// oni:FILE — every frame once, in order, as fast as it can be read (setSpeed(-1), no repeat;
-// frame count from the file; never seeks). Throws ToolError for a missing, corrupt or depth-less
+// An .oni recording played by OpenNI2's file driver (libOniFile): every frame once, in order, as
+// fast as it can be read (setSpeed(-1), no repeat; frame count from the file; never seeks). `oni:`
+// sources use depthpose's own reader (platform/oni_file_source.h); this one remains for `record`,
+// which checks that OpenNI2 reads what it wrote, and for the tests comparing the two readers. Its
+// player thread grows by ≈ 19 bytes a frame (docs/app.md, Soak). Throws ToolError for a missing, corrupt or depth-less
 // file. A recording that ends early (truncated) makes next() return kError naming the frame.
 // With `repeat`, OpenNI2 plays the file in a loop: next() returns kEnd at the end of every
 // play-through and rewind() continues with the next one (no seek, no reopen).
-std::unique_ptr<FrameSource> open_oni_source(const std::string& path, bool repeat = false);
+std::unique_ptr<FrameSource> open_openni_oni_source(const std::string& path, bool repeat = false);
 
 // openni / openni:URI — a device (first one when `uri` is empty). Live: next() waits up to
 // options.poll_timeout_ms. A disconnect (OpenNI2 event or read failure) returns kDeviceLost once

@@ -6,14 +6,26 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "tools/common/dataset.h"
+#include "tools/common/error.h"
 #include "tools/common/png_io.h"
 #include "tools/demo/fixtures.h"
 
 namespace dp::apptest {
+
+// The ToolError message `fn` throws, or "(no error)".
+inline std::string error_of(const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const tools::ToolError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
 
 // A fresh directory under /tmp, removed with its contents at scope exit.
 struct TempDir {

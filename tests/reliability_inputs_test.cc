@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "platform/oni_container.h"
+#include "platform/oni_file_source.h"
 #include "platform/openni_source.h"
 #include "tests/app_test_support.h"
 #include "tests/cli_test_support.h"

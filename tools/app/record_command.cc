@@ -12,15 +12,17 @@ namespace dp::tools {
 
 static int run_record(int argc, char** argv) {
   std::vector<std::string> options = kSourceOptionNames;
-  options.insert(options.end(), {"--source", "--out", "--frames", "--fps"});
+  options.insert(options.end(), {"--source", "--out", "--frames", "--fps", "--subsample"});
   Args args(argc, argv,
-            std::string("usage: depthpose record --source SRC --out FILE.oni [--frames N] [--zero-border]\n"
+            std::string("usage: depthpose record --source SRC --out FILE.oni [--frames N] [--subsample K] [--zero-border]\n"
                         "  Records depth frames into an OpenNI2 recording (through depthpose's own OpenNI2\n"
                         "  driver and openni::Recorder), then replays it and checks every frame pixel for pixel.\n") +
                 kSourceUsage +
                 "  --out FILE.oni       the recording to write (overwritten)\n"
                 "  --frames N           record at most N frames (default: until the source ends)\n"
                 "  --fps N              nominal frame rate written into the file (default 30)\n"
+                "  --subsample K        keep every K-th pixel of every K-th row (1..16; e.g. 4: 320x240 -> 80x60),\n"
+                "                       for small, fast recordings such as the soak's (docs/app.md)\n"
                 "  --zero-border        blank the outermost pixel ring (avoids a rare OpenNI2 16zT codec fault)\n",
             options, {"--zero-border"});
   if (args.help_requested()) {
@@ -36,9 +38,12 @@ static int run_record(int argc, char** argv) {
   o.fps = int(args.get_int("--fps", 30));
   if (o.fps < 1 || o.fps > 1000) fail("--fps must be within 1..1000");
   o.zero_border = args.flag("--zero-border");
+  const int subsample = int(args.get_int("--subsample", 1));
+  if (subsample < 1 || subsample > platform::kMaxSubsample)
+    fail("--subsample must be within 1.." + std::to_string(platform::kMaxSubsample));
   const bool replayable = source_is_replayable(spec);
   // A live source is opened once; the recorder asks for it only once then.
-  auto reopen = [&]() { return platform::open_source(spec, source_options); };
+  auto reopen = [&]() { return platform::subsample_source(platform::open_source(spec, source_options), subsample); };
   platform::RecordReport r = platform::record_oni(reopen, replayable, out, o);
   std::printf("recorded %lld frames (%dx%d) to %s; verified %lld frames %s%s\n", (long long)r.frames_recorded, r.width,
               r.height, out.c_str(), (long long)r.frames_verified,

@@ -297,7 +297,6 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
   const blob::LoadedBlob b = load_blob_or_fail(blob_bytes, options.blob_path);
   platform::SourceOptions source_options = options.source_options;
   if (options.realtime) source_options.latest_only = true;
-  if (options.loop > 1) source_options.oni_repeat = true;  // rewound by OpenNI2's own looping
   std::unique_ptr<platform::FrameSource> source = platform::open_source(options.source_spec, source_options);
   if (options.loop < 1) fail("--loop must be at least 1");
   if (options.loop > 1 && source->live())
