@@ -28,6 +28,8 @@ class Communicator {
   virtual void sum(int64_t* data, size_t count) = 0;
   // Rank 0 receives every rank's bytes in rank order (the others receive an empty list).
   virtual std::vector<std::vector<uint8_t>> gather(const std::vector<uint8_t>& mine) = 0;
+  // Rank 0's `data` replaces every other rank's (sizes may differ beforehand).
+  virtual void broadcast(std::vector<uint8_t>& data) = 0;
   virtual void barrier() = 0;
   // Ends every rank of the job with exit status 1 after printing "depthpose: rank R of N: message"
   // on stderr. For errors on one rank that the others cannot see (they would wait forever).
@@ -50,6 +52,14 @@ bool mpi_available();
 // MPI ("install openmpi-bin libopenmpi-dev and rebuild"). Called once per process; MPI is
 // finalized when the returned object is destroyed. `tool` names the command in messages.
 std::unique_ptr<Communicator> launch_communicator(const std::string& tool);
+
+// The entry point of a command that can run as one rank of an MPI job (train, synth): calls
+// main(argc, argv, comm) with comm null when the process was neither launched by an MPI launcher
+// nor given `--distributed`, else with the world communicator; then any exception on any rank ends
+// the whole job through comm->abort, naming the rank and the error, instead of leaving the other
+// ranks waiting in a collective call. `tool` names the command in messages.
+int run_maybe_distributed(const std::string& tool, int argc, char** argv,
+                          int (*main)(int argc, char** argv, Communicator* comm));
 
 // The half-open range [begin, end) of `count` items that rank `rank` of `size` owns: contiguous
 // and balanced (sizes differ by at most one), in rank order, so concatenating the ranks' ranges

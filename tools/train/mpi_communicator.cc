@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <new>
 
 #include "tools/common/error.h"
 
@@ -23,6 +24,22 @@ bool launched_by_mpi_launcher() {
     if (v && std::atoi(v) > 1) return true;
   }
   return false;
+}
+
+int run_maybe_distributed(const std::string& tool, int argc, char** argv,
+                          int (*main)(int argc, char** argv, Communicator* comm)) {
+  bool distributed = launched_by_mpi_launcher();
+  for (int i = 1; i < argc; ++i) distributed = distributed || std::strcmp(argv[i], "--distributed") == 0;
+  if (!distributed) return main(argc, argv, nullptr);
+  std::unique_ptr<Communicator> comm = launch_communicator(tool);
+  try {
+    return main(argc, argv, comm.get());
+  } catch (const std::bad_alloc&) {
+    comm->abort(tool + ": out of memory (this rank's share of the work must fit in its machine's memory)");
+  } catch (const std::exception& e) {
+    comm->abort(tool + ": " + e.what());
+  }
+  return 1;  // not reached: abort() ends the process
 }
 
 }  // namespace dp::train
@@ -79,6 +96,14 @@ class MpiCommunicator final : public Communicator {
     return out;
   }
 
+  void broadcast(std::vector<uint8_t>& data) override {
+    if (data.size() > size_t(std::numeric_limits<int>::max()))
+      abort("a broadcast of " + std::to_string(data.size()) + " bytes exceeds MPI's int count");
+    int n = static_cast<int>(data.size());
+    MPI_Bcast(&n, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    data.resize(size_t(n));
+    MPI_Bcast(data.data(), n, MPI_BYTE, 0, MPI_COMM_WORLD);
+  }
   void barrier() override { MPI_Barrier(MPI_COMM_WORLD); }
 
   [[noreturn]] void abort(const std::string& message) override {

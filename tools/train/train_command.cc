@@ -303,23 +303,8 @@ int train_main(int argc, char** argv, Communicator* comm) {
   return 0;
 }
 
-// Distributed when an MPI launcher started this process (or --distributed): then every error —
-// on any rank — ends the whole job with a message naming the rank, instead of leaving the other
-// ranks waiting in a collective call.
-int run_train(int argc, char** argv) {
-  bool distributed = launched_by_mpi_launcher();
-  for (int i = 1; i < argc; ++i) distributed = distributed || std::string(argv[i]) == "--distributed";
-  if (!distributed) return train_main(argc, argv, nullptr);
-  std::unique_ptr<Communicator> comm = launch_communicator("depthpose train");
-  try {
-    return train_main(argc, argv, comm.get());
-  } catch (const std::bad_alloc&) {
-    comm->abort("out of memory (the rank's share of the images and pixels, plus one tree's working set, must fit)");
-  } catch (const std::exception& e) {
-    comm->abort(e.what());
-  }
-  return 1;  // not reached: abort() ends the process
-}
+// Distributed when an MPI launcher started this process (or --distributed).
+int run_train(int argc, char** argv) { return run_maybe_distributed("depthpose train", argc, argv, train_main); }
 
 }  // namespace
 }  // namespace dp::train
