@@ -42,6 +42,8 @@ constexpr const char* kUsage =
     "  --checkpoint FILE      checkpoint written after every level (default: --out FILE + .checkpoint;\n"
     "                         removed once the forest is written)\n"
     "  --resume               continue from the checkpoint (same options and data; none = start over)\n"
+    "  --stop-after L         stop with exit status 75 once this run has checkpointed L levels (over\n"
+    "                         all trees); --resume continues (e.g. within a batch system's time limit)\n"
     "  --quiet                no progress on stderr\n"
     "  --no-timings           leave the timings out of the file, so that runs compare byte for byte\n"
     "  --distributed          run as one rank of an MPI job even when no launcher is detected\n"
@@ -133,7 +135,7 @@ int train_main(int argc, char** argv, Communicator* comm) {
                    {"--data", "--method", "--trees", "--depth", "--out", "--objective", "--pixels-per-image",
                     "--images-per-tree", "--offsets", "--thresholds", "--max-offset", "--reference-focal",
                     "--min-samples", "--rho", "--nres", "--bandwidth", "--votes-per-leaf", "--vote-length",
-                    "--structure", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint"},
+                    "--structure", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint", "--stop-after"},
                    {"--quiet", "--resume", "--distributed", "--no-timings"});
   if (args.help_requested()) {
     std::cout << kUsage;
@@ -225,6 +227,14 @@ int train_main(int argc, char** argv, Communicator* comm) {
 
   fo.checkpoint_path = args.get("--checkpoint", out_path + ".checkpoint");
   fo.resume = args.flag("--resume");
+  const long long stop_after = args.get_int("--stop-after", 0);
+  if (stop_after < 0) tools::fail("--stop-after wants a number of levels >= 1");
+  long long levels_checkpointed = 0;
+  struct StopRequested {};
+  if (stop_after > 0)
+    fo.after_checkpoint = [&](int, int) {
+      if (++levels_checkpointed == stop_after) throw StopRequested{};
+    };
   if (structure && (args.has("--checkpoint") || fo.resume))
     tools::fail("--checkpoint/--resume apply to grown forests; retro-fitting (--structure) is not checkpointed");
   if (!quiet && fo.resume && !structure)
@@ -268,7 +278,16 @@ int train_main(int argc, char** argv, Communicator* comm) {
     }
   };
   ForestStats stats;
-  TrainedForest forest = train_forest(set, fo, progress, &stats);
+  TrainedForest forest;
+  try {
+    forest = train_forest(set, fo, progress, &stats);
+  } catch (const StopRequested&) {
+    if (root)
+      std::fprintf(stderr, "train: stopped after %lld checkpointed levels as asked (--stop-after); --resume continues from %s\n",
+                   stop_after, fo.checkpoint_path.c_str());
+    if (comm) comm->barrier();  // the checkpoint is written when any rank exits
+    return 75;
+  }
   if (args.flag("--no-timings")) forest.timings_json = "{}";
   if (root) {
     write_forest(out_path, forest);
