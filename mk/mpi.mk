@@ -29,3 +29,8 @@ test-run-mpi: $(CLI) $(EXTRA_LINK_DEPS)
 	  OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
 	  mk/mpi_tests.sh > $(BUILD)/test-logs/mpi.log 2>&1; rc=$$?; \
 	  grep -E '^\[  FAILED  \]|^\[==========\]' $(BUILD)/test-logs/mpi.log | sed 's|^|mpi: |'; exit $$rc
+
+# Measurements of distributed training on this machine (docs/training.md "Distributed training").
+.PHONY: bench-mpi
+bench-mpi: $(CLI) $(EXTRA_LINK_DEPS)
+	@CLI=$(CLI) MPI_BENCH_DIR=$(BUILD)/mpi-bench ASSETS=$(DEPTHPOSE_SHARED)/assets mk/mpi_bench.sh

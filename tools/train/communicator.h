@@ -37,9 +37,12 @@ class Communicator {
 
   // Payload bytes this rank has handed to sum() so far (a level's traffic is the difference).
   uint64_t bytes_reduced() const { return bytes_reduced_; }
+  // Wall seconds this rank has spent inside sum() (waiting for the slowest rank included).
+  double seconds_reducing() const { return seconds_reducing_; }
 
  protected:
   uint64_t bytes_reduced_ = 0;
+  double seconds_reducing_ = 0;
 };
 
 // True when this process was started by an MPI launcher (mpirun/mpiexec of Open MPI, or Slurm's

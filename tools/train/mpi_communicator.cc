@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -117,11 +118,13 @@ class MpiCommunicator final : public Communicator {
   template <class T>
   void reduce(T* data, size_t count, MPI_Datatype type) {
     bytes_reduced_ += count * sizeof(T);
+    const auto start = std::chrono::steady_clock::now();
     const size_t step = size_t(1) << 28;  // MPI counts are int: reduce in pieces of 2^28 elements
     for (size_t i = 0; i < count; i += step) {
       const int n = static_cast<int>(std::min(step, count - i));
       MPI_Allreduce(MPI_IN_PLACE, data + i, n, type, MPI_SUM, MPI_COMM_WORLD);
     }
+    seconds_reducing_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
 
   int rank_ = 0, size_ = 1;
@@ -145,8 +148,7 @@ namespace dp::train {
 bool mpi_available() { return false; }
 
 std::unique_ptr<Communicator> launch_communicator(const std::string& tool) {
-  tools::fail(tool +
-              ": asked to run distributed (launched by mpirun/srun or --distributed), but this depthpose was "
+  tools::fail("asked to run " + tool + " distributed (launched by mpirun/srun or --distributed), but this depthpose was "
               "built without MPI. Install Open MPI (Debian: apt install openmpi-bin libopenmpi-dev) and rebuild "
               "with make; mk/mpi.mk then compiles the MPI transport in.");
 }

@@ -299,9 +299,9 @@ int train_main(int argc, char** argv, Communicator* comm) {
     if (!args.flag("--quiet"))
       std::fprintf(stderr,
                    "train: rank %d of %d: images %zu..%zu (%zu loaded, %.1f MB), %zu training pixels, %.3f MB "
-                   "reduced, peak resident %.1f MB\n",
+                   "reduced in %.2f s, peak resident %.1f MB\n",
                    comm->rank(), comm->size(), first, last, images_used, set.image_bytes() / 1e6, set.pixel_count(),
-                   comm->bytes_reduced() / 1e6, peak_resident_bytes() / 1e6);
+                   comm->bytes_reduced() / 1e6, comm->seconds_reducing(), peak_resident_bytes() / 1e6);
     comm->barrier();  // rank 0 has written the forest when any rank exits 0
   }
   if (!quiet) {
@@ -314,10 +314,10 @@ int train_main(int argc, char** argv, Communicator* comm) {
     std::fprintf(stderr,
                  "train: wrote %s: %d tree(s), %zu nodes, %zu leaves; structure %s, leaves %s; %.3g pixel*offset "
                  "evaluations/s (%.3g per thread); memory %.0f bytes per training pixel (images %.1f MB, tree "
-                 "working set %.1f MB)\n",
+                 "working set %.1f MB), peak resident %.1f MB\n",
                  out_path.c_str(), trees, nodes, leaves, format_duration(stats.structure_seconds).c_str(),
                  format_duration(stats.leaf_seconds).c_str(), rate, rate / threads, stats.bytes_per_pixel,
-                 set.image_bytes() / 1e6, stats.peak_bytes / 1e6);
+                 set.image_bytes() / 1e6, stats.peak_bytes / 1e6, peak_resident_bytes() / 1e6);
   }
   return 0;
 }
