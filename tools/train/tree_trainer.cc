@@ -7,6 +7,7 @@
 #include <chrono>
 #include <climits>
 #include <cstdlib>
+#include <cstring>
 #include <cmath>
 #include <exception>
 #include <mutex>
@@ -870,10 +871,13 @@ void search_distributed(Grower& grower, const std::vector<NodeInfo>& info, const
         grower.accumulate_regression(groups[i], node.begin, node.end, counts.data() + count_at[i],
                                      sums.data() + sum_at[i], thread);
     });
-    // (3) complete histograms, (4) scores
+    // (3) complete histograms, (4) scores: item i is scored by rank i mod N only (scoring costs as
+    // much as accumulating once nodes hold ~100 pixels), and one more sum shares the results.
     comm.sum(counts.data(), counts.size());
     if (!classification) comm.sum(sums.data(), sums.size());
+    const size_t ranks = size_t(comm.size()), me = size_t(comm.rank());
     parallel_for(n, threads, [&](size_t i, int thread) {
+      if (i % ranks != me) return;
       const NodeInfo& node = info[items[b0 + i].node];
       if (classification) {
         std::vector<uint32_t> cum;
@@ -883,6 +887,31 @@ void search_distributed(Grower& grower, const std::vector<NodeInfo>& info, const
                                                   sums.data() + sum_at[i], thread);
       }
     });
+    constexpr size_t kFields = 7;  // score bits, candidate, du1, dv1, du2, dv2, threshold
+    std::vector<int64_t> shared(n * kFields, 0);
+    for (size_t i = me; i < n; i += ranks) {
+      const Best& b = results[b0 + i];
+      int64_t* f = &shared[i * kFields];
+      std::memcpy(&f[0], &b.score, sizeof b.score);
+      f[1] = b.candidate;
+      f[2] = b.du1;
+      f[3] = b.dv1;
+      f[4] = b.du2;
+      f[5] = b.dv2;
+      f[6] = b.threshold;
+    }
+    comm.sum(shared.data(), shared.size());  // one rank wrote each record, the others zeros
+    for (size_t i = 0; i < n; ++i) {
+      const int64_t* f = &shared[i * kFields];
+      Best& b = results[b0 + i];
+      std::memcpy(&b.score, &f[0], sizeof b.score);
+      b.candidate = static_cast<int>(f[1]);
+      b.du1 = static_cast<int32_t>(f[2]);
+      b.dv1 = static_cast<int32_t>(f[3]);
+      b.du2 = static_cast<int32_t>(f[4]);
+      b.dv2 = static_cast<int32_t>(f[5]);
+      b.threshold = static_cast<int32_t>(f[6]);
+    }
     b0 = b1;
   }
 }
