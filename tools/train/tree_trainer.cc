@@ -332,6 +332,18 @@ struct Best {
   double score = HUGE_VAL;
   int candidate = -1;
   int32_t du1 = 0, dv1 = 0, du2 = 0, dv2 = 0, threshold = 0;
+  // Keeps (candidate `index`, its threshold t) when its score is strictly lower: ties keep the
+  // earlier candidate and threshold, in the scan order of the callers.
+  void consider(double candidate_score, int index, const Candidate& c, int t) {
+    if (!(candidate_score < score)) return;
+    score = candidate_score;
+    candidate = index;
+    du1 = c.du1;
+    dv1 = c.dv1;
+    du2 = c.du2;
+    dv2 = c.dv2;
+    threshold = c.table[t];
+  }
 };
 
 struct Scratch {
@@ -628,16 +640,7 @@ class Grower {
           wl -= nlogn(cum[j]);
           wr -= nlogn(node.totals[j] - cum[j]);
         }
-        const double score = (wl + wr) / n;
-        if (score < best.score) {
-          best.score = score;
-          best.candidate = g.c0 + c;
-          best.du1 = cand.du1;
-          best.dv1 = cand.dv1;
-          best.du2 = cand.du2;
-          best.dv2 = cand.dv2;
-          best.threshold = cand.table[t];
-        }
+        best.consider((wl + wr) / n, g.c0 + c, cand, t);
       }
     }
     return best;
@@ -699,16 +702,8 @@ class Grower {
           s.left[j] = stats_of(&left[5 * j]);
           s.right[j] = stats_of(r);
         }
-        const double score = regression_objective(s.left.data(), s.right.data(), J, left_pixels, right_pixels);
-        if (score < best.score) {
-          best.score = score;
-          best.candidate = g.c0 + c;
-          best.du1 = cand.du1;
-          best.dv1 = cand.dv1;
-          best.du2 = cand.du2;
-          best.dv2 = cand.dv2;
-          best.threshold = cand.table[t];
-        }
+        best.consider(regression_objective(s.left.data(), s.right.data(), J, left_pixels, right_pixels), g.c0 + c,
+                      cand, t);
       }
     }
     return best;
