@@ -12,10 +12,13 @@ ifeq ($(MPI),1)
   $(MPI_OBJ): TOOLS_CXXFLAGS += $(MPI_COMPILE_FLAGS) -DDP_HAVE_MPI=1 -DOMPI_SKIP_MPICXX=1
   LDLIBS_TOOLS += $(MPI_LINK_FLAGS)
 endif
-# The object is rebuilt when the MPI choice or flags change (the stamp holds them).
+# The object is rebuilt when the MPI choice or flags change: the stamp is rewritten (and so made
+# newer) only when its text changes; make looks at its time again after the recipe.
 MPI_STAMP := $(BUILD)/mpi-flags.txt
 MPI_STAMP_TEXT := MPI=$(MPI) $(MPI_COMPILE_FLAGS) | $(MPI_LINK_FLAGS)
-$(shell mkdir -p $(BUILD); [ "$$(cat $(MPI_STAMP) 2>/dev/null)" = "$(MPI_STAMP_TEXT)" ] || echo "$(MPI_STAMP_TEXT)" > $(MPI_STAMP))
+.PHONY: mpi-stamp-check
+$(MPI_STAMP): mpi-stamp-check
+	@mkdir -p $(@D); [ "$$(cat $@ 2>/dev/null)" = "$(MPI_STAMP_TEXT)" ] || echo "$(MPI_STAMP_TEXT)" > $@
 $(MPI_OBJ): $(MPI_STAMP)
 
 # `make test` runs mk/mpi_tests.sh: forests from 1, 2 and 3 ranks byte-identical (BPC, OJR with
