@@ -2,8 +2,9 @@
 # Distributed training measurements on this machine (`make bench-mpi`; docs/training.md
 # "Distributed training"): the same BPC training as 1 rank × T threads, 1 rank × 1 thread and
 # N ranks × 1 thread (N = 2, 3; oversubscribed beyond the cores), reporting wall time, the payload
-# each rank hands to the sums per level (from rank 0's progress lines), and each rank's images and
-# peak resident memory. All runs must write the same forest (checked).
+# each rank hands to the sums per level (from rank 0's progress lines), each rank's images and
+# peak resident memory, and the CPU seconds of all processes (on a loaded machine the CPU time
+# shows the work a configuration costs better than the wall time). All runs must write the same forest (checked).
 # Sizes: BENCH_FRAMES (default 120) frames of 320×240, BENCH_PIXELS per image (1000), depth
 # BENCH_DEPTH (12), BENCH_OFFSETS × BENCH_THRESHOLDS candidates (200 × 20).
 set -uo pipefail
@@ -20,18 +21,19 @@ if [ ! -f "$ROOT/data-$FRAMES/frames.jsonl" ]; then
 fi
 TRAIN=(train --data "$ROOT/data-$FRAMES" --method bpc --trees 1 --depth "${BENCH_DEPTH:-12}" --pixels-per-image "${BENCH_PIXELS:-1000}"
        --offsets "${BENCH_OFFSETS:-200}" --thresholds "${BENCH_THRESHOLDS:-20}" --no-timings)
-measure() {  # measure NAME RANKS THREADS
-  local name=$1 ranks=$2 threads=$3 log=$ROOT/$1.log start end
-  start=$(date +%s.%N)
+measure() {  # measure NAME RANKS THREADS: wall and CPU seconds (user + system, all processes)
+  local name=$1 ranks=$2 threads=$3 log=$ROOT/$1.log t
+  local TIMEFORMAT='%R %U %S'
   if [ "$ranks" = 0 ]; then
-    "$CLI" "${TRAIN[@]}" --threads "$threads" --out "$ROOT/$name.forest" 2>"$log"
+    t=$( { time "$CLI" "${TRAIN[@]}" --threads "$threads" --out "$ROOT/$name.forest" 2>"$log" ; } 2>&1 ) || { cat "$log"; exit 1; }
   else
-    "${MPIRUN[@]}" -np "$ranks" "$CLI" "${TRAIN[@]}" --threads "$threads" --out "$ROOT/$name.forest" 2>"$log"
-  fi || { cat "$log"; exit 1; }
-  end=$(date +%s.%N)
-  awk -v n="$name" -v s="$start" -v e="$end" 'BEGIN { printf "%-22s wall %6.2f s\n", n, e - s }'
+    t=$( { time "${MPIRUN[@]}" -np "$ranks" "$CLI" "${TRAIN[@]}" --threads "$threads" --out "$ROOT/$name.forest" 2>"$log" ; } 2>&1 ) ||
+      { cat "$log"; exit 1; }
+  fi
+  echo "$t" | awk -v n="$name" '{ printf "%-22s wall %6.2f s, CPU %6.2f s\n", n, $1, $2 + $3 }'
   grep -E "rank [0-9]+ of" "$log" | sed 's/^train: /    /'
   [ "$ranks" = 0 ] && grep -oE "images [0-9.]+ MB.*peak resident [0-9.]+ MB" "$log" | sed 's/^/    /'
+  true
 }
 echo "== $FRAMES frames 320x240, ${BENCH_PIXELS:-1000} px/image, depth ${BENCH_DEPTH:-12}, ${BENCH_OFFSETS:-200} x ${BENCH_THRESHOLDS:-20} candidates, $(nproc) cores"
 echo "== 1 rank x 2 threads vs 2 ranks x 1 thread (and references)"
