@@ -4,6 +4,7 @@
 #   make test       install what is missing, build, run every test (normal, ASan+UBSan, debug
 #                   checks, the chain, the checks); ends with "N passed, N failed, N skipped"
 #   make bench      benchmarks (tests/bench/*_bench.cc, one binary each)
+#   make bench-mpi  distributed training measured under mpirun (mk/mpi.mk, docs/training.md)
 #   make fuzz-smoke libFuzzer, one target per parser, FUZZ_SECONDS each (~3 min)
 #   make check-runtime  proves the runtime references no heap / exception symbols
 #   make deps       installs the Debian packages of mk/debian-packages.txt that are missing
