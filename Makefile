@@ -4,6 +4,7 @@
 #   make test       install what is missing, build, run every test (normal, ASan+UBSan, debug
 #                   checks, the chain, the checks); ends with "N passed, N failed, N skipped"
 #   make bench      benchmarks (tests/bench/*_bench.cc, one binary each)
+#   make bench-mpi  distributed training measured under mpirun (mk/mpi.mk, docs/training.md)
 #   make fuzz-smoke libFuzzer, one target per parser, FUZZ_SECONDS each (~3 min)
 #   make check-runtime  proves the runtime references no heap / exception symbols
 #   make deps       installs the Debian packages of mk/debian-packages.txt that are missing
@@ -164,10 +165,12 @@ SHELL := /bin/bash
 # The runs of `make test`, as independent targets so that they build and run side by side.
 # The ASan+UBSan build lives in its own folder; each run writes a log that the summary reads.
 # test-debug: the runtime's tests against the runtime built with its debug checks (DEBUG=1);
-# test-aarch64: the runtime's tests cross-built for ARM64 and run under qemu-aarch64 (mk/*.mk).
+# test-aarch64: the runtime's tests cross-built for ARM64 and run under qemu-aarch64 (mk/*.mk);
+# test-run-mpi: distributed training and rendering under mpirun (mk/mpi.mk).
 TEST_LOGS := $(BUILD)/test-logs/unit.log $(BUILD)/asan/test-logs/unit.log $(BUILD)/debug/test-logs/unit.log \
              $(BUILD)/aarch64/test-logs/unit.log $(BUILD)/chain/chain.log \
-             $(BUILD)/test-logs/check-runtime.log $(BUILD)/test-logs/summary-selftest.log
+             $(BUILD)/test-logs/check-runtime.log $(BUILD)/test-logs/summary-selftest.log \
+             $(BUILD)/test-logs/mpi.log
 .PHONY: ensure-deps test-runs test-run-unit test-run-asan test-run-check-runtime test-summary-selftest
 ensure-deps:
 	@mk/ensure_deps.sh
@@ -175,7 +178,8 @@ test: ensure-deps
 	@rc=0; $(MAKE) --no-print-directory -k test-runs || rc=1; \
 	mk/test_summary.sh $(TEST_LOGS); s=$$?; \
 	[ $$rc -eq 0 ] && [ $$s -eq 0 ]
-test-runs: test-run-unit test-run-asan test-debug test-aarch64 chain-smoke test-run-check-runtime test-summary-selftest
+test-runs: test-run-unit test-run-asan test-debug test-aarch64 chain-smoke test-run-check-runtime test-summary-selftest \
+           test-run-mpi
 test-run-unit: test-unit
 test-run-asan:
 	@$(MAKE) --no-print-directory test-unit BUILD=$(BUILD)/asan SAN=1 OPT=-O1 DEBUGINFO=-g1

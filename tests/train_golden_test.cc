@@ -53,7 +53,9 @@ TEST(TrainGolden, ForestsEqualTheRecordedDigests) {
   const Case cases[] = {
       {"bpc classification", "bpc", Objective::kClassification, "9a34ff0291d3cc00"},
       {"ojr classification", "ojr", Objective::kClassification, "a2919b5797450184"},
-      {"ojr regression", "ojr", Objective::kRegression, "3e40f3cc030965b3"},
+      // Regression offsets are summed in fixed point (2^-12 m) so that sums over pixel ranges,
+      // threads and MPI ranks are exact; that rounding chose this forest.
+      {"ojr regression", "ojr", Objective::kRegression, "8f202944ec9d93f7"},
   };
   for (const Case& c : cases)
     for (int threads : {1, 2}) {

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <unistd.h>
 
@@ -17,6 +18,7 @@
 #include "tools/common/file_io.h"
 #include "tools/common/error.h"
 #include "tools/synth/synth.h"
+#include "tools/train/communicator.h"
 
 namespace dp::synth {
 namespace {
@@ -39,6 +41,8 @@ const char* kUsage =
     "                      .gz); default: the 28 clips under mocap/cmu\n"
     "  --splits FILE       held-out splits table (default tools/synth/splits.tsv)\n"
     "  --threads N         worker threads (default: all cores); output does not depend on it\n"
+    "  --distributed       one rank of an MPI job even when mpirun/srun is not detected: each rank\n"
+    "                      renders its share of the frames into one dataset (a shared file system)\n"
     "  --preview FILE.png  contact sheet of the first frames (depth | parts | joints)\n"
     "  --rotation DEG      body yaw uniform in [-DEG, DEG] (default 60; 180 or 360 = any)\n"
     "  --floor             render a floor plane (label 255) instead of empty background\n"
@@ -75,12 +79,12 @@ void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
   if (!f) fail("cannot write " + path);
 }
 
-int run_synth(int argc, char** argv) {
+int synth_main(int argc, char** argv, dp::train::Communicator* comm) {
   dp::tools::Args args(argc, argv, kUsage,
                        {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
                         "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed", "--pool-sheet"},
-                       {"--floor", "--no-noise", "--sequence", "--pool-report"});
+                       {"--floor", "--no-noise", "--sequence", "--pool-report", "--distributed"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
     return 0;
@@ -219,26 +223,43 @@ int run_synth(int argc, char** argv) {
   const uint64_t seed = uint64_t(args.get_int("--seed", 1));
   int threads = int(args.get_int("--threads", std::max(1u, std::thread::hardware_concurrency())));
   if (threads < 1) fail("--threads must be >= 1");
-  threads = int(std::min<long long>(threads, frames));
+  // Distributed (mpirun/srun, docs/training.md "Distributed training"): rank r renders frames
+  // rank_share(frames, r, N) into rank 0's temporary folder (a file system all ranks share); rank 0
+  // writes frames.jsonl from every rank's records and swaps the folder in. Frames are a function of
+  // (seed, index), so the dataset equals a one-process render byte for byte.
+  const auto [first_frame, end_frame] = comm ? dp::train::rank_share(size_t(frames), comm->rank(), comm->size())
+                                             : std::pair<size_t, size_t>(0, size_t(frames));
+  const long long local_frames = static_cast<long long>(end_frame - first_frame);
+  if (comm && args.has("--preview")) fail("--preview is not available with distributed rendering");
+  threads = int(std::min<long long>(threads, local_frames));
 
   // The dataset is built in a temporary folder and swapped in whole at the end, so that a failed
   // or killed run never leaves a mix of old and new frames under --out.
-  dp::tools::AtomicOutputDirectory out_dir(out_final, is_dataset_folder, "depthpose dataset");
-  const std::string& out = out_dir.path();
-  dp::tools::create_dataset(out, synth.dataset_meta(), true);
-  if (config.people > 1) std::filesystem::create_directories(out + "/people");
+  std::optional<dp::tools::AtomicOutputDirectory> out_dir;
+  std::string out;
+  if (!comm || comm->rank() == 0) {
+    out_dir.emplace(out_final, is_dataset_folder, "depthpose dataset");
+    out = out_dir->path();
+    dp::tools::create_dataset(out, synth.dataset_meta(), true);
+    if (config.people > 1) std::filesystem::create_directories(out + "/people");
+  }
+  if (comm) {
+    std::vector<uint8_t> path(out.begin(), out.end());
+    comm->broadcast(path);
+    out.assign(path.begin(), path.end());
+  }
   std::vector<dp::tools::FrameRecord> records(static_cast<size_t>(frames));
   const size_t preview_count = args.has("--preview") ? size_t(std::min<long long>(frames, 12)) : 0;
   std::vector<SynthFrame> preview(preview_count);
 
-  std::atomic<long long> next{0}, done{0};
+  std::atomic<long long> next{static_cast<long long>(first_frame)}, done{0};
   std::mutex error_mutex;
   std::string error;
   const auto start = std::chrono::steady_clock::now();
   auto worker = [&]() {
     for (;;) {
       const long long i = next.fetch_add(1);
-      if (i >= frames) return;
+      if (i >= static_cast<long long>(end_frame)) return;
       try {
         SynthFrame f = synth.render_frame(seed, uint64_t(i));
         const std::string id = dp::tools::frame_id(size_t(i));
@@ -253,7 +274,7 @@ int run_synth(int argc, char** argv) {
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(error_mutex);
         if (error.empty()) error = e.what();
-        next.store(frames);
+        next.store(static_cast<long long>(end_frame));
         return;
       }
       done.fetch_add(1);
@@ -265,7 +286,7 @@ int run_synth(int argc, char** argv) {
   auto last_print = std::chrono::steady_clock::now() - std::chrono::hours(1);
   for (;;) {
     const long long d = done.load();
-    bool stop = d >= frames || next.load() > frames;
+    bool stop = d >= local_frames || next.load() > static_cast<long long>(end_frame);
     {
       std::lock_guard<std::mutex> lock(error_mutex);
       stop = stop || !error.empty();
@@ -275,10 +296,10 @@ int run_synth(int argc, char** argv) {
       last_print = now;
       const double el = std::chrono::duration<double>(now - start).count();
       const double rate = el > 0 ? d / el : 0;
-      const int bar = int(30.0 * d / frames);
+      const int bar = local_frames ? int(30.0 * d / local_frames) : 30;
       std::fprintf(stderr, "%s[%.*s%*s] %lld/%lld  %.1f frames/s  ETA %s%s", tty ? "\r" : "", bar,
-                   "##############################", 30 - bar, "", d, frames, rate,
-                   rate > 0 ? format_seconds((frames - d) / rate).c_str() : "?", tty ? "" : "\n");
+                   "##############################", 30 - bar, "", d, local_frames, rate,
+                   rate > 0 ? format_seconds((local_frames - d) / rate).c_str() : "?", tty ? "" : "\n");
       std::fflush(stderr);
     }
     if (stop) break;
@@ -287,8 +308,20 @@ int run_synth(int argc, char** argv) {
   for (auto& t : pool) t.join();
   if (tty) std::fprintf(stderr, "\n");
   if (!error.empty()) fail(error);
-  dp::tools::write_frames_jsonl(out, records);
-  out_dir.commit();
+  if (!comm) {
+    dp::tools::write_frames_jsonl(out, records);
+  } else {
+    std::string lines;
+    for (size_t i = first_frame; i < end_frame; ++i) lines += dp::tools::frame_record_to_json_line(records[i]) + "\n";
+    const auto all = comm->gather(std::vector<uint8_t>(lines.begin(), lines.end()));
+    if (comm->rank() == 0) {
+      std::ofstream f(out + "/frames.jsonl", std::ios::binary);
+      for (const std::vector<uint8_t>& part : all) f.write(reinterpret_cast<const char*>(part.data()), std::streamsize(part.size()));
+      if (!f.flush()) fail("cannot write " + out + "/frames.jsonl");
+    }
+  }
+  if (out_dir) out_dir->commit();
+  if (comm) comm->barrier();  // --out is complete when any rank exits 0
   const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::fprintf(stderr, "synth: wrote %lld frames to %s in %.1fs (%.1f frames/s with %d threads)\n", frames,
                out_final.c_str(), el, frames / el, threads);
@@ -304,6 +337,10 @@ int run_synth(int argc, char** argv) {
     std::fprintf(stderr, "synth: preview %s\n", args.get("--preview").c_str());
   }
   return 0;
+}
+
+int run_synth(int argc, char** argv) {
+  return dp::train::run_maybe_distributed("depthpose synth", argc, argv, synth_main);
 }
 
 }  // namespace

@@ -53,10 +53,15 @@ void put(std::vector<uint8_t>& out, T v) {
 
 }  // namespace
 
-std::string training_data_digest(const TrainingSet& set) {
-  Digest d;
-  d.value(set.images.size());
-  for (const TrainingImage& im : set.images) {
+std::string training_data_digest(const TrainingSet& set, Communicator* comm) {
+  // One digest per loaded image (its crop, camera, joints and its pixels of every tree), added up
+  // modulo 2^64: the sum does not depend on which process holds which images, so ranks add their
+  // images' terms and one sum gives the digest of the whole set for any rank count.
+  std::vector<Digest> per_image(set.images.size());
+  for (size_t i = 0; i < set.images.size(); ++i) {
+    const TrainingImage& im = set.images[i];
+    Digest& d = per_image[i];
+    d.value(uint64_t(i));
     for (int v : {im.width, im.height, im.origin_u, im.origin_v, im.frame_width, im.frame_height, im.focal_factor})
       d.value(v);
     for (double v : {im.camera.fx, im.camera.fy, im.camera.cx, im.camera.cy}) d.value(v);
@@ -65,11 +70,24 @@ std::string training_data_digest(const TrainingSet& set) {
     d.value(im.joints.size());
     d.bytes(im.joints.data(), im.joints.size() * sizeof(float));
   }
-  d.value(set.tree_pixels.size());
-  for (const auto& pixels : set.tree_pixels) {
-    d.value(pixels.size());
-    d.bytes(pixels.data(), pixels.size() * sizeof(TrainingPixel));
+  // [0]: sum of the image terms; [1 + t]: pixels of tree t.
+  std::vector<int64_t> totals(1 + set.tree_pixels.size(), 0);
+  for (size_t t = 0; t < set.tree_pixels.size(); ++t) {
+    totals[1 + t] = static_cast<int64_t>(set.tree_pixels[t].size());
+    for (const TrainingPixel& p : set.tree_pixels[t]) {
+      if (p.image >= per_image.size()) fail("training pixel of tree " + std::to_string(t) + " names image " + std::to_string(p.image) + " of " + std::to_string(per_image.size()));
+      per_image[p.image].value(uint64_t(t));
+      per_image[p.image].bytes(&p, sizeof p);
+    }
   }
+  uint64_t sum = 0;
+  for (size_t i = 0; i < set.images.size(); ++i)
+    if (!set.images[i].probe.empty()) sum += per_image[i].h;
+  totals[0] = static_cast<int64_t>(sum);
+  if (comm) comm->sum(totals.data(), totals.size());
+  Digest d;
+  d.value(set.images.size());
+  for (int64_t v : totals) d.value(v);
   d.value(set.part_names.size());
   for (const std::string& s : set.part_names) d.text(s);
   d.value(set.joint_names.size());

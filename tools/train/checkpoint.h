@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "tools/train/communicator.h"
 #include "tools/train/training_set.h"
 #include "tools/train/tree_trainer.h"
 
@@ -35,8 +36,10 @@ struct TrainingCheckpoint {
 
 // 64-bit digest (16 hex digits) of everything in the set that the forest depends on: image crops,
 // cameras, joints, part/joint names and every tree's sampled pixels. Dataset paths are not part of
-// it (a moved dataset still matches).
-std::string training_data_digest(const TrainingSet& set);
+// it (a moved dataset still matches). With `comm`, every rank passes its share of the images (a
+// collective call) and all receive the digest of the whole set, the same for any rank count and
+// equal to the one-process digest.
+std::string training_data_digest(const TrainingSet& set, Communicator* comm = nullptr);
 
 // Atomic write (temp file + fsync + rename). Throws ToolError naming the file on I/O errors.
 void write_checkpoint(const std::string& path, const TrainingCheckpoint& checkpoint);

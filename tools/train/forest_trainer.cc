@@ -7,6 +7,7 @@
 
 #include "tools/common/error.h"
 #include "tools/train/checkpoint.h"
+#include "tools/train/distributed_leaves.h"
 
 namespace dp::train {
 using tools::fail;
@@ -76,11 +77,13 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
   if (options.structure && options.structure->reference_focal_px != set.reference_focal_px)
     fail("retro-fitting: the training set's reference focal length differs from the structure's");
 
+  Communicator* comm = options.tree.comm;
+  const bool writes_files = !comm || comm->rank() == 0;
   TrainingCheckpoint checkpoint;
   const bool checkpointing = !options.checkpoint_path.empty() && !options.structure;
   if (checkpointing) {
     checkpoint.options_json = forest_options_json(options, tree_count);
-    checkpoint.data_digest = training_data_digest(set);
+    checkpoint.data_digest = training_data_digest(set, comm);
     if (options.resume && std::ifstream(options.checkpoint_path).good()) {
       TrainingCheckpoint found = read_checkpoint(options.checkpoint_path);
       check_checkpoint_matches(found, checkpoint.options_json, checkpoint.data_digest, options.checkpoint_path);
@@ -93,7 +96,9 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
   for (size_t t = 0; t < tree_count; ++t) {
     std::vector<TrainingPixel> pixels = set.tree_pixels[t];
     const size_t tree_pixels = pixels.size();
-    stats.training_pixels += tree_pixels;
+    int64_t all_pixels = static_cast<int64_t>(tree_pixels);
+    if (comm) comm->sum(&all_pixels, 1);
+    stats.training_pixels += static_cast<size_t>(all_pixels);
     LeafRanges ranges;
     TrainedTree tree;
     const auto t0 = std::chrono::steady_clock::now();
@@ -112,7 +117,7 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
         level_done = [&](const GrowthState& state) {
           checkpoint.trees.resize(t + 1);
           checkpoint.trees[t] = state;
-          write_checkpoint(options.checkpoint_path, checkpoint);
+          if (writes_files) write_checkpoint(options.checkpoint_path, checkpoint);
           if (options.after_checkpoint) options.after_checkpoint(static_cast<int>(t), state.levels_done);
         };
       GrownTree grown =
@@ -124,12 +129,16 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
       stats.peak_bytes = std::max(stats.peak_bytes, grown.peak_bytes);
     }
     const auto t1 = std::chrono::steady_clock::now();
-    if (forest.has_part_distributions)
-      fit_part_distributions(pixels, ranges, static_cast<int>(set.part_names.size()), tree);
-    if (ojr) {
-      LeafParams lp = options.leaf;
-      lp.threads = options.tree.threads;
-      fit_votes(set, pixels, ranges, lp, static_cast<int>(t), tree);
+    LeafParams lp = options.leaf;
+    lp.threads = options.tree.threads;
+    const int part_count = static_cast<int>(set.part_names.size());
+    if (comm) {
+      sum_leaf_pixel_counts(tree, *comm);
+      if (forest.has_part_distributions) fit_part_distributions_distributed(pixels, ranges, part_count, tree, *comm);
+      if (ojr) fit_votes_distributed(set, pixels, ranges, lp, static_cast<int>(t), tree, *comm);
+    } else {
+      if (forest.has_part_distributions) fit_part_distributions(pixels, ranges, part_count, tree);
+      if (ojr) fit_votes(set, pixels, ranges, lp, static_cast<int>(t), tree);
     }
     const auto t2 = std::chrono::steady_clock::now();
     stats.structure_seconds += std::chrono::duration<double>(t1 - t0).count();

@@ -42,6 +42,9 @@ struct ForestStats {
   double bytes_per_pixel = 0;          // (images + per-tree working set) / training pixels of a tree
 };
 
+// Distributed (options.tree.comm): every rank calls this with its shard of the set
+// (SamplingOptions::shard) and receives the same structure; rank 0 alone writes checkpoints and
+// receives the OJR votes, so rank 0's forest is the one to write (identical to a one-process run).
 // Trains set.tree_pixels.size() trees (or the structure's tree count when retro-fitting; then
 // the set must have as many pixel lists). Throws ToolError on inconsistent inputs.
 TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options, const ProgressFn& progress,

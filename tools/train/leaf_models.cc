@@ -117,19 +117,25 @@ void fit_votes(const TrainingSet& set, const std::vector<TrainingPixel>& pixels,
     for (int j = 0; j < joints; ++j) rngs.push_back(Rng::keyed(params.seed, 4, uint64_t(tree_index), l, uint64_t(j)));
     for (uint32_t i = ranges[l].first; i < ranges[l].second; ++i) {
       const TrainingPixel& p = pixels[i];
-      const TrainingImage& im = set.images[p.image];
-      const std::array<float, 3> x = pixel_point(im, p.u, p.v, p.depth_mm);
-      for (int j = 0; j < joints; ++j)
-        reservoirs[j].offer({im.joints[3 * j] - x[0], im.joints[3 * j + 1] - x[1], im.joints[3 * j + 2] - x[2]}, rngs[j]);
+      for (int j = 0; j < joints; ++j) reservoirs[j].offer(joint_offset(set.images[p.image], p, j), rngs[j]);
     }
-    for (int j = 0; j < joints; ++j) {
-      const float lambda = params.vote_length_m.empty() ? 0.0f
-                           : params.vote_length_m.size() == 1 ? params.vote_length_m[0]
-                                                              : params.vote_length_m[j];
-      const std::vector<LeafVote> v = select_votes(mean_shift_modes(reservoirs[j].items(), params.bandwidth_m), lambda, k);
-      std::copy(v.begin(), v.end(), tree.votes.begin() + (l * joints + j) * k);
-    }
+    for (int j = 0; j < joints; ++j) fill_leaf_votes(reservoirs[j].items(), params, j, &tree.votes[(l * joints + j) * k]);
   });
+}
+
+void fill_leaf_votes(const std::vector<std::array<float, 3>>& reservoir, const LeafParams& params, int joint,
+                     LeafVote* out) {
+  const float lambda = params.vote_length_m.empty() ? 0.0f
+                       : params.vote_length_m.size() == 1 ? params.vote_length_m[0]
+                                                          : params.vote_length_m[joint];
+  const std::vector<LeafVote> v =
+      select_votes(mean_shift_modes(reservoir, params.bandwidth_m), lambda, params.votes_per_joint);
+  std::copy(v.begin(), v.end(), out);
+}
+
+std::array<float, 3> joint_offset(const TrainingImage& image, const TrainingPixel& p, int joint) {
+  const std::array<float, 3> x = pixel_point(image, p.u, p.v, p.depth_mm);
+  return {image.joints[3 * joint] - x[0], image.joints[3 * joint + 1] - x[1], image.joints[3 * joint + 2] - x[2]};
 }
 
 LeafRanges group_by_leaf(const TrainingSet& set, TrainedTree& tree, std::vector<TrainingPixel>& pixels, int threads) {

@@ -74,6 +74,13 @@ void check_leaf_params(const LeafParams& params, int joints);
 void fit_votes(const TrainingSet& set, const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,
                const LeafParams& params, int tree_index, TrainedTree& tree);
 
+// The K votes of one (leaf, joint) from its reservoir sample: mean shift, modes longer than the
+// joint's λ dropped, the K heaviest kept (the second half of Algorithm 3). Writes K votes.
+void fill_leaf_votes(const std::vector<std::array<float, 3>>& reservoir, const LeafParams& params, int joint,
+                     LeafVote* out);
+// Δ = p_joint − x(u) of a training pixel, metres (what the reservoirs sample).
+std::array<float, 3> joint_offset(const TrainingImage& image, const TrainingPixel& p, int joint);
+
 // Retro-fitting onto an existing structure: sends every pixel down `tree` with the reference
 // evaluator and reorders `pixels` stably by leaf record. Sets tree.leaf_pixel_counts.
 LeafRanges group_by_leaf(const TrainingSet& set, TrainedTree& tree, std::vector<TrainingPixel>& pixels,

@@ -9,6 +9,7 @@
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
 #include "tools/common/error.h"
+#include "tools/train/communicator.h"
 #include "tools/train/forest_trainer.h"
 #include "tools/train/forest_truncate.h"
 
@@ -41,7 +42,12 @@ constexpr const char* kUsage =
     "  --checkpoint FILE      checkpoint written after every level (default: --out FILE + .checkpoint;\n"
     "                         removed once the forest is written)\n"
     "  --resume               continue from the checkpoint (same options and data; none = start over)\n"
-    "  --quiet                no progress on stderr\n";
+    "  --stop-after L         stop with exit status 75 once this run has checkpointed L levels (over\n"
+    "                         all trees); --resume continues (e.g. within a batch system's time limit)\n"
+    "  --quiet                no progress on stderr\n"
+    "  --no-timings           leave the timings out of the file, so that runs compare byte for byte\n"
+    "  --distributed          run as one rank of an MPI job even when no launcher is detected\n"
+    "                         (mpirun/srun are detected; docs/training.md \"Distributed training\")\n";
 
 std::string format_duration(double s) {
   char b[32];
@@ -54,13 +60,83 @@ std::string format_duration(double s) {
   return b;
 }
 
-int run_train(int argc, char** argv) {
+// Distributed runs: every rank must train with the same options (else their collective calls would
+// not match). Rank 0 gathers each rank's options — the command line without --threads/--quiet
+// (which may differ per machine) and, with --resume, a digest of the checkpoint that rank sees —
+// and ends the job naming the first rank and option that differ.
+void check_same_options(int argc, char** argv, const std::string& checkpoint_path, bool resume, Communicator& comm) {
+  std::vector<std::string> mine;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--quiet" || a == "--distributed") continue;
+    if (a == "--threads") {
+      ++i;
+      continue;
+    }
+    mine.push_back(a);
+  }
+  if (resume) {
+    std::ifstream f(checkpoint_path, std::ios::binary);
+    uint64_t h = 0xCBF29CE484222325ull;
+    char c;
+    size_t bytes = 0;
+    while (f.get(c)) {
+      h = (h ^ uint8_t(c)) * 0x100000001B3ull;
+      ++bytes;
+    }
+    char b[64];
+    std::snprintf(b, sizeof b, "%016llx (%zu bytes)", static_cast<unsigned long long>(h), bytes);
+    mine.push_back("checkpoint " + checkpoint_path + ": " + (bytes ? std::string(b) : std::string("none")));
+  }
+  std::vector<uint8_t> message;
+  for (const std::string& a : mine) {
+    message.insert(message.end(), a.begin(), a.end());
+    message.push_back(0);
+  }
+  const std::vector<std::vector<uint8_t>> all = comm.gather(message);
+  if (comm.rank() != 0) return;
+  auto split = [](const std::vector<uint8_t>& m) {
+    std::vector<std::string> out;
+    std::string cur;
+    for (uint8_t c : m) {
+      if (c == 0) {
+        out.push_back(cur);
+        cur.clear();
+      } else {
+        cur.push_back(char(c));
+      }
+    }
+    return out;
+  };
+  for (size_t r = 1; r < all.size(); ++r) {
+    const std::vector<std::string> theirs = split(all[r]);
+    if (theirs == mine) continue;
+    size_t k = 0;
+    while (k < mine.size() && k < theirs.size() && mine[k] == theirs[k]) ++k;
+    const std::string a = k < mine.size() ? "'" + mine[k] + "'" : "nothing";
+    const std::string b = k < theirs.size() ? "'" + theirs[k] + "'" : "nothing";
+    comm.abort("the ranks were started with different options: rank " + std::to_string(r) + " has " + b +
+               " where rank 0 has " + a + " (argument " + std::to_string(k + 1) +
+               " after 'train', --threads and --quiet aside); every rank must run the same command");
+  }
+}
+
+// Peak resident memory of this process (VmHWM), bytes; 0 when /proc is unavailable.
+size_t peak_resident_bytes() {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("VmHWM:", 0) == 0) return size_t(std::strtoull(line.c_str() + 6, nullptr, 10)) * 1024;
+  return 0;
+}
+
+int train_main(int argc, char** argv, Communicator* comm) {
   tools::Args args(argc, argv, kUsage,
                    {"--data", "--method", "--trees", "--depth", "--out", "--objective", "--pixels-per-image",
                     "--images-per-tree", "--offsets", "--thresholds", "--max-offset", "--reference-focal",
                     "--min-samples", "--rho", "--nres", "--bandwidth", "--votes-per-leaf", "--vote-length",
-                    "--structure", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint"},
-                   {"--quiet", "--resume"});
+                    "--structure", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint", "--stop-after"},
+                   {"--quiet", "--resume", "--distributed", "--no-timings"});
   if (args.help_requested()) {
     std::cout << kUsage;
     return 0;
@@ -72,7 +148,9 @@ int run_train(int argc, char** argv) {
   const std::string objective = args.get("--objective", "classification");
   if (objective != "classification" && objective != "regression")
     tools::fail("--objective must be classification or regression, got '" + objective + "'");
-  const bool quiet = args.flag("--quiet");
+  const bool root = !comm || comm->rank() == 0;
+  const bool quiet = args.flag("--quiet") || !root;  // only rank 0 reports progress
+  if (comm) check_same_options(argc, argv, args.get("--checkpoint", out_path + ".checkpoint"), args.flag("--resume"), *comm);
   const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
   const int threads = static_cast<int>(args.get_int("--threads", hw));
   if (threads < 1 || threads > 256) tools::fail("--threads must be 1..256");
@@ -99,6 +177,10 @@ int run_train(int argc, char** argv) {
                                     : static_cast<float>(args.get_double("--reference-focal", 0));
   so.need_labels = method == "bpc" || (objective == "classification" && !structure);
   so.need_joints = method == "ojr" || objective == "regression";
+  if (comm) {
+    so.shard = comm->rank();
+    so.shards = comm->size();
+  }
   if (so.trees < 1 || so.trees > 64) tools::fail("--trees must be 1..64");
   if (so.pixels_per_image < 1) tools::fail("--pixels-per-image must be >= 1");
 
@@ -130,6 +212,7 @@ int run_train(int argc, char** argv) {
   fo.tree.seed = so.seed;
   fo.tree.threads = threads;
   fo.tree.proposal = proposal.get();
+  fo.tree.comm = comm;
   fo.leaf.reservoir = static_cast<int>(args.get_int("--nres", 100));
   fo.leaf.bandwidth_m = static_cast<float>(args.get_double("--bandwidth", 0.05));
   fo.leaf.votes_per_joint = static_cast<int>(args.get_int("--votes-per-leaf", 2));
@@ -144,6 +227,14 @@ int run_train(int argc, char** argv) {
 
   fo.checkpoint_path = args.get("--checkpoint", out_path + ".checkpoint");
   fo.resume = args.flag("--resume");
+  const long long stop_after = args.get_int("--stop-after", 0);
+  if (stop_after < 0) tools::fail("--stop-after wants a number of levels >= 1");
+  long long levels_checkpointed = 0;
+  struct StopRequested {};
+  if (stop_after > 0)
+    fo.after_checkpoint = [&](int, int) {
+      if (++levels_checkpointed == stop_after) throw StopRequested{};
+    };
   if (structure && (args.has("--checkpoint") || fo.resume))
     tools::fail("--checkpoint/--resume apply to grown forests; retro-fitting (--structure) is not checkpointed");
   if (!quiet && fo.resume && !structure)
@@ -174,10 +265,12 @@ int run_train(int argc, char** argv) {
     const double tree_left = per_level * std::max(0, depth - r.level - 1);
     const double per_tree = done_trees == 0 ? per_level * depth : done_seconds / done_trees;
     const double eta = tree_left + per_tree * (trees - r.tree - 1);
+    char traffic[64] = "";
+    if (comm) std::snprintf(traffic, sizeof traffic, ", %.3f MB reduced per rank", r.bytes_reduced / 1e6);
     std::fprintf(stderr,
-                 "train: tree %d/%d level %2d/%d: %zu nodes, %zu split, %.2fM px, %.2f G evals, %s (tree %s, ETA <= %s)\n",
+                 "train: tree %d/%d level %2d/%d: %zu nodes, %zu split, %.2fM px, %.2f G evals%s, %s (tree %s, ETA <= %s)\n",
                  r.tree + 1, trees, r.level, depth, r.frontier_nodes, r.split_nodes, r.active_pixels / 1e6,
-                 r.feature_evaluations / 1e9, format_duration(r.seconds).c_str(),
+                 r.feature_evaluations / 1e9, traffic, format_duration(r.seconds).c_str(),
                  format_duration(r.tree_seconds).c_str(), format_duration(eta).c_str());
     if (r.split_nodes == 0 || r.level + 1 == depth) {
       done_seconds += r.tree_seconds;
@@ -185,9 +278,32 @@ int run_train(int argc, char** argv) {
     }
   };
   ForestStats stats;
-  TrainedForest forest = train_forest(set, fo, progress, &stats);
-  write_forest(out_path, forest);
-  if (!structure) std::remove(fo.checkpoint_path.c_str());  // the forest supersedes it
+  TrainedForest forest;
+  try {
+    forest = train_forest(set, fo, progress, &stats);
+  } catch (const StopRequested&) {
+    if (root)
+      std::fprintf(stderr, "train: stopped after %lld checkpointed levels as asked (--stop-after); --resume continues from %s\n",
+                   stop_after, fo.checkpoint_path.c_str());
+    if (comm) comm->barrier();  // the checkpoint is written when any rank exits
+    return 75;
+  }
+  if (args.flag("--no-timings")) forest.timings_json = "{}";
+  if (root) {
+    write_forest(out_path, forest);
+    if (!structure) std::remove(fo.checkpoint_path.c_str());  // the forest supersedes it
+  }
+  if (comm) {
+    // One line per rank (rank order is not guaranteed on a shared terminal; each names its rank).
+    const auto [first, last] = rank_share(set.images.size(), comm->rank(), comm->size());
+    if (!args.flag("--quiet"))
+      std::fprintf(stderr,
+                   "train: rank %d of %d: images %zu..%zu (%zu loaded, %.1f MB), %zu training pixels, %.3f MB "
+                   "reduced in %.2f s, peak resident %.1f MB\n",
+                   comm->rank(), comm->size(), first, last, images_used, set.image_bytes() / 1e6, set.pixel_count(),
+                   comm->bytes_reduced() / 1e6, comm->seconds_reducing(), peak_resident_bytes() / 1e6);
+    comm->barrier();  // rank 0 has written the forest when any rank exits 0
+  }
   if (!quiet) {
     size_t nodes = 0, leaves = 0;
     for (const TrainedTree& t : forest.trees) {
@@ -198,13 +314,16 @@ int run_train(int argc, char** argv) {
     std::fprintf(stderr,
                  "train: wrote %s: %d tree(s), %zu nodes, %zu leaves; structure %s, leaves %s; %.3g pixel*offset "
                  "evaluations/s (%.3g per thread); memory %.0f bytes per training pixel (images %.1f MB, tree "
-                 "working set %.1f MB)\n",
+                 "working set %.1f MB), peak resident %.1f MB\n",
                  out_path.c_str(), trees, nodes, leaves, format_duration(stats.structure_seconds).c_str(),
                  format_duration(stats.leaf_seconds).c_str(), rate, rate / threads, stats.bytes_per_pixel,
-                 set.image_bytes() / 1e6, stats.peak_bytes / 1e6);
+                 set.image_bytes() / 1e6, stats.peak_bytes / 1e6, peak_resident_bytes() / 1e6);
   }
   return 0;
 }
+
+// Distributed when an MPI launcher started this process (or --distributed).
+int run_train(int argc, char** argv) { return run_maybe_distributed("depthpose train", argc, argv, train_main); }
 
 }  // namespace
 }  // namespace dp::train

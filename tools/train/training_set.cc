@@ -12,6 +12,7 @@
 #include "runtime/fixed_point.h"
 #include "tools/common/dataset.h"
 #include "tools/common/error.h"
+#include "tools/train/communicator.h"
 
 namespace dp::train {
 using tools::fail;
@@ -207,8 +208,11 @@ TrainingSet load_training_set(const std::vector<std::string>& dataset_dirs, cons
     tree_images[t] = images_for_tree(frames.size(), options.images_per_tree, t, options.seed);
     for (uint32_t i : tree_images[t]) trees_of_image[i].push_back(t);
   }
+  if (options.shards < 1 || options.shard < 0 || options.shard >= options.shards)
+    fail("image shard " + std::to_string(options.shard) + " of " + std::to_string(options.shards) + " does not exist");
+  const auto [shard_begin, shard_end] = rank_share(frames.size(), options.shard, options.shards);
   std::vector<uint32_t> used;
-  for (uint32_t i = 0; i < frames.size(); ++i)
+  for (uint32_t i = shard_begin; i < shard_end; ++i)
     if (!trees_of_image[i].empty()) used.push_back(i);
 
   set.images.resize(frames.size());
@@ -275,12 +279,13 @@ TrainingSet load_training_set(const std::vector<std::string>& dataset_dirs, cons
   set.tree_pixels.resize(trees);
   for (int t = 0; t < trees; ++t) {
     for (uint32_t index : tree_images[t]) {
+      if (index < shard_begin || index >= shard_end) continue;
       const auto& owners = trees_of_image[index];
       const size_t j = std::find(owners.begin(), owners.end(), t) - owners.begin();
       const auto& px = per_image[index][j];
       set.tree_pixels[t].insert(set.tree_pixels[t].end(), px.begin(), px.end());
     }
-    if (set.tree_pixels[t].empty()) fail("tree " + std::to_string(t) + " has no foreground training pixels");
+    if (set.tree_pixels[t].empty() && options.shards == 1) fail("tree " + std::to_string(t) + " has no foreground training pixels");
   }
   set.load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return set;

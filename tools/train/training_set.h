@@ -92,6 +92,11 @@ struct SamplingOptions {
   float reference_focal_px = 0;  // 0 = fx of the first dataset
   bool need_labels = true;       // error when a dataset has no parts/
   bool need_joints = false;      // error when a frame has no joints
+  // Distributed training: load only shard `shard` of `shards` — the contiguous image range
+  // rank_share(images, shard, shards) (communicator.h) of the datasets' frames in order. Images
+  // outside it stay empty (no probe) and contribute no pixels; pixel keys and image indices stay
+  // global, so the shards' pixel lists concatenated in shard order are the one-process lists.
+  int shard = 0, shards = 1;
 };
 
 // Loads every frame of the datasets (layout v1), builds probe images and samples per-tree pixels.

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <climits>
 #include <cstdlib>
+#include <cstring>
 #include <cmath>
 #include <exception>
 #include <mutex>
@@ -114,6 +115,11 @@ OffsetProposal OffsetProposal::from_forest(const TrainedForest& forest) {
 namespace {
 
 constexpr int kMaxThresholds = 255;  // padded search table of 256 entries
+// Regression offsets are summed in fixed point with this many units per metre (2^12: 0.24 mm,
+// below the 1 mm depth resolution). With ρ ≤ kMaxRhoM a pixel adds at most 3·(8·2^12)² = 3·2^30
+// to a Σ|Δ|² sum, so 2^31 pixels (the most a tree takes) stay below 2^63: the int64 sums never wrap.
+constexpr double kOffsetsPerMetre = 4096.0;
+constexpr float kMaxRhoM = 8.0f;
 constexpr int kBlock = kMaxThresholds;  // pixels of a node's threshold sample
 // Upper bound on one work item's classification histogram cells (uint32): 64k = 256 KiB, half of
 // this machine's 512 KiB L2 per core, leaving the rest for the probe images' lines.
@@ -311,7 +317,9 @@ PixelFeaturesFn pick_pixel_features() {
 
 struct NodeInfo {
   uint32_t heap = 0;
-  uint32_t begin = 0, end = 0;
+  uint32_t begin = 0, end = 0;  // this process's pixels of the node
+  uint32_t count = 0;           // the node's pixels over all ranks (= end − begin in one process)
+  uint32_t first = 0;           // position of this rank's first pixel in the node's global order
   int level = 0;
   bool splittable = false;
   double parent_score = 0;      // objective of not splitting (same normalization as Eq. 7)
@@ -324,6 +332,18 @@ struct Best {
   double score = HUGE_VAL;
   int candidate = -1;
   int32_t du1 = 0, dv1 = 0, du2 = 0, dv2 = 0, threshold = 0;
+  // Keeps (candidate `index`, its threshold t) when its score is strictly lower: ties keep the
+  // earlier candidate and threshold, in the scan order of the callers.
+  void consider(double candidate_score, int index, const Candidate& c, int t) {
+    if (!(candidate_score < score)) return;
+    score = candidate_score;
+    candidate = index;
+    du1 = c.du1;
+    dv1 = c.dv1;
+    du2 = c.du2;
+    dv2 = c.dv2;
+    threshold = c.table[t];
+  }
 };
 
 struct Scratch {
@@ -332,8 +352,8 @@ struct Scratch {
   CandidateLanes lanes;
   std::vector<int16_t> feature, bin;  // one pixel's features and bins per candidate (pixel_features)
   std::vector<uint32_t> counts;   // classification histograms
-  std::vector<double> sums;       // regression histograms
-  std::vector<float> offsets;     // regression: block pixels × joints × {w, dx, dy, dz}
+  std::vector<int64_t> sums;      // regression histograms (fixed point, pixel_offsets)
+  std::vector<int32_t> offsets;   // regression: one pixel's joints × {w, dx, dy, dz}
   std::vector<uint32_t> cum;
   std::vector<JointOffsetStats> left, right, total;
 };
@@ -352,76 +372,128 @@ class Grower {
     groups_.resize(std::max(1, p_.threads));
   }
 
-  void pixel_offsets(const TrainingPixel& p, float* out) const {
+  // Regression offsets of one pixel in fixed point (kOffsetQuantumM): per joint w (1 when |Δ| < ρ,
+  // else 0) and w·Δx, w·Δy, w·Δz rounded to the quantum. Integer sums of these are exact in any
+  // order, so partial sums over pixel ranges, threads or ranks add up to the same bits.
+  void pixel_offsets(const TrainingPixel& p, int32_t* out) const {
     const TrainingImage& im = set_.images[p.image];
     const std::array<float, 3> x = pixel_point(im, p.u, p.v, p.depth_mm);
     const float rho2 = p_.rho_m * p_.rho_m;
     for (int j = 0; j < joints_; ++j) {
       const float dx = im.joints[3 * j] - x[0], dy = im.joints[3 * j + 1] - x[1], dz = im.joints[3 * j + 2] - x[2];
-      const float w = dx * dx + dy * dy + dz * dz < rho2 ? 1.0f : 0.0f;
-      out[4 * j] = w;
-      out[4 * j + 1] = w * dx;
-      out[4 * j + 2] = w * dy;
-      out[4 * j + 3] = w * dz;
+      const bool inside = dx * dx + dy * dy + dz * dz < rho2;
+      out[4 * j] = inside;
+      out[4 * j + 1] = inside ? static_cast<int32_t>(std::lrint(double(dx) * kOffsetsPerMetre)) : 0;
+      out[4 * j + 2] = inside ? static_cast<int32_t>(std::lrint(double(dy) * kOffsetsPerMetre)) : 0;
+      out[4 * j + 3] = inside ? static_cast<int32_t>(std::lrint(double(dz) * kOffsetsPerMetre)) : 0;
     }
   }
+  // Adds one pixel's offsets (pixel_offsets) to per-joint sums {n, Σx, Σy, Σz, Σ|Δ|²}.
+  static void add_offsets(const int32_t* o, int joints, int64_t* sums) {
+    for (int j = 0; j < joints; ++j, o += 4, sums += 5) {
+      sums[0] += o[0];
+      sums[1] += o[1];
+      sums[2] += o[2];
+      sums[3] += o[3];
+      sums[4] += int64_t(o[1]) * o[1] + int64_t(o[2]) * o[2] + int64_t(o[3]) * o[3];
+    }
+  }
+  // Fixed-point per-joint sums → statistics in metres.
+  static JointOffsetStats stats_of(const int64_t* s) {
+    const double q = 1.0 / kOffsetsPerMetre;
+    return {double(s[0]), double(s[1]) * q, double(s[2]) * q, double(s[3]) * q, double(s[4]) * q * q};
+  }
 
-  void prepare(NodeInfo& node) const {
-    const uint32_t n = node.end - node.begin;
+  // Per-node statistics of this process's pixels: `labels` (256 counts, classification) or
+  // `sums` (joints × 5 fixed-point sums, regression). Summed over ranks they give finish()'s input.
+  bool classification() const { return p_.objective == Objective::kClassification; }
+  int stats_sums() const { return p_.objective == Objective::kClassification ? 0 : joints_ * 5; }
+  void local_stats(const NodeInfo& node, uint32_t* labels, int64_t* sums) const {
     if (p_.objective == Objective::kClassification) {
-      uint32_t counts[256] = {0};
-      for (uint32_t i = node.begin; i < node.end; ++i) ++counts[px_[i].label];
+      std::fill(labels, labels + 256, 0u);
+      for (uint32_t i = node.begin; i < node.end; ++i) ++labels[px_[i].label];
+    } else {
+      std::fill(sums, sums + stats_sums(), int64_t(0));
+      std::vector<int32_t> o(4 * joints_);
+      for (uint32_t i = node.begin; i < node.end; ++i) {
+        pixel_offsets(px_[i], o.data());
+        add_offsets(o.data(), joints_, sums);
+      }
+    }
+  }
+  // Sets the node's objective before splitting and whether to search it, from its statistics
+  // over all its `count` pixels.
+  void finish(NodeInfo& node, uint32_t count, const uint32_t* labels, const int64_t* sums) const {
+    node.count = count;
+    const uint32_t n = count;
+    if (p_.objective == Objective::kClassification) {
       node.classes = 0;
       node.totals.clear();
       for (int l = 0; l < 256; ++l) {
         node.class_of[l] = 0;
-        if (counts[l]) {
+        if (labels[l]) {
           node.class_of[l] = static_cast<uint8_t>(node.classes++);
-          node.totals.push_back(counts[l]);
+          node.totals.push_back(labels[l]);
         }
       }
-      node.parent_score = weighted_entropy(node.totals.data(), node.classes) / n;
+      node.parent_score = n ? weighted_entropy(node.totals.data(), node.classes) / n : 0;
       node.splittable = node.classes > 1;
     } else {
       std::vector<JointOffsetStats> st(joints_);
-      std::vector<float> o(4 * joints_);
-      for (uint32_t i = node.begin; i < node.end; ++i) {
-        pixel_offsets(px_[i], o.data());
-        for (int j = 0; j < joints_; ++j) {
-          st[j].n += o[4 * j];
-          st[j].sx += o[4 * j + 1];
-          st[j].sy += o[4 * j + 2];
-          st[j].sz += o[4 * j + 3];
-          st[j].sq += double(o[4 * j + 1]) * o[4 * j + 1] + double(o[4 * j + 2]) * o[4 * j + 2] +
-                      double(o[4 * j + 3]) * o[4 * j + 3];
-        }
-      }
-      node.parent_score = sum_squared_deviation(st.data(), joints_) / n;
+      for (int j = 0; j < joints_; ++j) st[j] = stats_of(sums + 5 * j);
+      node.parent_score = n ? sum_squared_deviation(st.data(), joints_) / n : 0;
       node.splittable = node.parent_score > 1e-12;
     }
     node.splittable = node.splittable && node.level < p_.max_depth && n >= uint32_t(std::max(2, p_.min_samples));
   }
 
-  // The node's threshold sample: min(n, |thresholds|) pixels drawn with replacement (key: seed,
-  // tree, node), shared by all candidates of the node.
-  void decode_sample(const NodeInfo& node, Block& b) const {
+  void prepare(NodeInfo& node) const {
+    uint32_t labels[256];
+    std::vector<int64_t> sums(stats_sums());
+    local_stats(node, labels, sums.data());
+    node.first = 0;
+    finish(node, node.end - node.begin, labels, sums.data());
+  }
+
+  // The positions (in the node's global pixel order) of the node's threshold sample:
+  // min(n, |thresholds|) pixels drawn with replacement (key: seed, tree, node), shared by all
+  // candidates of the node.
+  int sample_positions(const NodeInfo& node, uint32_t* positions) const {
     Rng rng = Rng::keyed(p_.seed, 5, uint64_t(tree_), node.heap);
-    const uint32_t n = node.end - node.begin;
-    b.count = static_cast<int>(std::min<uint32_t>(n, std::min(p_.threshold_candidates, kMaxThresholds)));
-    for (int i = 0; i < b.count; ++i) {
-      const TrainingPixel& p = px_[node.begin + rng.below(n)];
+    const uint32_t n = node.count;
+    const int count = static_cast<int>(std::min<uint32_t>(n, std::min(p_.threshold_candidates, kMaxThresholds)));
+    for (int i = 0; i < count; ++i) positions[i] = static_cast<uint32_t>(rng.below(n));
+    return count;
+  }
+  // Decodes the sample positions that this process holds ([first, first + end − begin)) into `b`;
+  // `slots` receives each decoded pixel's index in the sample.
+  void decode_owned(const NodeInfo& node, const uint32_t* positions, int count, Block& b, int* slots) const {
+    b.count = 0;
+    for (int i = 0; i < count; ++i) {
+      if (positions[i] < node.first || positions[i] - node.first >= node.end - node.begin) continue;
+      const TrainingPixel& p = px_[node.begin + (positions[i] - node.first)];
       const TrainingImage& im = set_.images[p.image];
-      b.image[i] = im.probe.data();
-      b.width[i] = im.width;
-      b.height[i] = im.height;
-      b.u[i] = p.u;
-      b.v[i] = p.v;
-      b.scale[i] = p.scale_q13;
-      b.depth[i] = p.depth_mm;
+      const int k = b.count++;
+      slots[k] = i;
+      b.image[k] = im.probe.data();
+      b.width[k] = im.width;
+      b.height[k] = im.height;
+      b.u[k] = p.u;
+      b.v[k] = p.v;
+      b.scale[k] = p.scale_q13;
+      b.depth[k] = p.depth_mm;
     }
   }
 
-  void make_candidate(const NodeInfo& node, int index, Block& sample, Candidate& c) const {
+  // The node's threshold sample, decoded (all of it is in this process).
+  void decode_sample(const NodeInfo& node, Block& b) const {
+    uint32_t positions[kBlock];
+    int slots[kBlock];
+    decode_owned(node, positions, sample_positions(node, positions), b, slots);
+  }
+
+  // Offsets of candidate `index` of `node` (key: seed, tree, node, index).
+  void draw_offsets(const NodeInfo& node, int index, Candidate& c) const {
     Rng rng = Rng::keyed(p_.seed, 3, uint64_t(tree_), node.heap, uint64_t(index));
     const int m = p_.max_offset_pxm;
     auto draw = [&](const std::vector<std::array<int16_t, 2>>& chosen, int32_t& du, int32_t& dv) {
@@ -441,16 +513,21 @@ class Grower {
     } else {
       draw(p_.proposal ? p_.proposal->second : std::vector<std::array<int16_t, 2>>{}, c.du2, c.dv2);
     }
-    // Thresholds: the feature's values at the node's sample pixels (its response distribution).
-    block_features(sample, c);
-    const int wanted = sample.count;
-    for (int i = 0; i < wanted; ++i) c.table[i] = sample.feature[i];
-    std::sort(c.table, c.table + wanted);
-    c.thresholds = static_cast<int>(std::unique(c.table, c.table + wanted) - c.table);
+  }
+  // Thresholds: the feature's values at the node's sample pixels (its response distribution).
+  static void set_thresholds(Candidate& c, const int16_t* sample_features, int count) {
+    for (int i = 0; i < count; ++i) c.table[i] = sample_features[i];
+    std::sort(c.table, c.table + count);
+    c.thresholds = static_cast<int>(std::unique(c.table, c.table + count) - c.table);
     int padded = 1;
     while (padded < c.thresholds + 1) padded *= 2;
     for (int i = c.thresholds; i < padded; ++i) c.table[i] = INT32_MAX;
     c.search_top = padded / 2;
+  }
+  void make_candidate(const NodeInfo& node, int index, Block& sample, Candidate& c) const {
+    draw_offsets(node, index, c);
+    block_features(sample, c);
+    set_thresholds(c, sample.feature, sample.count);
   }
 
   // Evaluates candidates [c0, c1) of `node`; returns the best.
@@ -470,9 +547,45 @@ class Grower {
     g.candidates.resize(c1 - c0);
     decode_sample(node, s.sample);
     for (int c = 0; c < c1 - c0; ++c) make_candidate(node, c0 + c, s.sample, g.candidates[c]);
+    finish_group(g);
+  }
+  // The same group when the sample's features come from all ranks: `features` holds
+  // (c1 − c0) × sample_count values, candidate-major (sample_features()).
+  void prepare_group_from(const NodeInfo& node, int c0, int c1, const int16_t* features, int sample_count,
+                          CandidateGroup& g) const {
+    g.c0 = c0;
+    g.c1 = c1;
+    g.candidates.resize(c1 - c0);
+    for (int c = 0; c < c1 - c0; ++c) {
+      draw_offsets(node, c0 + c, g.candidates[c]);
+      set_thresholds(g.candidates[c], features + size_t(c) * sample_count, sample_count);
+    }
+    finish_group(g);
+  }
+  static void finish_group(CandidateGroup& g) {
     g.bins = 1;
     for (const Candidate& c : g.candidates) g.bins = std::max(g.bins, c.thresholds + 1);
     make_lanes(g.candidates, g.lanes);
+  }
+  // This rank's share of the features of candidates [c0, c1) at the node's threshold sample:
+  // out[(c − c0) × sample_count + slot] for the slots this process holds, other entries left as
+  // they are (zero), so that a sum over ranks yields every value exactly once.
+  int sample_features(const NodeInfo& node, int c0, int c1, int16_t* out, int thread) {
+    Scratch& s = scratch_[thread];
+    uint32_t positions[kBlock];
+    int slots[kBlock];
+    const int count = sample_positions(node, positions);
+    decode_owned(node, positions, count, s.sample, slots);
+    for (int c = c0; c < c1; ++c) {
+      Candidate cand{};
+      draw_offsets(node, c, cand);
+      block_features(s.sample, cand);
+      for (int k = 0; k < s.sample.count; ++k) out[size_t(c - c0) * count + slots[k]] = s.sample.feature[k];
+    }
+    return count;
+  }
+  int sample_count(const NodeInfo& node) const {
+    return static_cast<int>(std::min<uint32_t>(node.count, std::min(p_.threshold_candidates, kMaxThresholds)));
   }
 
   // Classification: adds pixels [begin, end) of `node` to `counts`, cells [class][bin][candidate]
@@ -500,7 +613,7 @@ class Grower {
   Best score_group(const NodeInfo& node, const CandidateGroup& g, const uint32_t* counts,
                    std::vector<uint32_t>& cum) const {
     const int k = node.classes, nc = g.c1 - g.c0, bins = g.bins;
-    const uint32_t n = node.end - node.begin;
+    const uint32_t n = node.count;
     Best best;
     cum.resize(k);
     for (int c = 0; c < nc; ++c) {
@@ -527,16 +640,70 @@ class Grower {
           wl -= nlogn(cum[j]);
           wr -= nlogn(node.totals[j] - cum[j]);
         }
-        const double score = (wl + wr) / n;
-        if (score < best.score) {
-          best.score = score;
-          best.candidate = g.c0 + c;
-          best.du1 = cand.du1;
-          best.dv1 = cand.dv1;
-          best.du2 = cand.du2;
-          best.dv2 = cand.dv2;
-          best.threshold = cand.table[t];
+        best.consider((wl + wr) / n, g.c0 + c, cand, t);
+      }
+    }
+    return best;
+  }
+
+  // Regression histogram of a group: counts[c × bins + bin] pixels and sums[(c × bins + bin) ×
+  // joints × 5] fixed-point offset sums (add_offsets) of pixels [begin, end) of `node`.
+  size_t regression_sums(const CandidateGroup& g) const { return size_t(g.c1 - g.c0) * g.bins * joints_ * 5; }
+  void accumulate_regression(const CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts,
+                             int64_t* sums, int thread) {
+    Scratch& s = scratch_[thread];
+    const int nc = g.c1 - g.c0, bins = g.bins, J = joints_;
+    const size_t row = size_t(J) * 5;
+    const CandidateLanes& l = g.lanes;
+    s.feature.resize(l.padded);
+    s.bin.resize(l.padded);
+    s.offsets.resize(size_t(J) * 4);
+    for (uint32_t i = begin; i < end; ++i) {
+      const TrainingPixel& p = px_[i];
+      features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
+      pixel_offsets(p, s.offsets.data());
+      for (int c = 0; c < nc; ++c) {
+        const size_t cell = size_t(c) * bins + s.bin[c];
+        ++counts[cell];
+        add_offsets(s.offsets.data(), J, sums + cell * row);
+      }
+    }
+  }
+
+  // Regression: the best (candidate, threshold) of a group from its complete histogram.
+  Best score_regression(const NodeInfo& node, const CandidateGroup& g, const uint32_t* counts, const int64_t* sums,
+                        int thread) {
+    Scratch& s = scratch_[thread];
+    const int nc = g.c1 - g.c0, bins = g.bins, J = joints_;
+    const size_t row = size_t(J) * 5;
+    const uint32_t n = node.count;
+    std::vector<int64_t> total(row), left(row);
+    s.left.resize(J);
+    s.right.resize(J);
+    Best best;
+    for (int c = 0; c < nc; ++c) {
+      const Candidate& cand = g.candidates[c];
+      const int64_t* h = sums + size_t(c) * bins * row;
+      std::fill(total.begin(), total.end(), int64_t(0));
+      for (int t = 0; t <= cand.thresholds; ++t)
+        for (size_t k = 0; k < row; ++k) total[k] += h[t * row + k];
+      std::fill(left.begin(), left.end(), int64_t(0));
+      const uint32_t* pixel_bins = counts + size_t(c) * bins;
+      uint32_t left_pixels = 0;
+      for (int t = 0; t < cand.thresholds; ++t) {
+        for (size_t k = 0; k < row; ++k) left[k] += h[t * row + k];
+        left_pixels += pixel_bins[t];
+        if (left_pixels == 0) continue;
+        const uint32_t right_pixels = n - left_pixels;
+        if (right_pixels == 0) break;
+        for (int j = 0; j < J; ++j) {
+          int64_t r[5];
+          for (int k = 0; k < 5; ++k) r[k] = total[5 * j + k] - left[5 * j + k];
+          s.left[j] = stats_of(&left[5 * j]);
+          s.right[j] = stats_of(r);
         }
+        best.consider(regression_objective(s.left.data(), s.right.data(), J, left_pixels, right_pixels), g.c0 + c,
+                      cand, t);
       }
     }
     return best;
@@ -545,97 +712,17 @@ class Grower {
   // Evaluates candidates [c0, c1) of `node` over all its pixels; returns the best.
   Best evaluate(const NodeInfo& node, int c0, int c1, int thread) {
     Scratch& s = scratch_[thread];
+    CandidateGroup& g = groups_[thread];
+    prepare_group(node, c0, c1, g, thread);
     if (p_.objective == Objective::kClassification) {
-      CandidateGroup& g = groups_[thread];
-      prepare_group(node, c0, c1, g, thread);
       s.counts.assign(g.histogram_cells(node), 0);
       accumulate(node, g, node.begin, node.end, s.counts.data(), thread);
       return score_group(node, g, s.counts.data(), s.cum);
     }
-    const int nc = c1 - c0;
-    s.candidates.resize(nc);
-    decode_sample(node, s.sample);
-    for (int c = 0; c < nc; ++c) make_candidate(node, c0 + c, s.sample, s.candidates[c]);
-    int bins = 1;
-    for (const Candidate& c : s.candidates) bins = std::max(bins, c.thresholds + 1);
-    const uint32_t n = node.end - node.begin;
-    Best best;
-    {
-      const int J = joints_;
-      const size_t row = size_t(J) * 5;
-      s.sums.assign(size_t(nc) * bins * row, 0.0);
-      s.counts.assign(size_t(nc) * bins, 0);
-      s.offsets.resize(size_t(J) * 4);
-      make_lanes(s.candidates, s.lanes);
-      const CandidateLanes& l = s.lanes;
-      s.feature.resize(l.padded);
-      s.bin.resize(l.padded);
-      for (uint32_t i = node.begin; i < node.end; ++i) {
-        const TrainingPixel& p = px_[i];
-        features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
-        pixel_offsets(p, s.offsets.data());
-        const float* o = s.offsets.data();
-        for (int c = 0; c < nc; ++c) {
-          const int bin = s.bin[c];
-          ++s.counts[size_t(c) * bins + bin];
-          double* hb = s.sums.data() + (size_t(c) * bins + bin) * row;
-          for (int j = 0; j < J; ++j) {
-            const double w = o[4 * j], dx = o[4 * j + 1], dy = o[4 * j + 2], dz = o[4 * j + 3];
-            hb[5 * j] += w;
-            hb[5 * j + 1] += dx;
-            hb[5 * j + 2] += dy;
-            hb[5 * j + 3] += dz;
-            hb[5 * j + 4] += dx * dx + dy * dy + dz * dz;
-          }
-        }
-      }
-      s.left.resize(J);
-      s.right.resize(J);
-      s.total.resize(J);
-      for (int c = 0; c < nc; ++c) {
-        const Candidate& cand = s.candidates[c];
-        const double* h = s.sums.data() + size_t(c) * bins * row;
-        std::fill(s.total.begin(), s.total.end(), JointOffsetStats{});
-        for (int t = 0; t <= cand.thresholds; ++t)
-          for (int j = 0; j < J; ++j) add(s.total[j], h + t * row + 5 * j);
-        std::fill(s.left.begin(), s.left.end(), JointOffsetStats{});
-        const uint32_t* pixel_bins = s.counts.data() + size_t(c) * bins;
-        uint32_t left = 0;
-        for (int t = 0; t < cand.thresholds; ++t) {
-          for (int j = 0; j < J; ++j) add(s.left[j], h + t * row + 5 * j);
-          left += pixel_bins[t];
-          if (left == 0) continue;
-          const uint32_t right = n - left;
-          if (right == 0) break;
-          for (int j = 0; j < J; ++j) {
-            s.right[j].n = s.total[j].n - s.left[j].n;
-            s.right[j].sx = s.total[j].sx - s.left[j].sx;
-            s.right[j].sy = s.total[j].sy - s.left[j].sy;
-            s.right[j].sz = s.total[j].sz - s.left[j].sz;
-            s.right[j].sq = s.total[j].sq - s.left[j].sq;
-          }
-          const double score = regression_objective(s.left.data(), s.right.data(), J, left, right);
-          if (score < best.score) {
-            best.score = score;
-            best.candidate = c0 + c;
-            best.du1 = cand.du1;
-            best.dv1 = cand.dv1;
-            best.du2 = cand.du2;
-            best.dv2 = cand.dv2;
-            best.threshold = cand.table[t];
-          }
-        }
-      }
-    }
-    return best;
-  }
-
-  static void add(JointOffsetStats& s, const double* h) {
-    s.n += h[0];
-    s.sx += h[1];
-    s.sy += h[2];
-    s.sz += h[3];
-    s.sq += h[4];
+    s.counts.assign(size_t(c1 - c0) * g.bins, 0);
+    s.sums.assign(regression_sums(g), 0);
+    accumulate_regression(g, node.begin, node.end, s.counts.data(), s.sums.data(), thread);
+    return score_regression(node, g, s.counts.data(), s.sums.data(), thread);
   }
 
   // Candidates per candidate group (work item) of `node` on a level with `splittable` nodes to
@@ -647,7 +734,7 @@ class Grower {
   int chunk_for(const NodeInfo& node, size_t splittable) const {
     if (p_.objective != Objective::kClassification) return chunk_;
     const size_t cap = splittable < size_t(8 * std::max(1, p_.threads)) ? kRangeHistogramEntries : kItemHistogramEntries;
-    const size_t bins = size_t(std::min<uint32_t>(node.end - node.begin, p_.threshold_candidates)) + 1;
+    const size_t bins = size_t(std::min<uint32_t>(node.count, p_.threshold_candidates)) + 1;
     const size_t fit = cap / (bins * std::max(1, node.classes));
     return static_cast<int>(std::max<size_t>(chunk_, fit / kLanes * kLanes));
   }
@@ -673,6 +760,157 @@ class Grower {
   std::vector<CandidateGroup> groups_;  // per thread, for evaluate()
 };
 
+// A work item of a level's split search: candidates [c0, c1) of frontier node `node`.
+struct Item {
+  uint32_t node;
+  int c0, c1;
+};
+
+// Distributed levels (params.comm): the frontier's statistics over all ranks. Each rank counts its
+// own pixels per node (labels or fixed-point offset sums); one sum gives every rank the node's
+// global count, its statistics and where each rank's pixels start in the node's global order
+// (ranks hold contiguous image ranges and partitions are stable, so that order is rank order).
+void gather_node_stats(Grower& grower, std::vector<NodeInfo>& info, Communicator& comm, int threads) {
+  const size_t ranks = size_t(comm.size()), labels = 256, sums = size_t(grower.stats_sums());
+  const size_t stride = ranks + labels;
+  std::vector<uint32_t> counts(info.size() * stride, 0);
+  std::vector<int64_t> offsets(info.size() * sums, 0);
+  parallel_for(info.size(), threads, [&](size_t f, int) {
+    uint32_t* c = counts.data() + f * stride;
+    c[comm.rank()] = info[f].end - info[f].begin;
+    grower.local_stats(info[f], c + ranks, offsets.data() + f * sums);
+  });
+  comm.sum(counts.data(), counts.size());
+  if (sums) comm.sum(offsets.data(), offsets.size());
+  parallel_for(info.size(), threads, [&](size_t f, int) {
+    const uint32_t* c = counts.data() + f * stride;
+    uint32_t total = 0;
+    for (size_t r = 0; r < ranks; ++r) {
+      if (r == size_t(comm.rank())) info[f].first = total;
+      total += c[r];
+    }
+    grower.finish(info[f], total, c + ranks, offsets.data() + f * sums);
+  });
+}
+
+// Upper bound on the histogram bytes of one batch of a distributed level (all its work items'
+// histograms are summed over ranks at once). 16 MiB: messages large enough that MPI's per-call
+// latency (~10 µs here, ~2 µs on InfiniBand) is negligible next to moving them, while the
+// batch's buffers (histograms + MPI's reduction scratch, ~3× this) stay small next to a rank's
+// images; measured with 64 MiB the ranks' peak resident memory was 257 MB for 2.5 MB of images.
+constexpr size_t kBatchHistogramBytes = size_t(16) << 20;
+
+// Distributed split search of one level: work items in batches whose histograms fit
+// kBatchHistogramBytes. Per batch, (1) each rank computes the features of the candidates at the
+// threshold-sample pixels it holds and one sum gives every rank every node's thresholds; (2) each
+// rank accumulates the items' histograms over its own pixels; (3) one sum (integers: exact)
+// gives the complete histograms; (4) every rank scores them identically. The batches depend only
+// on global values, so every rank makes the same collective calls.
+void search_distributed(Grower& grower, const std::vector<NodeInfo>& info, const std::vector<Item>& items,
+                        std::vector<Best>& results, Communicator& comm, int threads) {
+  const bool classification = grower.classification();
+  const size_t joints5 = size_t(grower.stats_sums() ? grower.stats_sums() : 0);
+  for (size_t b0 = 0; b0 < items.size();) {
+    // Batch bounds from an upper bound of each item's histogram (bins ≤ sample + 1).
+    size_t b1 = b0, bytes = 0;
+    while (b1 < items.size()) {
+      const NodeInfo& node = info[items[b1].node];
+      const size_t cells = size_t(items[b1].c1 - items[b1].c0) * (grower.sample_count(node) + 1);
+      const size_t item_bytes = classification ? cells * node.classes * 4 : cells * (4 + joints5 * 8);
+      if (b1 > b0 && bytes + item_bytes > kBatchHistogramBytes) break;
+      bytes += item_bytes;
+      ++b1;
+    }
+    const size_t n = b1 - b0;
+    // (1) threshold samples
+    std::vector<size_t> feature_at(n + 1, 0);
+    for (size_t i = 0; i < n; ++i) {
+      const Item& it = items[b0 + i];
+      feature_at[i + 1] = feature_at[i] + size_t(it.c1 - it.c0) * grower.sample_count(info[it.node]);
+    }
+    std::vector<int16_t> features(feature_at[n], 0);
+    parallel_for(n, threads, [&](size_t i, int thread) {
+      const Item& it = items[b0 + i];
+      grower.sample_features(info[it.node], it.c0, it.c1, features.data() + feature_at[i], thread);
+    });
+    {
+      // int16 values travel as int32 (each sum has one non-zero term, so the result is exact).
+      std::vector<uint32_t> wide(features.size());
+      for (size_t k = 0; k < features.size(); ++k) wide[k] = static_cast<uint32_t>(int32_t(features[k]));
+      comm.sum(wide.data(), wide.size());
+      for (size_t k = 0; k < features.size(); ++k) features[k] = static_cast<int16_t>(int32_t(wide[k]));
+    }
+    std::vector<Grower::CandidateGroup> groups(n);
+    parallel_for(n, threads, [&](size_t i, int) {
+      const Item& it = items[b0 + i];
+      const NodeInfo& node = info[it.node];
+      grower.prepare_group_from(node, it.c0, it.c1, features.data() + feature_at[i], grower.sample_count(node),
+                                groups[i]);
+    });
+    // (2) local histograms
+    std::vector<size_t> count_at(n + 1, 0), sum_at(n + 1, 0);
+    for (size_t i = 0; i < n; ++i) {
+      const NodeInfo& node = info[items[b0 + i].node];
+      const size_t cells = classification ? groups[i].histogram_cells(node)
+                                          : size_t(groups[i].c1 - groups[i].c0) * groups[i].bins;
+      count_at[i + 1] = count_at[i] + cells;
+      sum_at[i + 1] = sum_at[i] + (classification ? 0 : grower.regression_sums(groups[i]));
+    }
+    std::vector<uint32_t> counts(count_at[n], 0);
+    std::vector<int64_t> sums(sum_at[n], 0);
+    parallel_for(n, threads, [&](size_t i, int thread) {
+      const NodeInfo& node = info[items[b0 + i].node];
+      if (classification)
+        grower.accumulate(node, groups[i], node.begin, node.end, counts.data() + count_at[i], thread);
+      else
+        grower.accumulate_regression(groups[i], node.begin, node.end, counts.data() + count_at[i],
+                                     sums.data() + sum_at[i], thread);
+    });
+    // (3) complete histograms, (4) scores: item i is scored by rank i mod N only (scoring costs as
+    // much as accumulating once nodes hold ~100 pixels), and one more sum shares the results.
+    comm.sum(counts.data(), counts.size());
+    if (!classification) comm.sum(sums.data(), sums.size());
+    const size_t ranks = size_t(comm.size()), me = size_t(comm.rank());
+    parallel_for(n, threads, [&](size_t i, int thread) {
+      if (i % ranks != me) return;
+      const NodeInfo& node = info[items[b0 + i].node];
+      if (classification) {
+        std::vector<uint32_t> cum;
+        results[b0 + i] = grower.score_group(node, groups[i], counts.data() + count_at[i], cum);
+      } else {
+        results[b0 + i] = grower.score_regression(node, groups[i], counts.data() + count_at[i],
+                                                  sums.data() + sum_at[i], thread);
+      }
+    });
+    constexpr size_t kFields = 7;  // score bits, candidate, du1, dv1, du2, dv2, threshold
+    std::vector<int64_t> shared(n * kFields, 0);
+    for (size_t i = me; i < n; i += ranks) {
+      const Best& b = results[b0 + i];
+      int64_t* f = &shared[i * kFields];
+      std::memcpy(&f[0], &b.score, sizeof b.score);
+      f[1] = b.candidate;
+      f[2] = b.du1;
+      f[3] = b.dv1;
+      f[4] = b.du2;
+      f[5] = b.dv2;
+      f[6] = b.threshold;
+    }
+    comm.sum(shared.data(), shared.size());  // one rank wrote each record, the others zeros
+    for (size_t i = 0; i < n; ++i) {
+      const int64_t* f = &shared[i * kFields];
+      Best& b = results[b0 + i];
+      std::memcpy(&b.score, &f[0], sizeof b.score);
+      b.candidate = static_cast<int>(f[1]);
+      b.du1 = static_cast<int32_t>(f[2]);
+      b.dv1 = static_cast<int32_t>(f[3]);
+      b.du2 = static_cast<int32_t>(f[4]);
+      b.dv2 = static_cast<int32_t>(f[5]);
+      b.threshold = static_cast<int32_t>(f[6]);
+    }
+    b0 = b1;
+  }
+}
+
 struct GrowNode {
   uint32_t heap;
   uint32_t begin, end;
@@ -686,13 +924,20 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
                     const TreeParams& params, const ProgressFn& progress, const GrowthState* resume,
                     const LevelDoneFn& level_done) {
   const auto tree_start = std::chrono::steady_clock::now();
-  if (pixels.empty()) fail("tree " + std::to_string(tree_index) + ": no training pixels");
+  Communicator* comm = params.comm;
+  {
+    uint32_t total = static_cast<uint32_t>(std::min<size_t>(pixels.size(), UINT32_MAX / 4));
+    if (comm) comm->sum(&total, 1);
+    if (total == 0) fail("tree " + std::to_string(tree_index) + ": no training pixels");
+  }
   if (params.max_depth < 1 || params.max_depth > kMaxForestDepth)
     fail("--depth must be 1.." + std::to_string(kMaxForestDepth));
   if (params.offset_candidates < 1) fail("--offsets must be ≥ 1");
   if (params.threshold_candidates < 1 || params.threshold_candidates > kMaxThresholds)
     fail("--thresholds must be 1.." + std::to_string(kMaxThresholds));
   if (params.max_offset_pxm < 0 || params.max_offset_pxm > 4096) fail("--max-offset must be 0..4096 pixel·metres");
+  if (params.objective == Objective::kRegression && !(params.rho_m > 0 && params.rho_m <= kMaxRhoM))
+    fail("--rho must be in (0, " + std::to_string(int(kMaxRhoM)) + "] metres");
   if (params.objective == Objective::kClassification && !set.has_labels)
     fail("the classification objective needs part labels (datasets with parts/)");
   if (params.objective == Objective::kRegression && (!set.has_joints || set.joint_names.empty()))
@@ -738,12 +983,12 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       info[f].end = g.end;
       info[f].level = level;
     }
-    parallel_for(info.size(), threads, [&](size_t f, int) { grower.prepare(info[f]); });
+    const uint64_t reduced_before = comm ? comm->bytes_reduced() : 0;
+    if (comm)
+      gather_node_stats(grower, info, *comm, threads);
+    else
+      parallel_for(info.size(), threads, [&](size_t f, int) { grower.prepare(info[f]); });
 
-    struct Item {
-      uint32_t node;
-      int c0, c1;
-    };
     std::vector<Item> items;
     std::vector<size_t> first_item(info.size() + 1, 0);
     size_t splittable = 0;
@@ -753,8 +998,8 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
     for (size_t f = 0; f < info.size(); ++f) {
       first_item[f] = items.size();
       if (!info[f].splittable) continue;
-      active += info[f].end - info[f].begin;
-      evaluations += uint64_t(info[f].end - info[f].begin) * params.offset_candidates;
+      active += info[f].count;
+      evaluations += uint64_t(info[f].count) * params.offset_candidates;
       const int chunk = grower.chunk_for(info[f], splittable);
       for (int c = 0; c < params.offset_candidates; c += chunk)
         items.push_back({static_cast<uint32_t>(f), c, std::min(params.offset_candidates, c + chunk)});
@@ -768,7 +1013,7 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
     // pixel's neighbourhood is loaded once for all the group's candidates, and the integer partial
     // histograms are summed per group before scoring. Deeper, items are (node, candidate chunk)
     // over all the node's pixels. Both give the same counts, hence the same splits.
-    const bool by_ranges = params.objective == Objective::kClassification && splittable > 0 &&
+    const bool by_ranges = !comm && params.objective == Objective::kClassification && splittable > 0 &&
                            splittable < size_t(8 * threads) && level >= replay_levels;
     std::vector<Grower::CandidateGroup> groups(by_ranges ? items.size() : 0);
     struct RangeItem {
@@ -796,7 +1041,8 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       for (const RangeItem& r : ranges) level_bytes += groups[r.group].histogram_cells(info[items[r.group].node]) * 4;
       range_peak_bytes = std::max(range_peak_bytes, level_bytes);
     }
-    const size_t work = by_ranges ? ranges.size() : items.size();
+    if (comm) search_distributed(grower, info, items, results, *comm, threads);
+    const size_t work = comm ? 0 : by_ranges ? ranges.size() : items.size();
     parallel_for(work, threads, [&](size_t i, int thread) {
       if (by_ranges) {
         const RangeItem& r = ranges[i];
@@ -912,6 +1158,7 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       r.split_nodes = splitting.size();
       r.active_pixels = active;
       r.feature_evaluations = evaluations;
+      r.bytes_reduced = comm ? comm->bytes_reduced() - reduced_before : 0;
       r.seconds = std::chrono::duration<double>(now - level_start).count();
       r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
       progress(r);

@@ -15,6 +15,7 @@
 #include <functional>
 #include <vector>
 
+#include "tools/train/communicator.h"
 #include "tools/train/forest_file.h"
 #include "tools/train/training_set.h"
 
@@ -44,12 +45,18 @@ struct TreeParams {
   uint64_t seed = 1;
   int threads = 1;
   const OffsetProposal* proposal = nullptr;
+  // Data-parallel growth over the ranks of `comm` (docs/training.md "Distributed training"): the
+  // pixels given to grow_tree are this rank's share (its images' pixels, a contiguous range of
+  // the tree's global pixel list, ranks in order); every rank grows the same tree. Null: one
+  // process, the pixels are all of them.
+  Communicator* comm = nullptr;
 };
 
 struct LevelReport {
   int tree = 0, level = 0;
   size_t frontier_nodes = 0, split_nodes = 0, active_pixels = 0;
-  uint64_t feature_evaluations = 0;  // pixel × offset-pair evaluations this level
+  uint64_t feature_evaluations = 0;  // pixel × offset-pair evaluations this level (all ranks)
+  uint64_t bytes_reduced = 0;        // distributed: payload bytes this rank contributed to sums this level
   double seconds = 0;                // this level
   double tree_seconds = 0;           // since the tree started
   bool partial = false;              // a heartbeat within a long level: only `done` is meaningful
