@@ -52,7 +52,8 @@ struct HumanAssets {
   std::vector<Vec3f> base_vertices;           // all mesh vertices, metres
   std::vector<std::array<uint32_t, 3>> body_triangles;  // indices < kBodyVertexCount
   std::vector<RigBone> bones;                 // cmu_mb, parents before children
-  // Skinning, compressed rows per body vertex: influences [skin_offsets[v], skin_offsets[v+1]).
+  // Skinning, compressed rows per mesh vertex (body and helpers; garments bind to helpers):
+  // influences [skin_offsets[v], skin_offsets[v+1]); every body vertex has at least one.
   std::vector<uint32_t> skin_offsets;
   std::vector<uint16_t> skin_bones;
   std::vector<float> skin_weights;            // sum to 1 per vertex
