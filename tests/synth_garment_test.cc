@@ -119,6 +119,7 @@ TEST(SynthGarment, RefusesMalformedObj) {
 
 TEST(SynthGarment, LoadNamesTheMissingFile) {
   const std::string dir = ::testing::TempDir() + "/garment_missing";
+  std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   EXPECT_THROW(
       {

@@ -58,6 +58,11 @@ const char* kUsage =
     "  --pool-report       print the pose pool per CMU category (before/after pruning, times)\n"
     "  --pool-sheet FILE.png  one row of pruned-pool poses per kind (real, mirror, noise, recombined)\n"
     "  --ages A-B          age range in years (default 13-75)\n"
+    "  --clothed F         share of bodies wearing an outfit and shoes from the MakeHuman CC0\n"
+    "                      wardrobe (default 0.8; the rest are the bare mesh); 0 = never\n"
+    "  --hat P --hair P    of clothed bodies, the share with a hat (default 0.15) and with hair (0.85)\n"
+    "  --wardrobe-sheet FILE.png  every outfit (with shoes, hair, and a hat on some) on the base body\n"
+    "                      in the A-pose, front row and back row, in part colours: checks garment fit\n"
     "  --parts-figure PREFIX  write PREFIX_front.png and PREFIX_back.png (labelled body, docs/parts.md)\n"
     "  --pose-sheet FILE.png  one row of posed bodies per skeleton naming of the selected clips\n"
     "                      (first frame, then frames spread over its clips): checks retargeting\n";
@@ -79,7 +84,8 @@ int run_synth(int argc, char** argv) {
   dp::tools::Args args(argc, argv, kUsage,
                        {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
-                        "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed", "--pool-sheet"},
+                        "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed", "--pool-sheet",
+                        "--clothed", "--hat", "--hair", "--wardrobe-sheet"},
                        {"--floor", "--no-noise", "--sequence", "--pool-report"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
@@ -110,6 +116,12 @@ int run_synth(int argc, char** argv) {
     fail("--pose-pool must be clips or varied, got '" + pool_kind + "'");
   }
   config.pose_variation.seed = uint64_t(args.get_int("--pose-seed", 1));
+  config.clothed_share = args.get_double("--clothed", 0.8);
+  config.hat_probability = args.get_double("--hat", 0.15);
+  config.hair_probability = args.get_double("--hair", 0.85);
+  for (const auto& [name, value] : {std::pair<const char*, double>{"--clothed", config.clothed_share},
+                                    {"--hat", config.hat_probability}, {"--hair", config.hair_probability}})
+    if (!(value >= 0 && value <= 1)) fail(std::string(name) + " must be a share in [0, 1], got " + std::to_string(value));
   if (args.has("--ages")) {
     const std::string a = args.get("--ages");
     char* end = nullptr;
@@ -122,7 +134,7 @@ int run_synth(int argc, char** argv) {
   }
   const std::string assets = args.get("--assets", "../shared/assets");
   const bool figures_only =
-      (args.has("--parts-figure") || args.has("--pose-sheet") || args.has("--pool-sheet") || args.flag("--pool-report")) &&
+      (args.has("--parts-figure") || args.has("--wardrobe-sheet") || args.has("--pose-sheet") || args.has("--pool-sheet") || args.flag("--pool-report")) &&
       !args.has("--out");
 
   const auto t0 = std::chrono::steady_clock::now();
@@ -140,6 +152,31 @@ int run_synth(int argc, char** argv) {
     dp::tools::write_png_rgb(prefix + "_front.png", synth.render_parts_figure(pose, 0, 480, 640));
     dp::tools::write_png_rgb(prefix + "_back.png", synth.render_parts_figure(pose, 180, 480, 640));
     std::fprintf(stderr, "synth: wrote %s_front.png and %s_back.png\n", prefix.c_str(), prefix.c_str());
+  }
+  if (args.has("--wardrobe-sheet")) {
+    const Wardrobe& w = synth.wardrobe();
+    if (w.empty()) fail("--wardrobe-sheet needs the wardrobe: --clothed must be > 0");
+    const int cols = int(w.of(GarmentKind::kOutfit).size()), cw = 120, ch = 240;
+    dp::tools::ImageRgb sheet;
+    sheet.resize(cols * cw, 2 * ch);
+    const BodyPose pose = rest_pose(synth.assets());
+    for (int i = 0; i < cols; ++i) {
+      Outfit outfit;
+      outfit.outfit = i;
+      outfit.shoes = i % int(w.of(GarmentKind::kShoes).size());
+      outfit.hair = i % int(w.of(GarmentKind::kHair).size());
+      if (i % 4 == 3) outfit.hat = (i / 4) % int(w.of(GarmentKind::kHat).size());
+      for (int row = 0; row < 2; ++row) {
+        const dp::tools::ImageRgb cell = synth.render_parts_figure(pose, row * 180.0, cw, ch, outfit);
+        for (int y = 0; y < ch; ++y)
+          for (int x = 0; x < cw; ++x) {
+            const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
+            sheet.set(i * cw + x, row * ch + y, c[0], c[1], c[2]);
+          }
+      }
+    }
+    dp::tools::write_png_rgb(args.get("--wardrobe-sheet"), sheet);
+    std::fprintf(stderr, "synth: wrote %s\n", args.get("--wardrobe-sheet").c_str());
   }
   if (args.has("--pose-sheet")) {
     // One row per skeleton naming among the selected clips: its first frame (the rest pose of a
