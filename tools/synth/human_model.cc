@@ -376,6 +376,22 @@ std::vector<Vec3f> shaped_vertices(const HumanAssets& a, const ShapeControls& c)
   return v;
 }
 
+double limit_stature(std::vector<Vec3f>& v, double lo, double hi) {
+  float feet = v[0].y, crown = v[0].y;
+  for (int i = 0; i < kBodyVertexCount; ++i) {
+    feet = std::min(feet, v[i].y);
+    crown = std::max(crown, v[i].y);
+  }
+  const double height = double(crown - feet);
+  double target = height;
+  if (lo > 0 && height < lo) target = lo;
+  if (hi > 0 && height > hi) target = hi;
+  if (target == height || !(height > 0)) return height;
+  const float scale = float(target / height);
+  for (Vec3f& p : v) p.y = feet + (p.y - feet) * scale;
+  return target;
+}
+
 Skeleton measure_skeleton(const HumanAssets& a, const std::vector<Vec3f>& v) {
   Skeleton s;
   auto mean = [&](const std::vector<uint32_t>& idx) {

@@ -78,6 +78,11 @@ std::vector<std::pair<const ShapeTarget*, float>> target_weights(const HumanAsse
 // axis. Returns all vertices (metres).
 std::vector<Vec3f> shaped_vertices(const HumanAssets& assets, const ShapeControls& c);
 
+// Standing height of a shaped body (metres: lowest to highest body vertex). When lo > 0 or
+// hi > 0 and the height lies outside [lo, hi] (a limit of 0 is open), scales every vertex
+// vertically about the feet to the nearer limit. Returns the height after that.
+double limit_stature(std::vector<Vec3f>& vertices, double lo, double hi);
+
 // Bone heads and tails measured on a (shaped) vertex array: means of the joint cubes.
 struct Skeleton {
   std::vector<Vec3> heads, tails;

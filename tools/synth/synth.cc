@@ -40,10 +40,10 @@ nlohmann::json outfit_json(const Wardrobe& wardrobe_, const Outfit& outfit) {
 void sample_shape(Rng& rng, const SynthConfig& c, ShapeControls& s) {
   s.gender = rng.uniform();
   s.age = age_control_from_years(rng.uniform(c.age_min_years, c.age_max_years));
-  s.muscle = rng.uniform(0.15, 0.85);
-  s.weight = rng.uniform(0.1, 0.9);
-  s.height = rng.uniform(0.4, 0.6);  // adults ~1.5-1.9 m before the extra scale
-  s.proportions = rng.uniform(0.3, 1.0);
+  s.muscle = rng.uniform(c.muscle_min, c.muscle_max);
+  s.weight = rng.uniform(c.weight_min, c.weight_max);
+  s.height = rng.uniform(c.height_min, c.height_max);  // adult defaults: ~1.5-1.9 m before the extra scale
+  s.proportions = rng.uniform(c.proportions_min, c.proportions_max);
   s.african = rng.uniform();
   s.asian = rng.uniform();
   s.caucasian = rng.uniform();
@@ -286,6 +286,7 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
   };
 
   std::vector<JointSet> body_joints;
+  double body0_stature = 0;
   const size_t bodies = 1 + p.others.size();
   for (size_t b = 0; b < bodies; ++b) {
     OtherPerson o;
@@ -304,7 +305,9 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
     const BodyPose& pose = library_.poses[o.pose_index];
 
     // Shape, skeleton, pose, skin.
-    const std::vector<Vec3f> shaped = shaped_vertices(assets_, o.shape);
+    std::vector<Vec3f> shaped = shaped_vertices(assets_, o.shape);
+    const double stature = limit_stature(shaped, config_.stature_min_m, config_.stature_max_m);
+    if (b == 0) body0_stature = stature;
     const Skeleton rest = measure_skeleton(assets_, shaped);
     lap(&SynthStageTimes::shape);
     const Skeleton posed = pose_skeleton(assets_, rest, pose);
@@ -443,7 +446,8 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
   extra["shape"] = {{"gender", p.shape.gender},        {"age", p.shape.age},
                     {"muscle", p.shape.muscle},        {"weight", p.shape.weight},
                     {"height", p.shape.height},        {"proportions", p.shape.proportions},
-                    {"extra_height", p.shape.extra_height}, {"extra_weight", p.shape.extra_weight}};
+                    {"extra_height", p.shape.extra_height}, {"extra_weight", p.shape.extra_weight},
+                    {"stature", std::round(body0_stature * 1000) / 1000}};
   extra["rotation"] = p.yaw_deg;
   extra["camera"] = {{"height", p.camera_height_m}, {"pitch", p.camera_pitch_deg}, {"roll", p.camera_roll_deg}};
   extra["distance"] = p.distance_m;

@@ -65,6 +65,14 @@ struct SynthConfig {
   double hair_probability = 0.85;
   // Body shape ranges.
   double age_min_years = 13, age_max_years = 75;
+  // Macro controls (MakeHuman's sliders, [0, 1], human_model.h), each uniform in [min, max]. The
+  // defaults are adult-like ranges; `synth --bodies wide` (its default) uses [0, 1] for all four.
+  double muscle_min = 0.15, muscle_max = 0.85, weight_min = 0.1, weight_max = 0.9;
+  double height_min = 0.4, height_max = 0.6, proportions_min = 0.3, proportions_max = 1.0;
+  // Standing height (metres, rest pose, feet to crown, after the extra scale): a body outside
+  // [stature_min_m, stature_max_m] is scaled vertically about its feet to the nearer limit.
+  // 0 = no limit (the default; `synth --bodies wide` uses 1.1-2.0 m).
+  double stature_min_m = 0, stature_max_m = 0;
   double extra_scale = 0.10;         // +-10 % extra height and weight (paper)
 };
 

@@ -57,7 +57,13 @@ const char* kUsage =
     "  --pose-seed S       seed of the pose variation (default 1)\n"
     "  --pool-report       print the pose pool per CMU category (before/after pruning, times)\n"
     "  --pool-sheet FILE.png  one row of pruned-pool poses per kind (real, mirror, noise, recombined)\n"
-    "  --ages A-B          age range in years (default 13-75)\n"
+    "  --bodies KIND       wide (default): every macro control over its full range, ages 6-80,\n"
+    "                      standing heights kept within 1.1-2.0 m; adult: the earlier adult ranges\n"
+    "                      (ages 13-75, heights ~1.5-1.9 m, no limit); see docs/synthetic_data.md\n"
+    "  --ages A-B          age range in years (default: by --bodies)\n"
+    "  --camera-height A-B camera height above the floor in metres (default 0.5-1.9)\n"
+    "  --camera-pitch A-B  camera pitch in degrees, positive looking down (default -5-25)\n"
+    "  --camera-roll R     camera roll uniform in [-R, R] degrees (default 6)\n"
     "  --clothed F         share of bodies wearing an outfit and shoes from the MakeHuman CC0\n"
     "                      wardrobe (default 0.8; the rest are the bare mesh); 0 = never\n"
     "  --hat P --hair P    of clothed bodies, the share with a hat (default 0.15) and with hair (0.85)\n"
@@ -74,6 +80,17 @@ std::string format_seconds(double s) {
   return buf;
 }
 
+// "A-B" (or "A:B"; A may be negative, e.g. -5-25) with lo <= A <= B <= hi.
+void parse_range(const std::string& text, const char* option, double lo, double hi, double& a, double& b) {
+  char* end = nullptr;
+  a = std::strtod(text.c_str(), &end);
+  const bool separated = end != text.c_str() && (*end == '-' || *end == ':');
+  if (separated) b = std::strtod(end + 1, &end);
+  if (!separated || *end || !(a >= lo) || !(b >= a) || !(b <= hi))
+    fail(std::string(option) + " wants A-B with " + std::to_string(lo) + " <= A <= B <= " + std::to_string(hi) +
+         ", got '" + text + "'");
+}
+
 void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
   std::ofstream f(path, std::ios::binary);
   f.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
@@ -85,7 +102,8 @@ int run_synth(int argc, char** argv) {
                        {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
                         "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed", "--pool-sheet",
-                        "--clothed", "--hat", "--hair", "--wardrobe-sheet"},
+                        "--clothed", "--hat", "--hair", "--wardrobe-sheet", "--bodies", "--camera-height",
+                        "--camera-pitch", "--camera-roll"},
                        {"--floor", "--no-noise", "--sequence", "--pool-report"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
@@ -122,16 +140,29 @@ int run_synth(int argc, char** argv) {
   for (const auto& [name, value] : {std::pair<const char*, double>{"--clothed", config.clothed_share},
                                     {"--hat", config.hat_probability}, {"--hair", config.hair_probability}})
     if (!(value >= 0 && value <= 1)) fail(std::string(name) + " must be a share in [0, 1], got " + std::to_string(value));
-  if (args.has("--ages")) {
-    const std::string a = args.get("--ages");
-    char* end = nullptr;
-    config.age_min_years = std::strtod(a.c_str(), &end);
-    if (*end != '-') fail("--ages wants A-B in years, got '" + a + "'");
-    config.age_max_years = std::strtod(end + 1, &end);
-    if (*end || !(config.age_min_years >= 1) || !(config.age_max_years >= config.age_min_years) ||
-        config.age_max_years > 90)
-      fail("--ages wants A-B with 1 <= A <= B <= 90, got '" + a + "'");
+  const std::string bodies = args.get("--bodies", "wide");
+  if (bodies == "wide") {
+    config.muscle_min = config.weight_min = config.height_min = config.proportions_min = 0.0;
+    config.muscle_max = config.weight_max = config.height_max = config.proportions_max = 1.0;
+    config.age_min_years = 6;
+    config.age_max_years = 80;
+    config.stature_min_m = 1.1;
+    config.stature_max_m = 2.0;
+  } else if (bodies != "adult") {
+    fail("--bodies must be wide or adult, got '" + bodies + "'");
   }
+  if (args.has("--ages")) {
+    parse_range(args.get("--ages"), "--ages", 1, 90, config.age_min_years, config.age_max_years);
+  }
+  if (args.has("--camera-height"))
+    parse_range(args.get("--camera-height"), "--camera-height", 0.1, 3.0, config.camera_height_min_m,
+                config.camera_height_max_m);
+  if (args.has("--camera-pitch"))
+    parse_range(args.get("--camera-pitch"), "--camera-pitch", -60, 60, config.camera_pitch_min_deg,
+                config.camera_pitch_max_deg);
+  config.camera_roll_max_deg = args.get_double("--camera-roll", config.camera_roll_max_deg);
+  if (!(config.camera_roll_max_deg >= 0 && config.camera_roll_max_deg <= 45))
+    fail("--camera-roll must be 0..45 degrees, got " + std::to_string(config.camera_roll_max_deg));
   const std::string assets = args.get("--assets", "../shared/assets");
   const bool figures_only =
       (args.has("--parts-figure") || args.has("--wardrobe-sheet") || args.has("--pose-sheet") || args.has("--pool-sheet") || args.flag("--pool-report")) &&
