@@ -8,7 +8,9 @@
 #include <memory>
 #include <thread>
 
+#include "tools/cli/command.h"
 #include "tools/common/body_model.h"
+#include "tools/common/error.h"
 #include "tools/synth/synth.h"
 #include "tests/shared_data.h"
 
@@ -193,6 +195,48 @@ TEST_F(SynthClothingSharedData, ClothedFramesAreDeterministicAcrossThreads) {
   }
   for (uint64_t i = 0; i < 400; ++i) hats += synth_->sample_frame_params(9, i).outfit.hat >= 0;
   EXPECT_NEAR(hats / 400.0, 0.5, 0.1) << "hat probability 0.5";
+}
+
+TEST(SynthStature, BodiesOutsideTheLimitsAreScaledAboutTheirFeet) {
+  std::vector<Vec3f> v(kBodyVertexCount + 10);
+  for (size_t i = 0; i < v.size(); ++i) v[i] = {0.001f * float(i % 100), 0.3f + 2.2f * float(i) / float(v.size() - 1), 0.0f};
+  v.back().y = 9.0f;  // a helper vertex: not part of the standing height
+  const float body_top = v[kBodyVertexCount - 1].y;
+  std::vector<Vec3f> tall = v;
+  EXPECT_NEAR(limit_stature(tall, 1.1, 2.0), 2.0, 1e-6);
+  EXPECT_NEAR(tall[0].y, 0.3f, 1e-6);  // feet stay
+  EXPECT_NEAR(tall[kBodyVertexCount - 1].y - tall[0].y, 2.0f, 1e-5);
+  EXPECT_NEAR(tall[5].x, v[5].x, 0);  // only vertical
+  std::vector<Vec3f> open = v;
+  EXPECT_NEAR(limit_stature(open, 0, 0), body_top - 0.3f, 1e-5);
+  EXPECT_EQ(open[kBodyVertexCount - 1].y, body_top);
+  std::vector<Vec3f> short_body = v;
+  for (Vec3f& p : short_body) p.y *= 0.3f;
+  EXPECT_NEAR(limit_stature(short_body, 1.1, 2.0), 1.1, 1e-6);
+  EXPECT_NEAR(short_body[kBodyVertexCount - 1].y - short_body[0].y, 1.1f, 1e-5);
+}
+
+// The synth command refuses bad clothing, body and camera options before loading any asset.
+TEST(SynthOptions, RefusesBadClothingBodyAndCameraOptions) {
+  const dp::cli::Command* cmd = dp::cli::find_command("synth");
+  ASSERT_NE(cmd, nullptr);
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"--clothed", "1.5"}, "--clothed"},           {{"--hat", "-0.1"}, "--hat"},
+      {{"--bodies", "giant"}, "--bodies"},           {{"--camera-pitch", "25-5"}, "--camera-pitch"},
+      {{"--camera-height", "0.5"}, "--camera-height"}, {{"--camera-roll", "90"}, "--camera-roll"},
+      {{"--ages", "3-95"}, "--ages"}};
+  for (const auto& [extra, named] : cases) {
+    std::vector<std::string> args = {"synth", "--assets", "/nonexistent", "--out", "/nonexistent/out", "--frames", "1"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    try {
+      cmd->run(int(argv.size()), argv.data());
+      ADD_FAILURE() << "accepted " << extra[0] << " " << extra[1];
+    } catch (const dp::tools::ToolError& e) {
+      EXPECT_NE(std::string(e.what()).find(named), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace
