@@ -91,6 +91,15 @@ void parse_range(const std::string& text, const char* option, double lo, double 
          ", got '" + text + "'");
 }
 
+// Copies a figure cell into a contact sheet at (x0, y0).
+void paste_cell(const dp::tools::ImageRgb& cell, dp::tools::ImageRgb& sheet, int x0, int y0) {
+  for (int y = 0; y < cell.height; ++y)
+    for (int x = 0; x < cell.width; ++x) {
+      const uint8_t* c = &cell.pixels[(size_t(y) * cell.width + x) * 3];
+      sheet.set(x0 + x, y0 + y, c[0], c[1], c[2]);
+    }
+}
+
 void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
   std::ofstream f(path, std::ios::binary);
   f.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
@@ -199,11 +208,7 @@ int run_synth(int argc, char** argv) {
       if (i % 4 == 3) outfit.hat = (i / 4) % int(w.of(GarmentKind::kHat).size());
       for (int row = 0; row < 2; ++row) {
         const dp::tools::ImageRgb cell = synth.render_parts_figure(pose, row * 180.0, cw, ch, outfit);
-        for (int y = 0; y < ch; ++y)
-          for (int x = 0; x < cw; ++x) {
-            const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
-            sheet.set(i * cw + x, row * ch + y, c[0], c[1], c[2]);
-          }
+        paste_cell(cell, sheet, i * cw, row * ch);
       }
     }
     dp::tools::write_png_rgb(args.get("--wardrobe-sheet"), sheet);
@@ -234,11 +239,7 @@ int run_synth(int argc, char** argv) {
         const size_t at = i == 0 ? 0 : frames.size() * size_t(2 * i - 1) / size_t(2 * (cols - 1));
         const BodyPose pose = retarget_frame(synth.assets(), rest, *frames[at].first, frames[at].second);
         dp::tools::ImageRgb cell = synth.render_parts_figure(pose, 20, cw, ch);
-        for (int y = 0; y < ch; ++y)
-          for (int x = 0; x < cw; ++x) {
-            const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
-            sheet.set(i * cw + x, row * ch + y, c[0], c[1], c[2]);
-          }
+        paste_cell(cell, sheet, i * cw, row * ch);
       }
     }
     dp::tools::write_png_rgb(args.get("--pose-sheet"), sheet);
@@ -269,11 +270,7 @@ int run_synth(int argc, char** argv) {
       for (int i = 0; i < cols; ++i) {
         const size_t pick = members[members.size() * size_t(2 * i + 1) / size_t(2 * cols)];
         dp::tools::ImageRgb cell = synth.render_parts_figure(lib.poses[pick], 20, cw, ch);
-        for (int y = 0; y < ch; ++y)
-          for (int x = 0; x < cw; ++x) {
-            const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
-            sheet.set(i * cw + x, int(row) * ch + y, c[0], c[1], c[2]);
-          }
+        paste_cell(cell, sheet, i * cw, int(row) * ch);
       }
     }
     dp::tools::write_png_rgb(args.get("--pool-sheet"), sheet);
