@@ -212,7 +212,7 @@ bench: $(BENCH_BINS) $(CLI) $(EXTRA_LINK_DEPS)
 # ---- fuzz (clang + libFuzzer) --------------------------------------------------------------
 # One target per parser (tests/fuzz/*_fuzz.cc), each built with its own sources under ASan+UBSan
 # and run FUZZ_SECONDS (default 15) from the seeds in tests/fuzz/seeds/<target> (the blob target
-# from the demo blobs); 7 targets × 15 s + builds stay within about 3 minutes. Any crash, leak,
+# from the demo blobs); 8 targets × 15 s + builds stay within about 3 minutes. Any crash, leak,
 # sanitizer report or timeout fails the target. Crash inputs land in $(BUILD)/fuzz/artifacts.
 FUZZ_CXX := clang++-14
 FUZZ_SECONDS ?= 15
@@ -232,7 +232,8 @@ FUZZ_SRCS_asf_amc       := tools/synth/motion.cc tools/synth/skeleton_naming.cc
 FUZZ_LIBS_asf_amc       := -lz
 FUZZ_SRCS_pcl_tree      := tools/convert/pcl_tree_reader.cc
 FUZZ_LIBS_pcl_tree      := -lbz2
-FUZZ_TARGETS := blob_loader forest_file oni_container png_dataset bvh asf_amc pcl_tree
+FUZZ_SRCS_mhclo         := tools/synth/garment.cc
+FUZZ_TARGETS := blob_loader forest_file oni_container png_dataset bvh asf_amc pcl_tree mhclo
 
 $(FUZZ_DIR)/blob_loader_fuzz: tests/fuzz/blob_loader_fuzz.cc $(FUZZ_SRCS_blob_loader)
 	@mkdir -p $(@D)

@@ -189,7 +189,8 @@ HumanAssets load_human_assets(const std::string& assets_dir) {
   const std::string weights_path = mh + "/rigs/standard/weights.cmu_mb.json";
   {
     json w = parse_json_file(weights_path);
-    std::vector<std::vector<std::pair<uint16_t, float>>> per_vertex(kBodyVertexCount);
+    // Every mesh vertex that has weights gets its row: garments are bound to helper vertices.
+    std::vector<std::vector<std::pair<uint16_t, float>>> per_vertex(vertex_count);
     try {
       for (auto it = w.at("weights").begin(); it != w.at("weights").end(); ++it) {
         int b = a.bone_index(it.key());
@@ -197,19 +198,19 @@ HumanAssets load_human_assets(const std::string& assets_dir) {
         for (const json& pair : it.value()) {
           uint32_t v = pair.at(0).get<uint32_t>();
           float wt = pair.at(1).get<float>();
-          if (v < uint32_t(kBodyVertexCount) && wt > 0) per_vertex[v].push_back({uint16_t(b), wt});
+          if (v < vertex_count && wt > 0) per_vertex[v].push_back({uint16_t(b), wt});
         }
       }
     } catch (const json::exception& e) {
       fail(weights_path + ": malformed weights: " + e.what());
     }
     a.skin_offsets.push_back(0);
-    for (int v = 0; v < kBodyVertexCount; ++v) {
+    for (size_t v = 0; v < vertex_count; ++v) {
       auto& list = per_vertex[v];
-      if (list.empty()) fail(weights_path + ": body vertex " + std::to_string(v) + " has no weights");
+      if (list.empty() && v < size_t(kBodyVertexCount)) fail(weights_path + ": body vertex " + std::to_string(v) + " has no weights");
       std::sort(list.begin(), list.end(), [](auto& x, auto& y) { return x.first < y.first; });
       float sum = 0;
-      for (auto& p : list) sum += p.second;
+      for (auto& p : list) sum += p.second;  // an unweighted helper vertex keeps an empty row
       for (auto& p : list) {
         a.skin_bones.push_back(p.first);
         a.skin_weights.push_back(p.second / sum);
@@ -373,6 +374,22 @@ std::vector<Vec3f> shaped_vertices(const HumanAssets& a, const ShapeControls& c)
     }
   }
   return v;
+}
+
+double limit_stature(std::vector<Vec3f>& v, double lo, double hi) {
+  float feet = v[0].y, crown = v[0].y;
+  for (int i = 0; i < kBodyVertexCount; ++i) {
+    feet = std::min(feet, v[i].y);
+    crown = std::max(crown, v[i].y);
+  }
+  const double height = double(crown - feet);
+  double target = height;
+  if (lo > 0 && height < lo) target = lo;
+  if (hi > 0 && height > hi) target = hi;
+  if (target == height || !(height > 0)) return height;
+  const float scale = float(target / height);
+  for (Vec3f& p : v) p.y = feet + (p.y - feet) * scale;
+  return target;
 }
 
 Skeleton measure_skeleton(const HumanAssets& a, const std::vector<Vec3f>& v) {

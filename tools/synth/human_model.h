@@ -52,7 +52,8 @@ struct HumanAssets {
   std::vector<Vec3f> base_vertices;           // all mesh vertices, metres
   std::vector<std::array<uint32_t, 3>> body_triangles;  // indices < kBodyVertexCount
   std::vector<RigBone> bones;                 // cmu_mb, parents before children
-  // Skinning, compressed rows per body vertex: influences [skin_offsets[v], skin_offsets[v+1]).
+  // Skinning, compressed rows per mesh vertex (body and helpers; garments bind to helpers):
+  // influences [skin_offsets[v], skin_offsets[v+1]); every body vertex has at least one.
   std::vector<uint32_t> skin_offsets;
   std::vector<uint16_t> skin_bones;
   std::vector<float> skin_weights;            // sum to 1 per vertex
@@ -76,6 +77,11 @@ std::vector<std::pair<const ShapeTarget*, float>> target_weights(const HumanAsse
 // Base + sum of weighted target deltas, then extra height/weight scaling about the feet / body
 // axis. Returns all vertices (metres).
 std::vector<Vec3f> shaped_vertices(const HumanAssets& assets, const ShapeControls& c);
+
+// Standing height of a shaped body (metres: lowest to highest body vertex). When lo > 0 or
+// hi > 0 and the height lies outside [lo, hi] (a limit of 0 is open), scales every vertex
+// vertically about the feet to the nearer limit. Returns the height after that.
+double limit_stature(std::vector<Vec3f>& vertices, double lo, double hi);
 
 // Bone heads and tails measured on a (shaped) vertex array: means of the joint cubes.
 struct Skeleton {

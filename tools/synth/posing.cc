@@ -96,34 +96,35 @@ JointSet joints_of(const HumanAssets& a, const Skeleton& s) {
   return j;
 }
 
-void skin_body(const HumanAssets& a, const std::vector<Vec3f>& shaped, const Skeleton& rest, const Skeleton& posed,
-               const BodyPose& pose, std::vector<Vec3f>& out) {
-  struct Affine {
-    float r[9];
-    float t[3];
-  };
-  std::vector<Affine> bone(a.bones.size());
+std::vector<SkinTransform> bone_skin_transforms(const HumanAssets& a, const Skeleton& rest, const Skeleton& posed,
+                                               const BodyPose& pose) {
+  std::vector<SkinTransform> bone(a.bones.size());
   for (size_t b = 0; b < a.bones.size(); ++b) {
     const Mat3& g = pose.bone_world[b];
     Vec3 t = posed.heads[b] - g * rest.heads[b];
-    for (int i = 0; i < 9; ++i) bone[b].r[i] = float(g.m[i]);
-    bone[b].t[0] = float(t.x);
-    bone[b].t[1] = float(t.y);
-    bone[b].t[2] = float(t.z);
+    for (int i = 0; i < 9; ++i) bone[b].m[i] = float(g.m[i]);
+    bone[b].m[9] = float(t.x);
+    bone[b].m[10] = float(t.y);
+    bone[b].m[11] = float(t.z);
   }
+  return bone;
+}
+
+SkinTransform vertex_skin_transform(const HumanAssets& a, const std::vector<SkinTransform>& bones, uint32_t v) {
+  SkinTransform m;
+  for (uint32_t i = a.skin_offsets[v]; i < a.skin_offsets[v + 1]; ++i) {
+    const SkinTransform& A = bones[a.skin_bones[i]];
+    const float w = a.skin_weights[i];
+    for (int k = 0; k < 12; ++k) m.m[k] += w * A.m[k];
+  }
+  return m;
+}
+
+void skin_body(const HumanAssets& a, const std::vector<Vec3f>& shaped, const Skeleton& rest, const Skeleton& posed,
+               const BodyPose& pose, std::vector<Vec3f>& out) {
+  const std::vector<SkinTransform> bones = bone_skin_transforms(a, rest, posed, pose);
   out.resize(kBodyVertexCount);
-  for (int v = 0; v < kBodyVertexCount; ++v) {
-    float m[12] = {0};
-    for (uint32_t i = a.skin_offsets[v]; i < a.skin_offsets[v + 1]; ++i) {
-      const Affine& A = bone[a.skin_bones[i]];
-      const float w = a.skin_weights[i];
-      for (int k = 0; k < 9; ++k) m[k] += w * A.r[k];
-      for (int k = 0; k < 3; ++k) m[9 + k] += w * A.t[k];
-    }
-    const Vec3f& p = shaped[v];
-    out[v] = {m[0] * p.x + m[1] * p.y + m[2] * p.z + m[9], m[3] * p.x + m[4] * p.y + m[5] * p.z + m[10],
-              m[6] * p.x + m[7] * p.y + m[8] * p.z + m[11]};
-  }
+  for (int v = 0; v < kBodyVertexCount; ++v) out[v] = vertex_skin_transform(a, bones, uint32_t(v)).apply(shaped[v]);
 }
 
 std::vector<uint8_t> vertex_part_labels(const HumanAssets& a) {

@@ -38,6 +38,25 @@ Skeleton pose_skeleton(const HumanAssets& assets, const Skeleton& rest, const Bo
 // The 16 joints (kJointNames order; the rig point each one is: posing.cc) on a posed skeleton.
 JointSet joints_of(const HumanAssets& assets, const Skeleton& posed);
 
+// An affine map in float: m[0..8] the 3x3 linear part (row-major), m[9..11] the translation.
+struct SkinTransform {
+  float m[12] = {0};
+  Vec3f apply(const Vec3f& p) const {
+    return {m[0] * p.x + m[1] * p.y + m[2] * p.z + m[9], m[3] * p.x + m[4] * p.y + m[5] * p.z + m[10],
+            m[6] * p.x + m[7] * p.y + m[8] * p.z + m[11]};
+  }
+  Vec3f rotate(const Vec3f& d) const {
+    return {m[0] * d.x + m[1] * d.y + m[2] * d.z, m[3] * d.x + m[4] * d.y + m[5] * d.z,
+            m[6] * d.x + m[7] * d.y + m[8] * d.z};
+  }
+};
+// Per bone: rest -> posed, x' = G_b (x - rest head) + posed head.
+std::vector<SkinTransform> bone_skin_transforms(const HumanAssets& assets, const Skeleton& rest, const Skeleton& posed,
+                                               const BodyPose& pose);
+// Linear blend of the bone transforms by vertex v's skin weights (any mesh vertex, helpers too;
+// all zero for a vertex without weights).
+SkinTransform vertex_skin_transform(const HumanAssets& assets, const std::vector<SkinTransform>& bones, uint32_t v);
+
 // Linear blend skinning of the body vertices (first kBodyVertexCount of `shaped`). `out` is
 // resized to kBodyVertexCount.
 void skin_body(const HumanAssets& assets, const std::vector<Vec3f>& shaped, const Skeleton& rest,

@@ -30,13 +30,20 @@ double age_control_from_years(double years) {
   return std::min(1.0, 0.5 + 0.5 * (years - 25) / 65.0);
 }
 
+// frames.jsonl record of what a body wears (names from the mhclo files, null = none).
+nlohmann::json outfit_json(const Wardrobe& wardrobe_, const Outfit& outfit) {
+  auto name = [&](GarmentKind k, int i) { return i < 0 ? nlohmann::json(nullptr) : nlohmann::json(wardrobe_.of(k)[size_t(i)].garment.name); };
+  return {{"clothes", name(GarmentKind::kOutfit, outfit.outfit)}, {"shoes", name(GarmentKind::kShoes, outfit.shoes)},
+          {"hat", name(GarmentKind::kHat, outfit.hat)}, {"hair", name(GarmentKind::kHair, outfit.hair)}};
+}
+
 void sample_shape(Rng& rng, const SynthConfig& c, ShapeControls& s) {
   s.gender = rng.uniform();
   s.age = age_control_from_years(rng.uniform(c.age_min_years, c.age_max_years));
-  s.muscle = rng.uniform(0.15, 0.85);
-  s.weight = rng.uniform(0.1, 0.9);
-  s.height = rng.uniform(0.4, 0.6);  // adults ~1.5-1.9 m before the extra scale
-  s.proportions = rng.uniform(0.3, 1.0);
+  s.muscle = rng.uniform(c.muscle_min, c.muscle_max);
+  s.weight = rng.uniform(c.weight_min, c.weight_max);
+  s.height = rng.uniform(c.height_min, c.height_max);  // adult defaults: ~1.5-1.9 m before the extra scale
+  s.proportions = rng.uniform(c.proportions_min, c.proportions_max);
   s.african = rng.uniform();
   s.asian = rng.uniform();
   s.caucasian = rng.uniform();
@@ -96,6 +103,9 @@ Synthesizer::Synthesizer(const std::string& assets_dir, const SynthConfig& confi
   intrinsics_.fx = intrinsics_.fy = config_.focal_640 * config_.width / 640.0;
   assets_ = load_human_assets(assets_dir);
   vertex_labels_ = vertex_part_labels(assets_);
+  if (!(config_.clothed_share >= 0 && config_.clothed_share <= 1))
+    fail("clothed share must be in [0, 1], got " + std::to_string(config_.clothed_share));
+  if (config_.clothed_share > 0) wardrobe_ = load_wardrobe(assets_dir, assets_, vertex_labels_);
   std::vector<ClipEntry> entries;
   std::vector<MotionClip> clips =
       load_clips(assets_dir, config_.clips, config_.pose_frame_stride, config_.splits_path, &entries);
@@ -196,7 +206,22 @@ FrameParams Synthesizer::sample_scene_params(uint64_t seed, uint64_t frame_index
       }
     }
   }
+  // Clothes draw last, and only when enabled, so bare-mesh datasets stay what they were.
+  if (c.clothed_share > 0) {
+    sample_outfit(rng, p.outfit);
+    for (OtherPerson& o : p.others) sample_outfit(rng, o.outfit);
+  }
   return p;
+}
+
+void Synthesizer::sample_outfit(Rng& rng, Outfit& out) const {
+  out = Outfit{};
+  if (!rng.chance(config_.clothed_share)) return;
+  auto pick = [&](GarmentKind k) { return int(rng.below(wardrobe_.of(k).size())); };
+  out.outfit = pick(GarmentKind::kOutfit);
+  out.shoes = pick(GarmentKind::kShoes);
+  if (rng.chance(config_.hat_probability)) out.hat = pick(GarmentKind::kHat);
+  if (rng.chance(config_.hair_probability)) out.hair = pick(GarmentKind::kHair);
 }
 
 namespace {
@@ -261,6 +286,7 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
   };
 
   std::vector<JointSet> body_joints;
+  double body0_stature = 0;
   const size_t bodies = 1 + p.others.size();
   for (size_t b = 0; b < bodies; ++b) {
     OtherPerson o;
@@ -271,6 +297,7 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
       o.yaw_deg = p.yaw_deg;
       o.distance_m = p.distance_m;
       o.image_x = p.image_x;
+      o.outfit = p.outfit;
     } else {
       o = p.others[b - 1];
     }
@@ -278,25 +305,37 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
     const BodyPose& pose = library_.poses[o.pose_index];
 
     // Shape, skeleton, pose, skin.
-    const std::vector<Vec3f> shaped = shaped_vertices(assets_, o.shape);
+    std::vector<Vec3f> shaped = shaped_vertices(assets_, o.shape);
+    const double stature = limit_stature(shaped, config_.stature_min_m, config_.stature_max_m);
+    if (b == 0) body0_stature = stature;
     const Skeleton rest = measure_skeleton(assets_, shaped);
     lap(&SynthStageTimes::shape);
     const Skeleton posed = pose_skeleton(assets_, rest, pose);
     thread_local std::vector<Vec3f> verts;
     skin_body(assets_, shaped, rest, posed, pose, verts);
     JointSet joints = joints_of(assets_, posed);
+    // Clothes and hair: garment vertices appended after the body's, hidden body triangles dropped.
+    const std::vector<uint8_t>* labels = &vertex_labels_;
+    const std::vector<std::array<uint32_t, 3>>* triangles = &assets_.body_triangles;
+    thread_local std::vector<uint8_t> dressed_labels;
+    thread_local std::vector<std::array<uint32_t, 3>> dressed_triangles;
+    if (o.outfit.clothed()) {
+      dress_body(wardrobe_, o.outfit, assets_, vertex_labels_, shaped, bone_skin_transforms(assets_, rest, posed, pose),
+                 verts, dressed_labels, dressed_triangles);
+      labels = &dressed_labels;
+      triangles = &dressed_triangles;
+    }
 
     // Mirror (in body space): x -> -x, swap left/right labels and joints.
     thread_local std::vector<uint8_t> mirrored_labels;
-    const std::vector<uint8_t>* labels = &vertex_labels_;
     if (o.mirror) {
       for (Vec3f& v : verts) v.x = -v.x;
       for (Vec3& j : joints) j.x = -j.x;
       JointSet swapped;
       for (int j = 0; j < dp::tools::kJointCount; ++j) swapped[dp::tools::kJointMirror[j]] = joints[j];
       joints = swapped;
-      mirrored_labels.resize(vertex_labels_.size());
-      for (size_t i = 0; i < vertex_labels_.size(); ++i) mirrored_labels[i] = dp::tools::kPartMirror[vertex_labels_[i]];
+      mirrored_labels.resize(labels->size());
+      for (size_t i = 0; i < labels->size(); ++i) mirrored_labels[i] = dp::tools::kPartMirror[(*labels)[i]];
       labels = &mirrored_labels;
     }
 
@@ -322,7 +361,7 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
     }
     for (Vec3& j : joints) j = m * j + offset;
     lap(&SynthStageTimes::pose);
-    draw(verts, assets_.body_triangles, *labels, uint8_t(b + 1));
+    draw(verts, *triangles, *labels, uint8_t(b + 1));
     body_joints.push_back(joints);
     lap(&SynthStageTimes::raster);
   }
@@ -407,10 +446,12 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
   extra["shape"] = {{"gender", p.shape.gender},        {"age", p.shape.age},
                     {"muscle", p.shape.muscle},        {"weight", p.shape.weight},
                     {"height", p.shape.height},        {"proportions", p.shape.proportions},
-                    {"extra_height", p.shape.extra_height}, {"extra_weight", p.shape.extra_weight}};
+                    {"extra_height", p.shape.extra_height}, {"extra_weight", p.shape.extra_weight},
+                    {"stature", std::round(body0_stature * 1000) / 1000}};
   extra["rotation"] = p.yaw_deg;
   extra["camera"] = {{"height", p.camera_height_m}, {"pitch", p.camera_pitch_deg}, {"roll", p.camera_roll_deg}};
   extra["distance"] = p.distance_m;
+  if (config_.clothed_share > 0) extra["outfit"] = outfit_json(wardrobe_, p.outfit);
   if (!p.others.empty()) {
     nlohmann::json people = nlohmann::json::array();
     for (size_t b = 0; b < f.people_joints.size(); ++b) {
@@ -422,6 +463,7 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
       person["pose"] = library_.origin[b == 0 ? p.pose_index : p.others[b - 1].pose_index];
       person["rotation"] = b == 0 ? p.yaw_deg : p.others[b - 1].yaw_deg;
       person["distance"] = b == 0 ? p.distance_m : p.others[b - 1].distance_m;
+      if (config_.clothed_share > 0) person["outfit"] = outfit_json(wardrobe_, b == 0 ? p.outfit : p.others[b - 1].outfit);
       people.push_back(person);
     }
     extra["people"] = people;
@@ -457,6 +499,9 @@ dp::tools::DatasetMeta Synthesizer::dataset_meta() const {
   if (config_.people > 1) extra["people"] = config_.people;
   if (config_.clutter > 0) extra["clutter"] = config_.clutter;
   if (config_.sequence) extra["sequence"] = true;
+  if (config_.clothed_share > 0)
+    extra["clothing"] = {{"clothed_share", config_.clothed_share}, {"hat_probability", config_.hat_probability},
+                         {"hair_probability", config_.hair_probability}};
   if (config_.pose_variation.any() && !config_.sequence)
     extra["pose_variation"] = {{"mirror", config_.pose_variation.mirror},
                                {"noise_copies", config_.pose_variation.noise_copies},
@@ -564,7 +609,8 @@ void draw_preview_row(const SynthFrame& f, const Intrinsics& k, dp::tools::Image
   }
 }
 
-DepthLabelImage Synthesizer::render_body_view(const BodyPose& pose, double yaw_deg, int width, int height) const {
+DepthLabelImage Synthesizer::render_body_view(const BodyPose& pose, double yaw_deg, int width, int height,
+                                              const Outfit& outfit) const {
   // A long lens far away: nearly orthographic, so part borders appear at their true heights.
   Intrinsics k = Intrinsics::kinect_like(width, height);
   k.fx = k.fy = k.fx * 10;
@@ -573,6 +619,13 @@ DepthLabelImage Synthesizer::render_body_view(const BodyPose& pose, double yaw_d
   const Skeleton posed = pose_skeleton(assets_, rest, pose);
   std::vector<Vec3f> verts;
   skin_body(assets_, shaped, rest, posed, pose, verts);
+  std::vector<uint8_t> labels = vertex_labels_;
+  std::vector<std::array<uint32_t, 3>> triangles = assets_.body_triangles;
+  if (outfit.any()) {
+    if (wardrobe_.empty()) fail("render_body_view: clothes asked for, but the wardrobe is not loaded (clothed share 0)");
+    dress_body(wardrobe_, outfit, assets_, vertex_labels_, shaped, bone_skin_transforms(assets_, rest, posed, pose), verts,
+               labels, triangles);
+  }
   float min_y = verts[0].y, max_y = verts[0].y, min_x = verts[0].x, max_x = verts[0].x;
   for (const Vec3f& v : verts) {
     min_y = std::min(min_y, v.y);
@@ -594,12 +647,13 @@ DepthLabelImage Synthesizer::render_body_view(const BodyPose& pose, double yaw_d
   }
   DepthLabelImage img;
   img.reset(width, height);
-  rasterize(k, verts, assets_.body_triangles, vertex_labels_, img);
+  rasterize(k, verts, triangles, labels, img);
   return img;
 }
 
-dp::tools::ImageRgb Synthesizer::render_parts_figure(const BodyPose& pose, double yaw_deg, int width, int height) const {
-  const DepthLabelImage img = render_body_view(pose, yaw_deg, width, height);
+dp::tools::ImageRgb Synthesizer::render_parts_figure(const BodyPose& pose, double yaw_deg, int width, int height,
+                                                     const Outfit& outfit) const {
+  const DepthLabelImage img = render_body_view(pose, yaw_deg, width, height, outfit);
   dp::tools::ImageRgb out;
   out.resize(width, height);
   for (int y = 0; y < height; ++y)

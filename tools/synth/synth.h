@@ -23,7 +23,9 @@
 #include "tools/synth/human_model.h"
 #include "tools/synth/pose_pool.h"
 #include "tools/synth/posing.h"
+#include "tools/synth/random.h"
 #include "tools/synth/rasterizer.h"
+#include "tools/synth/wardrobe.h"
 
 namespace dp::synth {
 
@@ -54,8 +56,23 @@ struct SynthConfig {
   double camera_pitch_min_deg = -5, camera_pitch_max_deg = 25;  // positive = looking down
   double camera_roll_max_deg = 6;
   double image_x_margin = 0.05;      // hips project within [margin, 1 - margin] of the width
+  // Clothing and hair (wardrobe.h): each body is clothed with probability clothed_share: an
+  // outfit and shoes, a hat with hat_probability, a hairstyle with hair_probability, every choice
+  // uniform over the wardrobe. An unclothed body is the bare mesh (no hair). 0 = the bare mesh
+  // always and the wardrobe is not loaded (the library default; `depthpose synth` uses 0.8).
+  double clothed_share = 0.0;
+  double hat_probability = 0.15;
+  double hair_probability = 0.85;
   // Body shape ranges.
   double age_min_years = 13, age_max_years = 75;
+  // Macro controls (MakeHuman's sliders, [0, 1], human_model.h), each uniform in [min, max]. The
+  // defaults are adult-like ranges; `synth --bodies wide` (its default) uses [0, 1] for all four.
+  double muscle_min = 0.15, muscle_max = 0.85, weight_min = 0.1, weight_max = 0.9;
+  double height_min = 0.4, height_max = 0.6, proportions_min = 0.3, proportions_max = 1.0;
+  // Standing height (metres, rest pose, feet to crown, after the extra scale): a body outside
+  // [stature_min_m, stature_max_m] is scaled vertically about its feet to the nearer limit.
+  // 0 = no limit (the default; `synth --bodies wide` uses 1.1-2.0 m).
+  double stature_min_m = 0, stature_max_m = 0;
   double extra_scale = 0.10;         // +-10 % extra height and weight (paper)
 };
 
@@ -65,6 +82,7 @@ struct OtherPerson {
   bool mirror = false;
   ShapeControls shape;
   double yaw_deg = 0, distance_m = 2.5, image_x = 0.5;
+  Outfit outfit;
 };
 
 // A piece of --clutter furniture standing on the floor (world frame: floor y = 0, x = the
@@ -89,6 +107,7 @@ struct FrameParams {
   double image_x = 0.5;             // where the hips project horizontally, fraction of width
   std::vector<OtherPerson> others;  // config.people − 1 further bodies
   std::vector<ClutterItem> clutter; // config.clutter items
+  Outfit outfit;                    // body 0's clothes and hair
 };
 
 struct SynthFrame {
@@ -123,6 +142,7 @@ class Synthesizer {
   const PosePoolReport& pose_pool_report() const { return pool_report_; }
   const std::vector<uint8_t>& vertex_labels() const { return vertex_labels_; }
   const std::vector<std::string>& clip_names() const { return clip_names_; }
+  const Wardrobe& wardrobe() const { return wardrobe_; }  // empty unless config.clothed_share > 0
 
   FrameParams sample_frame_params(uint64_t seed, uint64_t frame_index) const;
   SynthFrame render(const FrameParams& params, SynthStageTimes* times = nullptr) const;
@@ -135,13 +155,17 @@ class Synthesizer {
   // Noise-free render of the base-shape body in `pose`, seen from the front (yaw 0) or back
   // (yaw 180) through a long lens (10x the Kinect focal length, nearly orthographic), centred and
   // filling ~90 % of the image. For figures and tests.
-  DepthLabelImage render_body_view(const BodyPose& pose, double yaw_deg, int width, int height) const;
+  // `outfit` (indices into wardrobe()) dresses the body; any garment needs a loaded wardrobe.
+  DepthLabelImage render_body_view(const BodyPose& pose, double yaw_deg, int width, int height,
+                                   const Outfit& outfit = {}) const;
   // Renders one labelled body (base shape, given pose, no noise) from the front (yaw 0) or back
   // (yaw 180), camera at hip height, as an image of part colours (docs/parts.md figures).
-  dp::tools::ImageRgb render_parts_figure(const BodyPose& pose, double yaw_deg, int width, int height) const;
+  dp::tools::ImageRgb render_parts_figure(const BodyPose& pose, double yaw_deg, int width, int height,
+                                          const Outfit& outfit = {}) const;
 
  private:
   FrameParams sample_scene_params(uint64_t seed, uint64_t frame_index) const;
+  void sample_outfit(Rng& rng, Outfit& out) const;
 
   SynthConfig config_;
   Intrinsics intrinsics_;
@@ -150,6 +174,7 @@ class Synthesizer {
   PoseLibrary library_;
   PosePoolReport pool_report_;
   std::vector<std::string> clip_names_;
+  Wardrobe wardrobe_;
 };
 
 // Loads the clips named by config.clips (see SynthConfig::clips and clip_index.h) from

@@ -61,7 +61,18 @@ const char* kUsage =
     "  --pose-seed S       seed of the pose variation (default 1)\n"
     "  --pool-report       print the pose pool per CMU category (before/after pruning, times)\n"
     "  --pool-sheet FILE.png  one row of pruned-pool poses per kind (real, mirror, noise, recombined)\n"
-    "  --ages A-B          age range in years (default 13-75)\n"
+    "  --bodies KIND       wide (default): every macro control over its full range, ages 6-80,\n"
+    "                      standing heights kept within 1.1-2.0 m; adult: the earlier adult ranges\n"
+    "                      (ages 13-75, heights ~1.5-1.9 m, no limit); see docs/synthetic_data.md\n"
+    "  --ages A-B          age range in years (default: by --bodies)\n"
+    "  --camera-height A-B camera height above the floor in metres (default 0.5-1.9)\n"
+    "  --camera-pitch A-B  camera pitch in degrees, positive looking down (default -5-25)\n"
+    "  --camera-roll R     camera roll uniform in [-R, R] degrees (default 6)\n"
+    "  --clothed F         share of bodies wearing an outfit and shoes from the MakeHuman CC0\n"
+    "                      wardrobe (default 0.8; the rest are the bare mesh); 0 = never\n"
+    "  --hat P --hair P    of clothed bodies, the share with a hat (default 0.15) and with hair (0.85)\n"
+    "  --wardrobe-sheet FILE.png  every outfit (with shoes, hair, and a hat on some) on the base body\n"
+    "                      in the A-pose, front row and back row, in part colours: checks garment fit\n"
     "  --parts-figure PREFIX  write PREFIX_front.png and PREFIX_back.png (labelled body, docs/parts.md)\n"
     "  --pose-sheet FILE.png  one row of posed bodies per skeleton naming of the selected clips\n"
     "                      (first frame, then frames spread over its clips): checks retargeting\n";
@@ -71,6 +82,26 @@ std::string format_seconds(double s) {
   if (s < 120) std::snprintf(buf, sizeof buf, "%.0fs", s);
   else std::snprintf(buf, sizeof buf, "%dm%02ds", int(s) / 60, int(s) % 60);
   return buf;
+}
+
+// "A-B" (or "A:B"; A may be negative, e.g. -5-25) with lo <= A <= B <= hi.
+void parse_range(const std::string& text, const char* option, double lo, double hi, double& a, double& b) {
+  char* end = nullptr;
+  a = std::strtod(text.c_str(), &end);
+  const bool separated = end != text.c_str() && (*end == '-' || *end == ':');
+  if (separated) b = std::strtod(end + 1, &end);
+  if (!separated || *end || !(a >= lo) || !(b >= a) || !(b <= hi))
+    fail(std::string(option) + " wants A-B with " + std::to_string(lo) + " <= A <= B <= " + std::to_string(hi) +
+         ", got '" + text + "'");
+}
+
+// Copies a figure cell into a contact sheet at (x0, y0).
+void paste_cell(const dp::tools::ImageRgb& cell, dp::tools::ImageRgb& sheet, int x0, int y0) {
+  for (int y = 0; y < cell.height; ++y)
+    for (int x = 0; x < cell.width; ++x) {
+      const uint8_t* c = &cell.pixels[(size_t(y) * cell.width + x) * 3];
+      sheet.set(x0 + x, y0 + y, c[0], c[1], c[2]);
+    }
 }
 
 void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
@@ -83,7 +114,9 @@ int synth_main(int argc, char** argv, dp::train::Communicator* comm) {
   dp::tools::Args args(argc, argv, kUsage,
                        {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
-                        "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed", "--pool-sheet"},
+                        "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed", "--pool-sheet",
+                        "--clothed", "--hat", "--hair", "--wardrobe-sheet", "--bodies", "--camera-height",
+                        "--camera-pitch", "--camera-roll"},
                        {"--floor", "--no-noise", "--sequence", "--pool-report", "--distributed"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
@@ -114,19 +147,38 @@ int synth_main(int argc, char** argv, dp::train::Communicator* comm) {
     fail("--pose-pool must be clips or varied, got '" + pool_kind + "'");
   }
   config.pose_variation.seed = uint64_t(args.get_int("--pose-seed", 1));
-  if (args.has("--ages")) {
-    const std::string a = args.get("--ages");
-    char* end = nullptr;
-    config.age_min_years = std::strtod(a.c_str(), &end);
-    if (*end != '-') fail("--ages wants A-B in years, got '" + a + "'");
-    config.age_max_years = std::strtod(end + 1, &end);
-    if (*end || !(config.age_min_years >= 1) || !(config.age_max_years >= config.age_min_years) ||
-        config.age_max_years > 90)
-      fail("--ages wants A-B with 1 <= A <= B <= 90, got '" + a + "'");
+  config.clothed_share = args.get_double("--clothed", 0.8);
+  config.hat_probability = args.get_double("--hat", 0.15);
+  config.hair_probability = args.get_double("--hair", 0.85);
+  for (const auto& [name, value] : {std::pair<const char*, double>{"--clothed", config.clothed_share},
+                                    {"--hat", config.hat_probability}, {"--hair", config.hair_probability}})
+    if (!(value >= 0 && value <= 1)) fail(std::string(name) + " must be a share in [0, 1], got " + std::to_string(value));
+  const std::string bodies = args.get("--bodies", "wide");
+  if (bodies == "wide") {
+    config.muscle_min = config.weight_min = config.height_min = config.proportions_min = 0.0;
+    config.muscle_max = config.weight_max = config.height_max = config.proportions_max = 1.0;
+    config.age_min_years = 6;
+    config.age_max_years = 80;
+    config.stature_min_m = 1.1;
+    config.stature_max_m = 2.0;
+  } else if (bodies != "adult") {
+    fail("--bodies must be wide or adult, got '" + bodies + "'");
   }
+  if (args.has("--ages")) {
+    parse_range(args.get("--ages"), "--ages", 1, 90, config.age_min_years, config.age_max_years);
+  }
+  if (args.has("--camera-height"))
+    parse_range(args.get("--camera-height"), "--camera-height", 0.1, 3.0, config.camera_height_min_m,
+                config.camera_height_max_m);
+  if (args.has("--camera-pitch"))
+    parse_range(args.get("--camera-pitch"), "--camera-pitch", -60, 60, config.camera_pitch_min_deg,
+                config.camera_pitch_max_deg);
+  config.camera_roll_max_deg = args.get_double("--camera-roll", config.camera_roll_max_deg);
+  if (!(config.camera_roll_max_deg >= 0 && config.camera_roll_max_deg <= 45))
+    fail("--camera-roll must be 0..45 degrees, got " + std::to_string(config.camera_roll_max_deg));
   const std::string assets = args.get("--assets", "../shared/assets");
   const bool figures_only =
-      (args.has("--parts-figure") || args.has("--pose-sheet") || args.has("--pool-sheet") || args.flag("--pool-report")) &&
+      (args.has("--parts-figure") || args.has("--wardrobe-sheet") || args.has("--pose-sheet") || args.has("--pool-sheet") || args.flag("--pool-report")) &&
       !args.has("--out");
 
   const auto t0 = std::chrono::steady_clock::now();
@@ -144,6 +196,27 @@ int synth_main(int argc, char** argv, dp::train::Communicator* comm) {
     dp::tools::write_png_rgb(prefix + "_front.png", synth.render_parts_figure(pose, 0, 480, 640));
     dp::tools::write_png_rgb(prefix + "_back.png", synth.render_parts_figure(pose, 180, 480, 640));
     std::fprintf(stderr, "synth: wrote %s_front.png and %s_back.png\n", prefix.c_str(), prefix.c_str());
+  }
+  if (args.has("--wardrobe-sheet")) {
+    const Wardrobe& w = synth.wardrobe();
+    if (w.empty()) fail("--wardrobe-sheet needs the wardrobe: --clothed must be > 0");
+    const int cols = int(w.of(GarmentKind::kOutfit).size()), cw = 120, ch = 240;
+    dp::tools::ImageRgb sheet;
+    sheet.resize(cols * cw, 2 * ch);
+    const BodyPose pose = rest_pose(synth.assets());
+    for (int i = 0; i < cols; ++i) {
+      Outfit outfit;
+      outfit.outfit = i;
+      outfit.shoes = i % int(w.of(GarmentKind::kShoes).size());
+      outfit.hair = i % int(w.of(GarmentKind::kHair).size());
+      if (i % 4 == 3) outfit.hat = (i / 4) % int(w.of(GarmentKind::kHat).size());
+      for (int row = 0; row < 2; ++row) {
+        const dp::tools::ImageRgb cell = synth.render_parts_figure(pose, row * 180.0, cw, ch, outfit);
+        paste_cell(cell, sheet, i * cw, row * ch);
+      }
+    }
+    dp::tools::write_png_rgb(args.get("--wardrobe-sheet"), sheet);
+    std::fprintf(stderr, "synth: wrote %s\n", args.get("--wardrobe-sheet").c_str());
   }
   if (args.has("--pose-sheet")) {
     // One row per skeleton naming among the selected clips: its first frame (the rest pose of a
@@ -170,11 +243,7 @@ int synth_main(int argc, char** argv, dp::train::Communicator* comm) {
         const size_t at = i == 0 ? 0 : frames.size() * size_t(2 * i - 1) / size_t(2 * (cols - 1));
         const BodyPose pose = retarget_frame(synth.assets(), rest, *frames[at].first, frames[at].second);
         dp::tools::ImageRgb cell = synth.render_parts_figure(pose, 20, cw, ch);
-        for (int y = 0; y < ch; ++y)
-          for (int x = 0; x < cw; ++x) {
-            const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
-            sheet.set(i * cw + x, row * ch + y, c[0], c[1], c[2]);
-          }
+        paste_cell(cell, sheet, i * cw, row * ch);
       }
     }
     dp::tools::write_png_rgb(args.get("--pose-sheet"), sheet);
@@ -205,11 +274,7 @@ int synth_main(int argc, char** argv, dp::train::Communicator* comm) {
       for (int i = 0; i < cols; ++i) {
         const size_t pick = members[members.size() * size_t(2 * i + 1) / size_t(2 * cols)];
         dp::tools::ImageRgb cell = synth.render_parts_figure(lib.poses[pick], 20, cw, ch);
-        for (int y = 0; y < ch; ++y)
-          for (int x = 0; x < cw; ++x) {
-            const uint8_t* c = &cell.pixels[(size_t(y) * cw + x) * 3];
-            sheet.set(i * cw + x, int(row) * ch + y, c[0], c[1], c[2]);
-          }
+        paste_cell(cell, sheet, i * cw, int(row) * ch);
       }
     }
     dp::tools::write_png_rgb(args.get("--pool-sheet"), sheet);
