@@ -223,7 +223,7 @@ FUZZ_RUN_FLAGS := -max_len=65536 -timeout=10 -rss_limit_mb=2048 -print_final_sta
 FUZZ_SRCS_blob_loader   := forest_blob/blob_loader.cc forest_blob/crc32.cc
 FUZZ_SRCS_forest_file   := tools/train/forest_file.cc tools/common/file_io.cc
 FUZZ_LIBS_forest_file   := -lz
-FUZZ_SRCS_oni_container := platform/oni_container.cc platform/oni_codec.cc
+FUZZ_SRCS_oni_container := platform/oni_container.cc platform/oni_codec.cc forest_blob/crc32.cc
 FUZZ_SRCS_png_dataset   := tools/common/png_io.cc tools/common/dataset.cc tools/common/file_io.cc
 FUZZ_LIBS_png_dataset   := -lpng -lz
 FUZZ_SRCS_bvh           := tools/synth/motion.cc tools/synth/skeleton_naming.cc

@@ -6,10 +6,13 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <vector>
 
 #include "forest_blob/blob_format.h"
+#include "forest_blob/blob_loader.h"
 #include "platform/oni_codec.h"
 #include "tools/common/error.h"
 
@@ -36,6 +39,10 @@ struct Cursor {
   const std::string& label;
   [[noreturn]] void bad(const std::string& what, uint64_t at) const {
     tools::fail(label + ": not a readable OpenNI2 recording (truncated or corrupt: " + what + " at byte " +
+                std::to_string(at) + ")");
+  }
+  [[noreturn]] void bad_trailer(const std::string& what, uint64_t at) const {
+    tools::fail(label + ": not a readable OpenNI2 recording (corrupt integrity trailer: " + what + " at byte " +
                 std::to_string(at) + ")");
   }
   uint32_t u32(uint64_t at) const {
@@ -70,6 +77,62 @@ uint64_t check_name(const Cursor& c, uint64_t at, uint64_t end, std::string* nam
   return at + 4 + n;
 }
 
+std::string hex32(uint32_t v) {
+  char text[11];
+  std::snprintf(text, sizeof text, "0x%08x", v);
+  return text;
+}
+
+// What follows the end record at `at`: nothing, zeros, or the integrity trailer and its footer
+// (oni_container.h), which is validated and, with `frames`, gives the frames from `first_frame` on
+// their payload CRCs.
+void check_tail(const Cursor& c, uint64_t at, OniContainerSummary* out, std::vector<OniFrameRecord>* frames,
+                size_t first_frame) {
+  const uint64_t size = c.size, rest = size - at;
+  const bool footer = rest >= kOniFooterBytes && std::memcmp(c.data + size - 8, kOniFooterMagic, 8) == 0;
+  if (!footer) {
+    if (rest > 0 && std::memcmp(c.data + at, kOniTrailerMagic, size_t(std::min<uint64_t>(rest, 8))) == 0)
+      c.bad_trailer("footer \"DPONIEND\" missing (the trailer is truncated: the file ends " + std::to_string(rest) +
+                        " bytes after the end record)",
+                    size);
+    for (uint64_t k = at; k < size; ++k)
+      if (c.data[k] != 0) c.bad("data after the end record", k);
+    return;
+  }
+  const uint64_t footer_at = size - kOniFooterBytes, between = footer_at - at;
+  const uint32_t length = c.u32(footer_at);
+  if (length != between)
+    c.bad_trailer("trailer length " + std::to_string(length) + " in the footer disagrees with the " +
+                      std::to_string(between) + " bytes between the end record and the footer",
+                  footer_at);
+  if (length < kOniTrailerFixedBytes || (length - kOniTrailerFixedBytes) % 4 != 0)
+    c.bad_trailer("trailer length " + std::to_string(length) + " (20 + 4 per frame expected)", footer_at);
+  if (std::memcmp(c.data + at, kOniTrailerMagic, 8) != 0) c.bad_trailer("magic is not \"DPONICRC\"", at);
+  const uint64_t crc_at = at + length - 4;
+  const uint32_t stored = c.u32(crc_at), computed = blob::crc32(c.data + at, length - 4);
+  if (stored != computed)
+    c.bad_trailer("trailer CRC-32 " + hex32(stored) + " but its " + std::to_string(length - 4) + " bytes give " +
+                      hex32(computed),
+                  crc_at);
+  const uint32_t version = c.u32(at + 8);
+  if (version != kOniTrailerVersion)
+    c.bad_trailer("format version " + std::to_string(version) + " (this build reads " +
+                      std::to_string(kOniTrailerVersion) + ")",
+                  at + 8);
+  const uint32_t count = c.u32(at + 12);
+  if (uint64_t(count) != (length - kOniTrailerFixedBytes) / 4)
+    c.bad_trailer("frame count " + std::to_string(count) + " disagrees with the trailer length " + std::to_string(length),
+                  at + 12);
+  if (int64_t(count) != out->depth_frames)
+    c.bad_trailer("frame count " + std::to_string(count) + " but the file holds " + std::to_string(out->depth_frames) +
+                      " depth frames",
+                  at + 12);
+  if (frames)
+    for (uint32_t i = 0; i < count; ++i) (*frames)[first_frame + i].payload_crc32 = c.u32(at + 16 + 4 * uint64_t(i));
+  out->integrity_trailer = true;
+  out->trailer_offset = at;
+}
+
 }  // namespace
 
 OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std::string& label,
@@ -83,6 +146,7 @@ OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std:
   const uint32_t max_node = c.u32(20);
   if (max_node > kMaxNodeId) c.bad("max node id " + std::to_string(max_node) + " above " + std::to_string(kMaxNodeId), 20);
   std::vector<Node> nodes(max_node + 1);
+  const size_t first_frame = frames ? frames->size() : 0;
   uint32_t depth_node = 0;
   bool ended = false;
   uint64_t at = kFileHeaderBytes;
@@ -210,12 +274,41 @@ OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std:
   // OpenNI2's recorder always ends a file with an end record; without one the file was cut short.
   if (!ended) c.bad("no end record (the file ends after " + std::to_string(out.depth_frames) + " depth frames)", at);
   out.records_end = at;
-  for (uint64_t k = at; k < size; ++k)
-    if (data[k] != 0) c.bad("data after the end record", k);
   if (out.depth_frames == 0) c.bad("the depth stream holds no frame", at);
   const Node& d = nodes[depth_node];
   if (d.declared_frames && d.frames != d.declared_frames)
     c.bad("depth node declares " + std::to_string(d.declared_frames) + " frames but holds " + std::to_string(d.frames), at);
+  check_tail(c, at, &out, frames, first_frame);
+  return out;
+}
+
+uint32_t oni_payload_crc32(const uint8_t* data, const OniFrameRecord& frame) {
+  return blob::crc32(data + frame.payload_offset, frame.payload_bytes);
+}
+
+std::string oni_payload_crc_mismatch(const uint8_t* data, const OniContainerSummary& summary,
+                                     const OniFrameRecord& frame, size_t index) {
+  if (!summary.integrity_trailer) return {};
+  const uint32_t crc = oni_payload_crc32(data, frame);
+  if (crc == frame.payload_crc32) return {};
+  return "payload CRC-32 " + hex32(crc) + " differs from the integrity trailer's " + hex32(frame.payload_crc32) +
+         " at byte " + std::to_string(summary.trailer_offset + 16 + 4 * uint64_t(index)) +
+         ": a payload byte within " + std::to_string(frame.payload_offset) + ".." +
+         std::to_string(frame.payload_offset + frame.payload_bytes - 1) + " changed";
+}
+
+std::vector<uint8_t> oni_integrity_trailer(const uint8_t* data, const std::vector<OniFrameRecord>& frames) {
+  std::vector<uint8_t> out(kOniTrailerMagic, kOniTrailerMagic + 8);
+  auto u32 = [&](uint32_t v) {
+    for (int k = 0; k < 4; ++k) out.push_back(uint8_t(v >> (8 * k)));
+  };
+  u32(kOniTrailerVersion);
+  u32(uint32_t(frames.size()));  // at most kMaxOniFrames: the walk refuses more
+  for (const OniFrameRecord& f : frames) u32(oni_payload_crc32(data, f));
+  u32(blob::crc32(out.data(), out.size()));
+  const uint32_t length = uint32_t(out.size());
+  u32(length);
+  out.insert(out.end(), kOniFooterMagic, kOniFooterMagic + 8);
   return out;
 }
 

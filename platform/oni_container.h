@@ -23,10 +23,24 @@
 // format (oniPixelFormat 100 = 1 mm or 101 = 100 µm), frame records against their node's frame
 // count and kMaxOniFrames, each depth payload against the largest its codec can write for the
 // declared resolution (exactly width·height·2 bytes uncompressed), seek table entries against the
-// file, the end record present. Bytes after the end record must be zero (OpenNI2 2.2's recorder leaves the file at twice
-// its length, the second half zeros: `record` trims it). The format has no checksum: a flipped
-// byte inside a compressed payload is found only when it breaks the code (platform/oni_codec.h:
-// a code never written, a frame of the wrong pixel count), not when it changes a depth value.
+// file, the end record present. After the end record comes either nothing, zeros (OpenNI2 2.2's
+// recorder leaves the file at twice its length, the second half zeros: `record` trims it), or
+// depthpose's integrity trailer (below); any other byte there is refused.
+//
+// The OpenNI format has no checksum: in a file written by another tool a flipped byte inside a
+// compressed payload is found only when it breaks the code (platform/oni_codec.h: a code never
+// written, a frame of the wrong pixel count), not when it changes a depth value. `depthpose
+// record` therefore appends an integrity trailer after the end record (OpenNI2's player stops at
+// the end record and ignores it; checked with libOniFile 2.2.0.33), all integers little endian:
+//   trailer, 20 + 4·N bytes, starting right after the end record:
+//     u8[8] "DPONICRC", u32 format version (1), u32 N = depth frame count,
+//     N × u32 CRC-32 of each depth frame record's payload (the compressed bytes as stored, in
+//     record order), u32 CRC-32 of the trailer's preceding 16 + 4·N bytes;
+//   footer, 12 bytes, the file's last: u32 trailer length (20 + 4·N), u8[8] "DPONIEND".
+// CRC-32 is forest_blob's (IEEE 802.3, reflected, as zlib's crc32). When the footer is present
+// the trailer is validated at open (its CRC, version, length, N against the indexed frames);
+// a file whose bytes after the end record begin with "DPONICRC" but lack the footer is refused
+// as a truncated trailer. Each frame's payload CRC is checked when the frame is read.
 #pragma once
 #include <cstdint>
 #include <string>
@@ -49,7 +63,15 @@ struct OniFrameRecord {
   uint32_t payload_bytes = 0;
   uint32_t frame_id = 0;        // as recorded (1-based in OpenNI2 recordings)
   uint64_t timestamp_us = 0;
+  uint32_t payload_crc32 = 0;   // from the integrity trailer (0 without one)
 };
+
+// The integrity trailer's fixed parts (layout above).
+constexpr char kOniTrailerMagic[8] = {'D', 'P', 'O', 'N', 'I', 'C', 'R', 'C'};
+constexpr char kOniFooterMagic[8] = {'D', 'P', 'O', 'N', 'I', 'E', 'N', 'D'};
+constexpr uint32_t kOniTrailerVersion = 1;
+constexpr size_t kOniTrailerFixedBytes = 20;  // magic, version, N, trailer CRC
+constexpr size_t kOniFooterBytes = 12;
 
 struct OniContainerSummary {
   int64_t depth_frames = 0;     // new-data records of the depth node
@@ -59,7 +81,9 @@ struct OniContainerSummary {
   bool has_fov = false;         // the depth node's xnFOV property: field of view in radians
   double horizontal_fov = 0, vertical_fov = 0;
   uint64_t file_bytes = 0;
-  uint64_t records_end = 0;     // offset just past the end record (zeros may follow)
+  uint64_t records_end = 0;     // offset just past the end record (zeros or the trailer may follow)
+  bool integrity_trailer = false;  // a valid trailer follows the end record (frames carry payload CRCs)
+  uint64_t trailer_offset = 0;     // its first byte (== records_end) when present
 };
 
 // A recording mapped read-only (the whole file, for the object's lifetime): the walk touches only
@@ -86,8 +110,24 @@ class MappedOniFile {
 OniContainerSummary check_oni_container(const std::string& path);
 
 // The same on bytes in memory (`label` names them in messages); used by the fuzz target and the
-// reader. With `frames`, the depth frames' records are appended to it in file order.
+// reader. With `frames`, the depth frames' records are appended to it in file order (with their
+// payload CRCs when the trailer is present). A bad trailer throws "<label>: not a readable OpenNI2
+// recording (corrupt integrity trailer: <field ...> at byte <offset>)".
 OniContainerSummary check_oni_bytes(const uint8_t* data, size_t size, const std::string& label,
                                     std::vector<OniFrameRecord>* frames = nullptr);
+
+// The integrity trailer and footer (layout above) for the depth frames `frames` of the recording
+// `data` (as indexed by check_oni_bytes on a file without a trailer): the bytes to append after
+// its end record.
+std::vector<uint8_t> oni_integrity_trailer(const uint8_t* data, const std::vector<OniFrameRecord>& frames);
+
+// The CRC-32 of one depth frame's stored payload, as the trailer records it.
+uint32_t oni_payload_crc32(const uint8_t* data, const OniFrameRecord& frame);
+
+// Empty when `summary` has no integrity trailer or frame `index` (`frame`, indexed from `data`)
+// still has the payload CRC-32 the trailer records; else what differs: "payload CRC-32 0x… differs
+// from the integrity trailer's 0x… at byte B: a payload byte within P..Q changed".
+std::string oni_payload_crc_mismatch(const uint8_t* data, const OniContainerSummary& summary,
+                                     const OniFrameRecord& frame, size_t index);
 
 }  // namespace dp::platform

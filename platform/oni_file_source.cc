@@ -30,6 +30,13 @@ class OniFileSource final : public IndexedFileSource {
   bool read_frame(size_t index, uint16_t* depth_mm, uint64_t* timestamp_us, std::string* why) override {
     const size_t pixels = size_t(info_.width) * size_t(info_.height);
     const OniFrameRecord& f = frames_[index];
+    // A changed payload byte that still decodes (a different depth value) is caught here, by the
+    // integrity trailer's CRC-32, before the codec sees it.
+    const std::string mismatch = oni_payload_crc_mismatch(file_->data(), info_, f, index);
+    if (!mismatch.empty()) {
+      *why = label_ + ": frame " + std::to_string(index) + " is corrupt (" + mismatch + "; frame skipped)";
+      return false;
+    }
     OniDecodeProblem problem;
     if (!decode_oni_depth(info_.codec, file_->data() + f.payload_offset, f.payload_bytes, depth_mm, pixels, &problem)) {
       // Reported in file bytes, as the container's messages are.

@@ -66,12 +66,30 @@ void wait_until_recorder_settles(const std::string& path) {
 // OpenNI2 2.2's recorder ends a recording with ftruncate(file, 2 × its length) (seen with strace:
 // the file position is 109988 after the end record, then ftruncate(fd, 219976)), so every file
 // it writes is twice its content, the second half zeros. Cut the file back to its end record
-// (check_oni_container has checked that only zeros follow it).
-void trim_recording(const std::string& path) {
-  const OniContainerSummary s = check_oni_container(path);
-  if (s.records_end < s.file_bytes && ::truncate(path.c_str(), off_t(s.records_end)) != 0)
-    fail("record: cannot trim " + path + " to its " + std::to_string(s.records_end) + " bytes (" +
-         std::strerror(errno) + ")");
+// (check_oni_bytes has checked that only zeros follow it), then append depthpose's integrity
+// trailer (platform/oni_container.h): the CRC-32 of every depth payload as stored, so a reader
+// notices a changed byte that still decodes. OpenNI2's player stops at the end record and ignores it.
+void finish_recording(const std::string& path) {
+  const std::string label = "oni:" + path;
+  std::vector<uint8_t> trailer;
+  uint64_t records_end = 0, file_bytes = 0;
+  {
+    const MappedOniFile file(path, label);
+    std::vector<OniFrameRecord> frames;
+    const OniContainerSummary s = check_oni_bytes(file.data(), file.size(), label, &frames);
+    if (s.integrity_trailer) fail("record: " + path + " already holds an integrity trailer (OpenNI2 wrote it?)");
+    trailer = oni_integrity_trailer(file.data(), frames);
+    records_end = s.records_end;
+    file_bytes = s.file_bytes;
+  }
+  if (records_end < file_bytes && ::truncate(path.c_str(), off_t(records_end)) != 0)
+    fail("record: cannot trim " + path + " to its " + std::to_string(records_end) + " bytes (" + std::strerror(errno) +
+         ")");
+  FILE* f = std::fopen(path.c_str(), "ab");
+  if (!f) fail("record: cannot append the integrity trailer to " + path + " (" + std::strerror(errno) + ")");
+  const bool written = std::fwrite(trailer.data(), 1, trailer.size(), f) == trailer.size();
+  if (std::fclose(f) != 0 || !written)
+    fail("record: cannot append the integrity trailer to " + path + " (" + std::strerror(errno) + ")");
 }
 
 struct Attempt {
@@ -179,7 +197,7 @@ RecordReport record_oni(const SourceFactory& reopen, bool replayable, const std:
       attempt = record_once(*source, path, options);
       report.attempts = a;
       if (attempt.served == 0) fail("record: the source delivered no frame; nothing recorded");
-      trim_recording(path);
+      finish_recording(path);
       in_file = open_openni_oni_source(path)->frame_count();  // OpenNI2 itself reads the file
     } catch (...) {
       ::unlink(path.c_str());  // a failed attempt leaves no .partial file behind

@@ -1,7 +1,8 @@
 // Records any FrameSource into an OpenNI2 .oni file through depthpose's own OpenNI2 driver (the
 // frames go through openni::Recorder exactly as a camera's would), then verifies the file: OpenNI2's
 // own player must count the frames served, and depthpose's reader (platform/oni_file_source.h, what
-// `run` plays) must give them back pixel for pixel.
+// `run` plays) must give them back pixel for pixel. The file ends with depthpose's integrity
+// trailer (platform/oni_container.h: a CRC-32 per depth payload) after OpenNI2's end record.
 //
 // Facts about Debian's OpenNI2 2.2.0.33 this works around:
 //   - Recorder::start() only queues a message; frames raised before the recorder thread handled it

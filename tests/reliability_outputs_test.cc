@@ -247,10 +247,12 @@ TEST(ReliabilityOutputs, RecordWritesItsContentOnceAndLeavesNothingOnFailure) {
   const platform::RecordReport rep = platform::record_oni([&] { return platform::open_source(spec); }, true, out, o);
   EXPECT_EQ(rep.frames_recorded, 4);
   // OpenNI2's recorder leaves twice the content (the second half zeros); the file is trimmed to
-  // its end record.
+  // its end record, then only the integrity trailer (20 + 4 per frame) and its 12-byte footer follow.
   const platform::OniContainerSummary s = platform::check_oni_container(out);
-  EXPECT_EQ(s.records_end, s.file_bytes);
-  EXPECT_EQ(std::filesystem::file_size(out), s.records_end);
+  EXPECT_TRUE(s.integrity_trailer);
+  EXPECT_EQ(s.trailer_offset, s.records_end);
+  EXPECT_EQ(s.file_bytes, s.records_end + 20 + 4 * 4 + 12);
+  EXPECT_EQ(std::filesystem::file_size(out), s.file_bytes);
   EXPECT_EQ(s.depth_frames, 4);
   // A source that fails to open: no .partial file is left beside the output.
   EXPECT_THROW(platform::record_oni([&]() -> std::unique_ptr<platform::FrameSource> { tools::fail("source gone"); },

@@ -1,6 +1,7 @@
 // Lets `depthpose info` describe .oni recordings (tools/info/info.h describer hook): the container
 // is checked and every depth frame decoded by depthpose's reader, so a corrupt frame is an error
-// naming its byte, not a silent success.
+// naming its byte, not a silent success; in a recording with depthpose's integrity trailer each
+// payload is also checked against its CRC-32 (platform/oni_container.h).
 #include <cstdio>
 #include <cstring>
 
@@ -31,6 +32,12 @@ bool describe_oni_file(const std::string& path, const std::vector<uint8_t>& byte
               platform::oni_codec_name(c.codec).c_str(),
               c.pixel_format == platform::kOniPixelFormatDepth100um ? "100 µm" : "1 mm", k.fx, k.fy, k.cx, k.cy,
               c.has_fov ? "from its field of view" : "Kinect v1 defaults: no field of view recorded");
+  if (c.integrity_trailer)
+    std::printf("  integrity trailer: every depth payload matches its CRC-32 (%lld frames)\n",
+                (long long)c.depth_frames);
+  else
+    std::printf("  no integrity trailer (recorded by another tool): payload corruption that still decodes cannot be "
+                "detected\n");
   return true;
 }
 
