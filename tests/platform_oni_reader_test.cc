@@ -1,12 +1,14 @@
 // depthpose's own .oni reader: the codecs on crafted payloads, the record walk on crafted and
 // corrupted containers (each refusal names the file, the byte and the field), and frame-for-frame
-// equality with OpenNI2's own player on models/demo.oni.
+// equality with OpenNI2's own player on models/demo.oni (which carries the integrity trailer), and
+// the integrity trailer catching every changed payload byte and every damaged trailer.
 #include <gtest/gtest.h>
 #include <zlib.h>
 
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 #include "platform/oni_codec.h"
 #include "platform/oni_container.h"
@@ -354,6 +356,180 @@ TEST(OniReader, AFrameThatDoesNotDecodeIsSkippedWithItsByte) {
                                     std::to_string(bad_byte));
 }
 
+// ---- integrity trailer ----
+
+namespace {
+
+// `m` with depthpose's integrity trailer appended after its end record (as `record` writes it).
+std::vector<uint8_t> with_trailer(const Made& m) {
+  std::vector<OniFrameRecord> frames;
+  check_oni_bytes(m.bytes.data(), m.bytes.size(), "made.oni", &frames);
+  std::vector<uint8_t> out = m.bytes;
+  const std::vector<uint8_t> trailer = oni_integrity_trailer(m.bytes.data(), frames);
+  out.insert(out.end(), trailer.begin(), trailer.end());
+  return out;
+}
+
+// Every frame the source delivers (index → depth), and the source's stats and last warning.
+struct Played {
+  std::map<int64_t, std::vector<uint16_t>> frames;
+  int64_t corrupt = 0;
+  std::string warning;
+};
+Played play(const std::string& path) {
+  auto s = open_oni_source(path);
+  Played p;
+  std::vector<uint16_t> depth(size_t(s->width()) * size_t(s->height()));
+  FrameInfo info;
+  while (s->next(depth.data(), &info) == NextStatus::kFrame) p.frames[info.index] = depth;
+  p.corrupt = s->stats().corrupt_frames;
+  p.warning = s->last_warning();
+  return p;
+}
+
+}  // namespace
+
+TEST(OniIntegrity, TrailerLayoutIsTheDocumentedOne) {
+  const Made m = make_oni(5, 3, kOniCodec16z, ramp_frames(3, 5, 3));
+  const std::vector<uint8_t> b = with_trailer(m);
+  ASSERT_EQ(b.size(), m.bytes.size() + 20 + 4 * 3 + 12);
+  const uint8_t* t = b.data() + m.bytes.size();
+  EXPECT_EQ(std::memcmp(t, "DPONICRC", 8), 0);
+  uint32_t version, count, length, crc;
+  std::memcpy(&version, t + 8, 4);
+  std::memcpy(&count, t + 12, 4);
+  std::memcpy(&crc, t + 28, 4);
+  std::memcpy(&length, t + 32, 4);
+  EXPECT_EQ(version, 1u);
+  EXPECT_EQ(count, 3u);
+  EXPECT_EQ(length, 32u);
+  EXPECT_EQ(std::memcmp(t + 36, "DPONIEND", 8), 0);
+  EXPECT_EQ(crc, uint32_t(::crc32(0L, t, 28)));  // IEEE CRC-32, as zlib computes it
+  for (uint32_t i = 0; i < 3; ++i) {
+    uint32_t frame_crc;
+    std::memcpy(&frame_crc, t + 16 + 4 * i, 4);
+    const size_t payload = m.frame_records[i] + 28 + 12;
+    const size_t bytes = 2 + 3 * 14;  // make_oni's 16zP: a full value, then 14 three-byte codes
+    EXPECT_EQ(frame_crc, uint32_t(::crc32(0L, b.data() + payload, uInt(bytes)))) << "frame " << i;
+  }
+  const OniContainerSummary s = check_oni_bytes(b.data(), b.size(), "t.oni");
+  EXPECT_TRUE(s.integrity_trailer);
+  EXPECT_EQ(s.trailer_offset, m.bytes.size());
+  EXPECT_FALSE(check_oni_bytes(m.bytes.data(), m.bytes.size(), "t.oni").integrity_trailer);
+}
+
+TEST(OniIntegrity, EverySingleByteFlipInEveryPayloadIsCaught) {
+  TempDir t;
+  const auto frames = ramp_frames(3, 5, 3);
+  const Made m = make_oni(5, 3, kOniCodec16z, frames);
+  const std::vector<uint8_t> good = with_trailer(m);
+  const std::string path = t / "flip.oni";
+  int64_t flips = 0, silently_wrong_without_trailer = 0;
+  for (size_t f = 0; f < frames.size(); ++f) {
+    const size_t payload = m.frame_records[f] + 28 + 12, bytes = 2 + 3 * 14;
+    for (size_t k = payload; k < payload + bytes; ++k)
+      for (uint8_t mask : {uint8_t(0x01), uint8_t(0xFF)}) {
+        std::vector<uint8_t> b = good;
+        b[k] ^= mask;
+        write_file(path, b);
+        const Played p = play(path);
+        ++flips;
+        ASSERT_EQ(p.corrupt, 1) << "byte " << k << " ^ " << int(mask);
+        EXPECT_EQ(p.frames.count(int64_t(f)), 0u) << "byte " << k;
+        for (size_t other = 0; other < frames.size(); ++other)
+          if (other != f) EXPECT_EQ(p.frames.at(int64_t(other)), frames[other]) << "byte " << k;
+        EXPECT_HAS(p.warning, "oni:" + path + ": frame " + std::to_string(f) + " is corrupt (");
+        // A flip the codec cannot see is named by the trailer entry and the payload's bytes.
+        if (p.warning.find("payload CRC-32") != std::string::npos)
+          EXPECT_HAS(p.warning, "differs from the integrity trailer's 0x");
+        EXPECT_HAS(p.warning, std::to_string(payload) + ".." + std::to_string(payload + bytes - 1) + " changed");
+        // The same flip without the trailer: does the codec alone notice it?
+        std::vector<uint16_t> decoded(frames[f].size());
+        OniDecodeProblem problem;
+        if (decode_oni_depth(kOniCodec16z, b.data() + payload, bytes, decoded.data(), decoded.size(), &problem) &&
+            decoded != frames[f])
+          ++silently_wrong_without_trailer;
+      }
+  }
+  EXPECT_EQ(flips, 3 * 44 * 2);
+  // Without the trailer 138 of these 264 flips still decode (they change a depth value): the
+  // trailer is what catches them.
+  EXPECT_GT(silently_wrong_without_trailer, flips / 3) << silently_wrong_without_trailer;
+}
+
+TEST(OniIntegrity, TrailerCorruptionsAndTruncationsAreRefusedNamingTheField) {
+  TempDir t;
+  const Made m = make_oni(5, 3, kOniCodec16z, ramp_frames(3, 5, 3));
+  const std::vector<uint8_t> good = with_trailer(m);
+  const size_t at = m.bytes.size(), footer = good.size() - 12;
+  const std::string path = t / "bad.oni";
+  const std::string refused = "oni:" + path + ": not a readable OpenNI2 recording (corrupt integrity trailer: ";
+  auto error_for = [&](const std::vector<uint8_t>& b) {
+    write_file(path, b);
+    return error_of([&] { open_oni_source(path); });
+  };
+  auto put32 = [](std::vector<uint8_t>& b, size_t where, uint32_t v) { std::memcpy(&b[where], &v, 4); };
+  // A trailer with a valid CRC over changed fields.
+  auto resealed = [&](const std::function<void(std::vector<uint8_t>&)>& change) {
+    std::vector<uint8_t> b = good;
+    change(b);
+    const size_t crc_at = footer - 4;
+    put32(b, crc_at, uint32_t(::crc32(0L, b.data() + at, uInt(crc_at - at))));
+    return b;
+  };
+  {
+    std::vector<uint8_t> b = good;
+    b[at + 16] ^= 0x10;  // frame 0's CRC entry
+    EXPECT_HAS(error_for(b), refused + "trailer CRC-32 0x");
+    EXPECT_HAS(error_for(b), " at byte " + std::to_string(footer - 4) + ")");
+  }
+  EXPECT_HAS(error_for(resealed([&](auto& b) { put32(b, at + 8, 2); })),
+             refused + "format version 2 (this build reads 1) at byte " + std::to_string(at + 8) + ")");
+  EXPECT_HAS(error_for(resealed([&](auto& b) { put32(b, at + 12, 2); })),
+             refused + "frame count 2 disagrees with the trailer length 32 at byte " + std::to_string(at + 12) + ")");
+  {
+    // A trailer written for two of the three frames: its count disagrees with the file's frames.
+    std::vector<OniFrameRecord> frames;
+    check_oni_bytes(m.bytes.data(), m.bytes.size(), "made.oni", &frames);
+    frames.pop_back();
+    std::vector<uint8_t> b = m.bytes;
+    const std::vector<uint8_t> trailer = oni_integrity_trailer(m.bytes.data(), frames);
+    b.insert(b.end(), trailer.begin(), trailer.end());
+    EXPECT_HAS(error_for(b), refused + "frame count 2 but the file holds 3 depth frames at byte " +
+                                 std::to_string(at + 12) + ")");
+  }
+  {
+    std::vector<uint8_t> b = good;
+    put32(b, footer, 36);
+    EXPECT_HAS(error_for(b), refused + "trailer length 36 in the footer disagrees with the 32 bytes between the end "
+                                       "record and the footer at byte " + std::to_string(footer) + ")");
+  }
+  {
+    std::vector<uint8_t> b = good;
+    b[at] = 'X';
+    EXPECT_HAS(error_for(b), refused + "magic is not \"DPONICRC\" at byte " + std::to_string(at) + ")");
+  }
+  // Every single-byte change of the trailer or footer, and every truncation inside them: refused.
+  for (size_t k = at; k < good.size(); ++k) {
+    std::vector<uint8_t> b = good;
+    b[k] ^= 0x04;
+    const std::vector<uint8_t> exact(b);
+    EXPECT_HAS(error_of([&] { check_oni_bytes(exact.data(), exact.size(), "oni:x.oni"); }),
+               "oni:x.oni: not a readable OpenNI2 recording (")
+        << "byte " << k;
+  }
+  for (size_t cut = at + 1; cut < good.size(); ++cut) {
+    const std::vector<uint8_t> part(good.begin(), good.begin() + std::ptrdiff_t(cut));
+    const std::string e = error_of([&] { check_oni_bytes(part.data(), part.size(), "oni:x.oni"); });
+    EXPECT_HAS(e, "oni:x.oni: not a readable OpenNI2 recording (corrupt integrity trailer: ") << "cut " << cut;
+    EXPECT_HAS(e, "footer \"DPONIEND\" missing (the trailer is truncated: the file ends " +
+                      std::to_string(cut - at) + " bytes after the end record) at byte " + std::to_string(cut) + ")");
+  }
+  // Cut back to the end record, the file is one without a trailer: it plays, unverified.
+  write_file(path, m.bytes);
+  EXPECT_EQ(play(path).frames.size(), 3u);
+}
+
 // ---- equality with OpenNI2's player ----
 
 // CRC-32 (zlib) over the 45 frames of models/demo.oni as OpenNI2 2.2's player delivers them
@@ -364,6 +540,9 @@ constexpr uint32_t kDemoFramesCrc32 = 0xc8edd0e5u;
 TEST(OniReader, DemoFramesEqualOpenNi2PlayerFrameForFrame) {
   const std::string demo = "models/demo.oni";
   ASSERT_TRUE(std::filesystem::exists(demo)) << demo << " is missing (make model builds it)";
+  // demo.oni carries depthpose's integrity trailer after OpenNI2's end record: OpenNI2's player
+  // must still read it frame for frame, and ours checks every payload against it.
+  EXPECT_TRUE(check_oni_container(demo).integrity_trailer) << demo << " has no integrity trailer (make model)";
   auto ours = open_oni_source(demo);
   auto theirs = open_openni_oni_source(demo);
   ASSERT_EQ(ours->width(), theirs->width());
