@@ -1,6 +1,6 @@
 // libFuzzer target: depthpose's .oni reader. Inputs starting with "NI10" go through the container
 // walk (platform/oni_container.h) and, when accepted, every indexed depth frame through its codec
-// (platform/oni_codec.h); other inputs go straight to a codec: byte 0 picks NONE/16zP/16zT, bytes
+// (platform/oni_codec.h) after its integrity-trailer CRC check when the file has one; other inputs go straight to a codec: byte 0 picks NONE/16zP/16zT, bytes
 // 1–2 the pixel count (1..4096), the rest is the payload. Anything may be refused (a ToolError or
 // a false from the decoder); nothing may crash, read outside the input or write outside the frame.
 #include <cstdint>
@@ -33,6 +33,8 @@ void fuzz_container(const uint8_t* data, size_t size) {
     for (size_t i = 0; i < frames.size() && i < kMaxFramesDecoded; ++i) {
       const dp::platform::OniFrameRecord& f = frames[i];
       if (f.payload_offset > size || f.payload_bytes > size - f.payload_offset) __builtin_trap();
+      if (s.integrity_trailer && (s.trailer_offset != s.records_end || s.trailer_offset > size)) __builtin_trap();
+      (void)dp::platform::oni_payload_crc_mismatch(data, s, f, i);
       if (!dp::platform::decode_oni_depth(s.codec, data + f.payload_offset, f.payload_bytes, out.data(), pixels, &problem) &&
           problem.offset > f.payload_bytes)
         __builtin_trap();
