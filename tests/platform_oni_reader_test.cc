@@ -15,6 +15,7 @@
 #include "platform/oni_file_source.h"
 #include "platform/openni_source.h"
 #include "tests/app_test_support.h"
+#include "tests/cli_test_support.h"
 #include "tools/common/error.h"
 
 using namespace dp;
@@ -528,6 +529,31 @@ TEST(OniIntegrity, TrailerCorruptionsAndTruncationsAreRefusedNamingTheField) {
   // Cut back to the end record, the file is one without a trailer: it plays, unverified.
   write_file(path, m.bytes);
   EXPECT_EQ(play(path).frames.size(), 3u);
+}
+
+TEST(OniIntegrity, InfoSaysWhetherPayloadsAreVerifiedAndNamesAChangedFrame) {
+  TempDir t;
+  const Made m = make_oni(5, 3, kOniCodec16z, ramp_frames(3, 5, 3));
+  const std::vector<uint8_t> good = with_trailer(m);
+  auto printed_by_info = [&](const std::string& path) {
+    testing::internal::CaptureStdout();
+    const int rc = testsupport::run_cli({"info", path});
+    const std::string out = testing::internal::GetCapturedStdout();
+    EXPECT_EQ(rc, 0) << out;
+    return out;
+  };
+  const std::string trailed = t / "trailed.oni", bare = t / "bare.oni", changed = t / "changed.oni";
+  write_file(trailed, good);
+  write_file(bare, m.bytes);
+  EXPECT_HAS(printed_by_info(trailed), "integrity trailer: every depth payload matches its CRC-32 (3 frames)");
+  EXPECT_HAS(printed_by_info(bare), "no integrity trailer (recorded by another tool): payload corruption that still "
+                                    "decodes cannot be detected");
+  std::vector<uint8_t> b = good;
+  b[m.frame_records[2] + 28 + 12 + 3] ^= 0x01;  // a byte of frame 2's second full value
+  write_file(changed, b);
+  const std::string e = error_of([&] { testsupport::run_cli({"info", changed}); });
+  EXPECT_HAS(e, "oni:" + changed + ": frame 2 is corrupt (payload CRC-32 0x");
+  EXPECT_HAS(e, "(1 of 3 frames corrupt)");
 }
 
 // ---- equality with OpenNI2's player ----
