@@ -437,12 +437,16 @@ TEST(OniIntegrity, EverySingleByteFlipInEveryPayloadIsCaught) {
         ++flips;
         ASSERT_EQ(p.corrupt, 1) << "byte " << k << " ^ " << int(mask);
         EXPECT_EQ(p.frames.count(int64_t(f)), 0u) << "byte " << k;
-        for (size_t other = 0; other < frames.size(); ++other)
-          if (other != f) EXPECT_EQ(p.frames.at(int64_t(other)), frames[other]) << "byte " << k;
+        for (size_t other = 0; other < frames.size(); ++other) {
+          if (other != f) {
+            EXPECT_EQ(p.frames.at(int64_t(other)), frames[other]) << "byte " << k;
+          }
+        }
         EXPECT_HAS(p.warning, "oni:" + path + ": frame " + std::to_string(f) + " is corrupt (");
         // A flip the codec cannot see is named by the trailer entry and the payload's bytes.
-        if (p.warning.find("payload CRC-32") != std::string::npos)
+        if (p.warning.find("payload CRC-32") != std::string::npos) {
           EXPECT_HAS(p.warning, "differs from the integrity trailer's 0x");
+        }
         EXPECT_HAS(p.warning, std::to_string(payload) + ".." + std::to_string(payload + bytes - 1) + " changed");
         // The same flip without the trailer: does the codec alone notice it?
         std::vector<uint16_t> decoded(frames[f].size());
