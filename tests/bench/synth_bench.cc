@@ -1,9 +1,10 @@
 // `make bench`: speed of `depthpose synth` per stage, on one thread, at 320x240 and 640x480
-// (issue 3: "frames per second per core ... render, noise, PNG write separately"; target
-// >= 200 frames/s/core at 320x240 before PNG). Uses the real MakeHuman body and every CMU clip
-// under the assets directory, the synth defaults (docs/synthetic_data.md) and a fixed seed, so
-// every frame has its own pose, shape, yaw, camera and noise exactly as `depthpose synth` draws
-// them. The stages are timed inside Synthesizer::render (SynthStageTimes, tools/synth/synth.h):
+// (frames per second per core, with render, noise and PNG write apart; target >= 200 frames/s/core
+// at 320x240 before PNG). Uses the real MakeHuman body and every CMU clip under the assets
+// directory, SynthConfig's defaults (docs/synthetic_data.md: bare adult bodies; the synth command's
+// own defaults add clothing and hair and widen the bodies, about 6-8 % more render time) and a
+// fixed seed, so every frame has its own pose, shape, yaw, camera and noise as the synthesizer
+// draws them. The stages are timed inside Synthesizer::render (SynthStageTimes, tools/synth/synth.h):
 //   shape   shaped_vertices + measure_skeleton (MakeHuman targets, skeleton follows shape)
 //   pose    pose_skeleton + linear blend skinning + joints + mirror + placement in the scene
 //   raster  z-buffer rasterization: depth + part labels (+ body ownership)
@@ -81,7 +82,7 @@ Result run(const std::string& assets, int width, int height, int frames, int rou
   r.height = height;
   r.frames = frames;
   r.rounds = rounds;
-  dp::synth::SynthConfig config;  // the synth command's defaults: every clip, noise on, one body
+  dp::synth::SynthConfig config;  // the library's defaults: every clip, noise on, one bare adult body
   config.width = width;
   config.height = height;
   const auto t0 = Clock::now();
