@@ -163,7 +163,7 @@ const Variant kVariants[] = {{"scalar ref", KernelIsa::kScalar, NodeLayout::kBlo
                              {"avx512 10B nodes", KernelIsa::kAvx512, NodeLayout::kBlob10, false},
                              {"avx512 split", KernelIsa::kAvx512, NodeLayout::kSplit, false}};
 constexpr int kVariantCount = sizeof kVariants / sizeof kVariants[0];
-// Issue 5's layout study, each layout through the same kernel code (runtime/kernels/forest_kernel.h,
+// The node layout study, each layout through the same kernel code (runtime/kernels/forest_kernel.h,
 // NodeLayout): the blob's 10-byte nodes, packed 8-byte nodes, 16-byte nodes, split (structure of
 // arrays: offsets and thresholds apart; what the pipeline evaluates).
 const Variant kLayoutStudy[] = {{"avx2 10B", KernelIsa::kAvx2, NodeLayout::kBlob10, true},
