@@ -134,6 +134,33 @@ TEST(TrainDataset, BadJsonLineNamesTheLine) {
   EXPECT_NE(e.find("frames.jsonl line 7"), std::string::npos) << e;
 }
 
+// meta.json integers must be JSON integers in range: a float such as 3.8e26 once reached
+// nlohmann's unchecked float-to-int cast (undefined behaviour), and 64.5 silently became 64.
+TEST(TrainDataset, MetaSizeMustBeAnIntegerInRange) {
+  const struct {
+    const char* width;
+    const char* expect;
+  } cases[] = {{"3.8e26", "not a whole number"}, {"64.5", "not a whole number"},
+               {"18446744073709551615", "out of range"}, {"-5", "out of range"}, {"\"64\"", "string"}};
+  for (const auto& c : cases) {
+    TempDir tmp;
+    write_toy_dataset(tmp.path + "/toy");
+    const std::string meta_path = tmp.path + "/toy/meta.json";
+    std::ifstream in(meta_path);
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string meta = text.str();
+    const size_t at = meta.find("\"width\"");
+    ASSERT_NE(at, std::string::npos) << meta;
+    const size_t value = meta.find(':', at) + 1, end = meta.find_first_of(",}", value);
+    meta = meta.substr(0, value) + c.width + meta.substr(end);
+    std::ofstream(meta_path) << meta;
+    const std::string e = load_error(tmp.path + "/toy");
+    EXPECT_NE(e.find("\"width\""), std::string::npos) << c.width << ": " << e;
+    EXPECT_NE(e.find(c.expect), std::string::npos) << c.width << ": " << e;
+  }
+}
+
 TEST(TrainDataset, LabelOutsidePartListIsRefused) {
   TempDir tmp;
   write_toy_dataset(tmp.path + "/toy");

@@ -11,6 +11,7 @@
 #include "tools/common/body_model.h"
 #include "tools/common/error.h"
 #include "tools/common/file_io.h"
+#include "tools/common/json_fields.h"
 #include "tools/common/limits.h"
 
 namespace dp::tools {
@@ -79,10 +80,10 @@ Dataset open_dataset(const std::string& dir) {
   try {
     if (m.value("format", "") != "depthpose-dataset")
       fail(meta_path + ": \"format\" is not \"depthpose-dataset\"");
-    int version = m.value("version", 0);
+    const int64_t version = m.contains("version") ? json_integer_field(m, "version", 0, INT32_MAX, meta_path) : 0;
     if (version != 1) fail(meta_path + ": unsupported dataset version " + std::to_string(version) + " (this build reads 1)");
-    ds.meta.width = m.at("width").get<int>();
-    ds.meta.height = m.at("height").get<int>();
+    ds.meta.width = int(json_integer_field(m, "width", 1, 8192, meta_path));
+    ds.meta.height = int(json_integer_field(m, "height", 1, 8192, meta_path));
     ds.meta.fx = m.at("fx").get<double>();
     ds.meta.fy = m.at("fy").get<double>();
     ds.meta.cx = m.at("cx").get<double>();

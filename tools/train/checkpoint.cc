@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tools/common/error.h"
+#include "tools/common/json_fields.h"
 
 namespace dp::train {
 using tools::fail;
@@ -164,10 +165,10 @@ TrainingCheckpoint read_checkpoint(const std::string& path) {
     size_t at = 16 + header_bytes;
     for (const auto& t : header.at("trees")) {
       GrowthState g;
-      g.levels_done = t.at("levels_done").get<int>();
+      g.levels_done = int(tools::json_integer_field(t, "levels_done", 0, 64, "checkpoint " + path));
       g.complete = t.at("complete").get<bool>();
-      g.feature_evaluations = t.at("feature_evaluations").get<uint64_t>();
-      const size_t count = t.at("nodes").get<size_t>();
+      g.feature_evaluations = uint64_t(tools::json_integer_field(t, "feature_evaluations", 0, INT64_MAX, "checkpoint " + path));
+      const size_t count = size_t(tools::json_integer_field(t, "nodes", 0, INT64_MAX, "checkpoint " + path));
       if (g.levels_done < 0 || count > (data.size() - 4 - at) / (kNodeInts * 4))
         bad("tree " + std::to_string(c.trees.size()) + " lists more nodes than the file holds");
       for (size_t i = 0; i < count; ++i, at += kNodeInts * 4) {

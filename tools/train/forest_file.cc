@@ -14,10 +14,12 @@
 #include "runtime/fixed_point.h"
 #include "tools/common/error.h"
 #include "tools/common/file_io.h"
+#include "tools/common/json_fields.h"
 
 namespace dp::train {
 using nlohmann::json;
 using tools::fail;
+using tools::json_integer_field;
 
 namespace {
 
@@ -272,13 +274,13 @@ TrainedForest parse_forest(const uint8_t* data, size_t size, const std::string& 
     json h = json::parse(header_text, header_text + header_bytes);
     f.method = h.at("method").get<std::string>();
     f.reference_focal_px = h.at("reference_focal_px").get<float>();
-    f.depth = h.at("depth").get<int>();
+    f.depth = int(json_integer_field(h, "depth", 0, 64, what));
     f.part_names = h.at("parts").get<std::vector<std::string>>();
     f.joint_names = h.at("joints").get<std::vector<std::string>>();
-    f.votes_per_joint = h.at("votes_per_joint").get<int>();
+    f.votes_per_joint = int(json_integer_field(h, "votes_per_joint", 0, 64, what));
     f.has_part_distributions = h.at("has_part_distributions").get<bool>();
     f.has_votes = h.at("has_votes").get<bool>();
-    tree_count = h.at("tree_count").get<size_t>();
+    tree_count = size_t(json_integer_field(h, "tree_count", 1, 64, what));
     f.training_json = h.value("training", json::object()).dump();
     f.datasets_json = h.value("datasets", json::array()).dump();
     f.timings_json = h.value("timings", json::object()).dump();
