@@ -117,6 +117,14 @@ $(BUILD)/obj/forest_blob/blob_loader.o $(BUILD)/obj/forest_blob/crc32.o: $(BUILD
 $(BUILD)/obj/%.o: %.cc
 	@mkdir -p $(@D)
 	$(CXX) $(TOOLS_CXXFLAGS) $(DEPFLAGS) -c $< -o $@
+# Test drivers (tests/*.cc, not the benches) compile at TEST_OPT with line tables only; the code they
+# test keeps its own flags. Measured on three heavy test files (CPU seconds, -O2 -g → -O1 -g1):
+# runtime_kernel_test 19.2 → 8.8, segmentation_cut_test 18.2 → 9.5, train_dataset_test 8.8 → 4.1.
+TEST_OPT ?= $(if $(filter -O0,$(OPT)),-O0,-O1)
+TEST_CXXFLAGS := $(filter-out $(OPT) $(DEBUGINFO),$(TOOLS_CXXFLAGS)) $(TEST_OPT) -g1
+$(TEST_OBJS): $(BUILD)/obj/tests/%.o: tests/%.cc
+	@mkdir -p $(@D)
+	$(CXX) $(TEST_CXXFLAGS) $(DEPFLAGS) -c $< -o $@
 
 $(RUNTIME_LIB): $(RUNTIME_OBJS)
 	@mkdir -p $(@D)
