@@ -187,30 +187,44 @@ inline int32_t feature_of_pixel(const TrainingSet& set, const TrainingPixel& p, 
 }
 
 // The candidates of one work item in structure-of-arrays form for the pixel-major kernel: offsets
-// per candidate, thresholds transposed ([threshold][candidate]) and padded with kNoThreshold, the
-// count padded to a multiple of kLanes with inert candidates (zero offsets, no thresholds).
+// per lane, thresholds transposed ([threshold][lane]) and padded with kNoThreshold, the count
+// padded to a multiple of kLanes with inert lanes (zero offsets, no thresholds). Lanes hold the
+// unary candidates (δ2 = 0) first, then the others, each part in candidate order: the AVX2 kernel
+// reads the pixel's own depth instead of a second probe for every 8-lane block that is all unary
+// (about half the candidates). lane[c] is candidate c's lane; kernels write bins by lane and
+// histograms are indexed by lane, while scoring walks candidates in their order (ties: lowest).
 constexpr int kLanes = 16;                    // int16 lanes of an AVX2 register
 constexpr int16_t kNoThreshold = 32767;       // above every feature (|feature| ≤ 32766)
 struct CandidateLanes {
   int count = 0, padded = 0, thresholds = 0;  // thresholds = the most any candidate has
+  int unary = 0;                              // lanes [0, unary) are unary candidates
   std::vector<int32_t> du1, dv1, du2, dv2;
   std::vector<int16_t> table;                 // thresholds × padded
+  std::vector<int32_t> lane;                  // per candidate
 };
 
 void make_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
   l.count = static_cast<int>(candidates.size());
   l.padded = (l.count + kLanes - 1) / kLanes * kLanes;
   l.thresholds = 0;
-  for (const Candidate& c : candidates) l.thresholds = std::max(l.thresholds, c.thresholds);
+  l.unary = 0;
+  for (const Candidate& c : candidates) {
+    l.thresholds = std::max(l.thresholds, c.thresholds);
+    l.unary += c.du2 == 0 && c.dv2 == 0;
+  }
   for (auto* v : {&l.du1, &l.dv1, &l.du2, &l.dv2}) v->assign(l.padded, 0);
   l.table.assign(size_t(l.thresholds) * l.padded, kNoThreshold);
+  l.lane.resize(l.count);
+  int next_unary = 0, next_binary = l.unary;
   for (int c = 0; c < l.count; ++c) {
     const Candidate& cand = candidates[c];
-    l.du1[c] = cand.du1;
-    l.dv1[c] = cand.dv1;
-    l.du2[c] = cand.du2;
-    l.dv2[c] = cand.dv2;
-    for (int t = 0; t < cand.thresholds; ++t) l.table[size_t(t) * l.padded + c] = static_cast<int16_t>(cand.table[t]);
+    const int k = cand.du2 == 0 && cand.dv2 == 0 ? next_unary++ : next_binary++;
+    l.lane[c] = k;
+    l.du1[k] = cand.du1;
+    l.dv1[k] = cand.dv1;
+    l.du2[k] = cand.du2;
+    l.dv2[k] = cand.dv2;
+    for (int t = 0; t < cand.thresholds; ++t) l.table[size_t(t) * l.padded + k] = static_cast<int16_t>(cand.table[t]);
   }
 }
 
@@ -274,13 +288,37 @@ __attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const P
   return _mm256_and_si256(g, q.low16);
 }
 
+// bin[c] = the number of lane c's thresholds below feature[c], 16 lanes per instruction, with
+// four independent counts so that the compare chain over the thresholds is a quarter as long.
+__attribute__((target("avx2"), always_inline)) inline void bin_features(const CandidateLanes& l,
+                                                                         const int16_t* feature, int16_t* bin) {
+  const size_t stride = size_t(l.padded);
+  for (int c = 0; c < l.padded; c += 16) {
+    const __m256i f = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(feature + c));
+    __m256i n0 = _mm256_setzero_si256(), n1 = n0, n2 = n0, n3 = n0;
+    const int16_t* t = l.table.data() + c;
+#define DP_BELOW(k) _mm256_cmpgt_epi16(f, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t + (k) * stride)))
+    int k = 0;
+    for (; k + 4 <= l.thresholds; k += 4) {
+      n0 = _mm256_sub_epi16(n0, DP_BELOW(k));
+      n1 = _mm256_sub_epi16(n1, DP_BELOW(k + 1));
+      n2 = _mm256_sub_epi16(n2, DP_BELOW(k + 2));
+      n3 = _mm256_sub_epi16(n3, DP_BELOW(k + 3));
+    }
+    for (; k < l.thresholds; ++k) n0 = _mm256_sub_epi16(n0, DP_BELOW(k));
+#undef DP_BELOW
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(bin + c),
+                        _mm256_add_epi16(_mm256_add_epi16(n0, n1), _mm256_add_epi16(n2, n3)));
+  }
+}
+
 // The same as pixel_features, 8 candidates per AVX2 instruction for the offsets and bounds and
 // 16 for the binning; probes are masked gathers of 32-bit words at the element's address whose low
 // half is the element (little-endian; masked-off lanes keep the background). A gather may read the
 // 2 bytes after an image's last element: heap blocks are allocated in 16-byte units, so they are
 // inside the allocation's rounding or the allocator's next header, never unmapped.
 __attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
-                                                         int32_t v, int32_t s, int16_t*, int16_t* bin) {
+                                                         int32_t v, int32_t s, int16_t* feature, int16_t* bin) {
   ProbeAvx2 q;
   q.vs = _mm256_set1_epi32(s);
   q.vu = _mm256_set1_epi32(u);
@@ -293,18 +331,21 @@ __attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l
   q.low16 = _mm256_set1_epi32(0xFFFF);
   q.ones = _mm256_set1_epi32(-1);
   q.base = reinterpret_cast<const int*>(im.probe);
+  // A unary lane's second probe is at offset 0: the pixel itself, always inside the image.
+  const __m256i own = _mm256_set1_epi32(im.probe[v * im.width + u]);
+  // Two loops: the features of every lane first, then the bins. Each block's chain (offsets →
+  // index → gather → feature → 20 compares) is longer than the out-of-order window holds; split,
+  // the gathers of consecutive blocks overlap, and so do the compare chains.
   for (int c = 0; c < l.padded; c += 16) {
-    const __m256i f0 = _mm256_sub_epi32(probe_avx2(q, &l.du1[c], &l.dv1[c]), probe_avx2(q, &l.du2[c], &l.dv2[c]));
-    const __m256i f1 =
-        _mm256_sub_epi32(probe_avx2(q, &l.du1[c + 8], &l.dv1[c + 8]), probe_avx2(q, &l.du2[c + 8], &l.dv2[c + 8]));
+    const __m256i f0 = _mm256_sub_epi32(probe_avx2(q, &l.du1[c], &l.dv1[c]),
+                                        c + 8 <= l.unary ? own : probe_avx2(q, &l.du2[c], &l.dv2[c]));
+    const __m256i f1 = _mm256_sub_epi32(probe_avx2(q, &l.du1[c + 8], &l.dv1[c + 8]),
+                                        c + 16 <= l.unary ? own : probe_avx2(q, &l.du2[c + 8], &l.dv2[c + 8]));
     // packs interleaves 128-bit halves: [f0 0-3, f1 0-3, f0 4-7, f1 4-7] → reorder the quadwords.
-    const __m256i f = _mm256_permute4x64_epi64(_mm256_packs_epi32(f0, f1), 0xD8);
-    __m256i count = _mm256_setzero_si256();
-    const int16_t* t = l.table.data() + c;
-    for (int k = 0; k < l.thresholds; ++k, t += l.padded)
-      count = _mm256_sub_epi16(count, _mm256_cmpgt_epi16(f, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t))));
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(bin + c), count);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(feature + c),
+                        _mm256_permute4x64_epi64(_mm256_packs_epi32(f0, f1), 0xD8));
   }
+  bin_features(l, feature, bin);
 }
 
 // AVX2 when the CPU has it (same results: integer arithmetic throughout, tested against the
@@ -618,7 +659,7 @@ class Grower {
     cum.resize(k);
     for (int c = 0; c < nc; ++c) {
       const Candidate& cand = g.candidates[c];
-      const uint32_t* h = counts + c;
+      const uint32_t* h = counts + g.lanes.lane[c];
       std::fill(cum.begin(), cum.end(), 0u);
       uint32_t left = 0;
       for (int t = 0; t < cand.thresholds; ++t) {
@@ -663,7 +704,7 @@ class Grower {
       features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
       pixel_offsets(p, s.offsets.data());
       for (int c = 0; c < nc; ++c) {
-        const size_t cell = size_t(c) * bins + s.bin[c];
+        const size_t cell = size_t(c) * bins + s.bin[l.lane[c]];
         ++counts[cell];
         add_offsets(s.offsets.data(), J, sums + cell * row);
       }
