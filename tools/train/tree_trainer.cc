@@ -203,17 +203,15 @@ struct CandidateLanes {
   std::vector<int32_t> lane;                  // per candidate
 };
 
-void make_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
+// The offset part of make_lanes: count, padded, unary, lane and the offset rows (what the
+// feature kernels read); no thresholds.
+void make_offset_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
   l.count = static_cast<int>(candidates.size());
   l.padded = (l.count + kLanes - 1) / kLanes * kLanes;
   l.thresholds = 0;
   l.unary = 0;
-  for (const Candidate& c : candidates) {
-    l.thresholds = std::max(l.thresholds, c.thresholds);
-    l.unary += c.du2 == 0 && c.dv2 == 0;
-  }
+  for (const Candidate& c : candidates) l.unary += c.du2 == 0 && c.dv2 == 0;
   for (auto* v : {&l.du1, &l.dv1, &l.du2, &l.dv2}) v->assign(l.padded, 0);
-  l.table.assign(size_t(l.thresholds) * l.padded, kNoThreshold);
   l.lane.resize(l.count);
   int next_unary = 0, next_binary = l.unary;
   for (int c = 0; c < l.count; ++c) {
@@ -224,7 +222,17 @@ void make_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
     l.dv1[k] = cand.dv1;
     l.du2[k] = cand.du2;
     l.dv2[k] = cand.dv2;
-    for (int t = 0; t < cand.thresholds; ++t) l.table[size_t(t) * l.padded + k] = static_cast<int16_t>(cand.table[t]);
+  }
+}
+
+void make_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
+  make_offset_lanes(candidates, l);
+  for (const Candidate& c : candidates) l.thresholds = std::max(l.thresholds, c.thresholds);
+  l.table.assign(size_t(l.thresholds) * l.padded, kNoThreshold);
+  for (int c = 0; c < l.count; ++c) {
+    const Candidate& cand = candidates[c];
+    for (int t = 0; t < cand.thresholds; ++t)
+      l.table[size_t(t) * l.padded + l.lane[c]] = static_cast<int16_t>(cand.table[t]);
   }
 }
 
@@ -319,8 +327,9 @@ __attribute__((target("avx2"), always_inline)) inline void bin_features(const Ca
 
 // The same as pixel_features, 8 lanes per AVX2 instruction for the offsets and bounds (probe_avx2)
 // and 16 for the binning (bin_features).
-__attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
-                                                         int32_t v, int32_t s, int16_t* feature, int16_t* bin) {
+// feature[lane] for every lane of `l` (its offsets only: thresholds are not read).
+__attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v,
+                                                   int32_t s, int16_t* feature) {
   ProbeAvx2 q;
   q.vs = _mm256_set1_epi32(s);
   q.vu = _mm256_set1_epi32(u);
@@ -345,6 +354,10 @@ __attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(feature + c),
                         _mm256_permute4x64_epi64(_mm256_packs_epi32(f0, f1), 0xD8));
   }
+}
+__attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
+                                                         int32_t v, int32_t s, int16_t* feature, int16_t* bin) {
+  features_avx2(l, im, u, v, s, feature);
   bin_features(l, feature, bin);
 }
 
@@ -393,6 +406,7 @@ struct Scratch {
   std::vector<Candidate> candidates;
   CandidateLanes lanes;
   std::vector<int16_t> feature, bin;  // one pixel's features and bins per candidate (pixel_features)
+  std::vector<int16_t> sample_features;  // threshold sample × lanes (prepare_group)
   std::vector<uint32_t> counts;   // classification histograms
   std::vector<int64_t> sums;      // regression histograms (fixed point, pixel_offsets)
   std::vector<int32_t> offsets;   // regression: one pixel's joints × {w, dx, dy, dz}
@@ -588,7 +602,27 @@ class Grower {
     g.c1 = c1;
     g.candidates.resize(c1 - c0);
     decode_sample(node, s.sample);
-    for (int c = 0; c < c1 - c0; ++c) make_candidate(node, c0 + c, s.sample, g.candidates[c]);
+    if (features_ != pixel_features_avx2) {
+      for (int c = 0; c < c1 - c0; ++c) make_candidate(node, c0 + c, s.sample, g.candidates[c]);
+      finish_group(g);
+      return;
+    }
+    // With AVX2 the sample's features come from the pixel-major kernel (the same values as
+    // block_features): a node of ~100 pixels spends as much on its ≤ 255-pixel sample as on
+    // its pixels, so the sample gets the fast kernel too.
+    for (int c = 0; c < c1 - c0; ++c) draw_offsets(node, c0 + c, g.candidates[c]);
+    make_offset_lanes(g.candidates, g.lanes);
+    const size_t padded = size_t(g.lanes.padded);
+    const int n = s.sample.count;
+    s.sample_features.resize(n * padded);
+    for (int i = 0; i < n; ++i)
+      features_avx2(g.lanes, {s.sample.image[i], s.sample.width[i], s.sample.height[i]}, s.sample.u[i], s.sample.v[i],
+                    s.sample.scale[i], s.sample_features.data() + i * padded);
+    for (int c = 0; c < c1 - c0; ++c) {
+      const int lane = g.lanes.lane[c];
+      for (int i = 0; i < n; ++i) s.sample.feature[i] = s.sample_features[i * padded + lane];
+      set_thresholds(g.candidates[c], s.sample.feature, n);
+    }
     finish_group(g);
   }
   // The same group when the sample's features come from all ranks: `features` holds
