@@ -276,7 +276,7 @@ inline void pixel_features(const CandidateLanes& l, const ImageRef& im, int32_t 
 // One probe for 8 lanes (offset rows du, dv) at a pixel: offsets, bounds and the element index
 // with AVX2, then eight scalar loads. Off-image lanes load element 0 and OR in the background
 // (0x7FFF, as pixel_features). Scalar loads rather than vpgatherdd: on this machine's Zen 3 cores
-// the gather kernel measured 12–18 % slower on bench_train (same binary, alternated runs).
+// the gather kernel measured 12–15 % slower on bench_train (same binary, alternated runs).
 struct ProbeAvx2 {
   __m256i vs, vu, vv, w, w1, h1, half, background;
   const uint16_t* base;
@@ -405,7 +405,7 @@ struct Scratch {
   Block sample{};
   std::vector<Candidate> candidates;
   CandidateLanes lanes;
-  std::vector<int16_t> feature, bin;  // one pixel's features and bins per candidate (pixel_features)
+  std::vector<int16_t> feature, bin;  // one pixel's features and bins per lane (pixel_features)
   std::vector<int16_t> sample_features;  // threshold sample × lanes (prepare_group)
   std::vector<uint32_t> counts;   // classification histograms
   std::vector<int64_t> sums;      // regression histograms (fixed point, pixel_offsets)
@@ -664,7 +664,7 @@ class Grower {
     return static_cast<int>(std::min<uint32_t>(node.count, std::min(p_.threshold_candidates, kMaxThresholds)));
   }
 
-  // Classification: adds pixels [begin, end) of `node` to `counts`, cells [class][bin][candidate]
+  // Classification: adds pixels [begin, end) of `node` to `counts`, cells [class][bin][lane]
   // (histogram_cells of them): a pixel's increments for all candidates fall in its class's
   // bins × candidates block (a few kB, L1-resident). Integer counts: partial histograms over
   // disjoint pixel ranges sum to the same cells in any order (threads here; processes later).
