@@ -325,9 +325,8 @@ __attribute__((target("avx2"), always_inline)) inline void bin_features(const Ca
   }
 }
 
-// The same as pixel_features, 8 lanes per AVX2 instruction for the offsets and bounds (probe_avx2)
-// and 16 for the binning (bin_features).
-// feature[lane] for every lane of `l` (its offsets only: thresholds are not read).
+// feature[lane] for every lane of `l` (its offsets only: thresholds are not read), 8 lanes per
+// AVX2 instruction for the offsets and bounds (probe_avx2).
 __attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v,
                                                    int32_t s, int16_t* feature) {
   ProbeAvx2 q;
@@ -355,6 +354,7 @@ __attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, cons
                         _mm256_permute4x64_epi64(_mm256_packs_epi32(f0, f1), 0xD8));
   }
 }
+// The same as pixel_features: features_avx2, then bin_features (16 lanes per instruction).
 __attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
                                                          int32_t v, int32_t s, int16_t* feature, int16_t* bin) {
   features_avx2(l, im, u, v, s, feature);
@@ -365,8 +365,7 @@ __attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l
 // forests of the scalar version).
 using PixelFeaturesFn = void (*)(const CandidateLanes&, const ImageRef&, int32_t, int32_t, int32_t, int16_t*, int16_t*);
 PixelFeaturesFn pick_pixel_features() {
-  if (std::getenv("DEPTHPOSE_TRAIN_NO_AVX2") == nullptr && __builtin_cpu_supports("avx2"))
-    return pixel_features_avx2;
+  if (std::getenv("DEPTHPOSE_TRAIN_NO_AVX2") == nullptr && __builtin_cpu_supports("avx2")) return pixel_features_avx2;
   return pixel_features;
 }
 
@@ -666,7 +665,7 @@ class Grower {
 
   // Classification: adds pixels [begin, end) of `node` to `counts`, cells [class][bin][lane]
   // (histogram_cells of them): a pixel's increments for all candidates fall in its class's
-  // bins × candidates block (a few kB, L1-resident). Integer counts: partial histograms over
+  // bins × lanes block (a few kB, L1-resident). Integer counts: partial histograms over
   // disjoint pixel ranges sum to the same cells in any order (threads here; processes later).
   void accumulate(const NodeInfo& node, const CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts,
                   int thread) {
@@ -684,7 +683,6 @@ class Grower {
       for (int c = 0; c < nc; ++c) ++h[bin[c] * nc + c];
     }
   }
-
 
   // Classification: the best (candidate, threshold) of a group from its complete histogram.
   Best score_group(const NodeInfo& node, const CandidateGroup& g, const uint32_t* counts,
