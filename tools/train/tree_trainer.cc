@@ -187,30 +187,52 @@ inline int32_t feature_of_pixel(const TrainingSet& set, const TrainingPixel& p, 
 }
 
 // The candidates of one work item in structure-of-arrays form for the pixel-major kernel: offsets
-// per candidate, thresholds transposed ([threshold][candidate]) and padded with kNoThreshold, the
-// count padded to a multiple of kLanes with inert candidates (zero offsets, no thresholds).
+// per lane, thresholds transposed ([threshold][lane]) and padded with kNoThreshold, the count
+// padded to a multiple of kLanes with inert lanes (zero offsets, no thresholds). Lanes hold the
+// unary candidates (δ2 = 0) first, then the others, each part in candidate order: the AVX2 kernel
+// reads the pixel's own depth instead of a second probe for every 8-lane block that is all unary
+// (about half the candidates). lane[c] is candidate c's lane; kernels write bins by lane and
+// histograms are indexed by lane, while scoring walks candidates in their order (ties: lowest).
 constexpr int kLanes = 16;                    // int16 lanes of an AVX2 register
 constexpr int16_t kNoThreshold = 32767;       // above every feature (|feature| ≤ 32766)
 struct CandidateLanes {
   int count = 0, padded = 0, thresholds = 0;  // thresholds = the most any candidate has
+  int unary = 0;                              // lanes [0, unary) are unary candidates
   std::vector<int32_t> du1, dv1, du2, dv2;
   std::vector<int16_t> table;                 // thresholds × padded
+  std::vector<int32_t> lane;                  // per candidate
 };
 
-void make_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
+// The offset part of make_lanes: count, padded, unary, lane and the offset rows (what the
+// feature kernels read); no thresholds.
+void make_offset_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
   l.count = static_cast<int>(candidates.size());
   l.padded = (l.count + kLanes - 1) / kLanes * kLanes;
   l.thresholds = 0;
-  for (const Candidate& c : candidates) l.thresholds = std::max(l.thresholds, c.thresholds);
+  l.unary = 0;
+  for (const Candidate& c : candidates) l.unary += c.du2 == 0 && c.dv2 == 0;
   for (auto* v : {&l.du1, &l.dv1, &l.du2, &l.dv2}) v->assign(l.padded, 0);
+  l.lane.resize(l.count);
+  int next_unary = 0, next_binary = l.unary;
+  for (int c = 0; c < l.count; ++c) {
+    const Candidate& cand = candidates[c];
+    const int k = cand.du2 == 0 && cand.dv2 == 0 ? next_unary++ : next_binary++;
+    l.lane[c] = k;
+    l.du1[k] = cand.du1;
+    l.dv1[k] = cand.dv1;
+    l.du2[k] = cand.du2;
+    l.dv2[k] = cand.dv2;
+  }
+}
+
+void make_lanes(const std::vector<Candidate>& candidates, CandidateLanes& l) {
+  make_offset_lanes(candidates, l);
+  for (const Candidate& c : candidates) l.thresholds = std::max(l.thresholds, c.thresholds);
   l.table.assign(size_t(l.thresholds) * l.padded, kNoThreshold);
   for (int c = 0; c < l.count; ++c) {
     const Candidate& cand = candidates[c];
-    l.du1[c] = cand.du1;
-    l.dv1[c] = cand.dv1;
-    l.du2[c] = cand.du2;
-    l.dv2[c] = cand.dv2;
-    for (int t = 0; t < cand.thresholds; ++t) l.table[size_t(t) * l.padded + c] = static_cast<int16_t>(cand.table[t]);
+    for (int t = 0; t < cand.thresholds; ++t)
+      l.table[size_t(t) * l.padded + l.lane[c]] = static_cast<int16_t>(cand.table[t]);
   }
 }
 
@@ -251,10 +273,13 @@ inline void pixel_features(const CandidateLanes& l, const ImageRef& im, int32_t 
   }
 }
 
-// One probe for 8 candidates (offset rows du, dv) at a pixel; see pixel_features_avx2.
+// One probe for 8 lanes (offset rows du, dv) at a pixel: offsets, bounds and the element index
+// with AVX2, then eight scalar loads. Off-image lanes load element 0 and OR in the background
+// (0x7FFF, as pixel_features). Scalar loads rather than vpgatherdd: on this machine's Zen 3 cores
+// the gather kernel measured 12–15 % slower on bench_train (same binary, alternated runs).
 struct ProbeAvx2 {
-  __m256i vs, vu, vv, w, w1, h1, half, background, low16, ones;
-  const int* base;
+  __m256i vs, vu, vv, w, w1, h1, half, background;
+  const uint16_t* base;
 };
 __attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const ProbeAvx2& q, const int32_t* du,
                                                                           const int32_t* dv) {
@@ -266,21 +291,44 @@ __attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const P
       q.vv, _mm256_srai_epi32(
                 _mm256_add_epi32(_mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(dv)), q.vs), q.half),
                 kScaleShift));
-  // Sign bit set iff u < 0, v < 0, u > w − 1 or v > h − 1.
-  const __m256i outside =
-      _mm256_or_si256(_mm256_or_si256(pu, pv), _mm256_or_si256(_mm256_sub_epi32(q.w1, pu), _mm256_sub_epi32(q.h1, pv)));
-  const __m256i index = _mm256_add_epi32(_mm256_mullo_epi32(pv, q.w), pu);
-  const __m256i g = _mm256_mask_i32gather_epi32(q.background, q.base, index, _mm256_xor_si256(outside, q.ones), 2);
-  return _mm256_and_si256(g, q.low16);
+  const __m256i outside = _mm256_srai_epi32(
+      _mm256_or_si256(_mm256_or_si256(pu, pv), _mm256_or_si256(_mm256_sub_epi32(q.w1, pu), _mm256_sub_epi32(q.h1, pv))), 31);
+  const __m256i index = _mm256_andnot_si256(outside, _mm256_add_epi32(_mm256_mullo_epi32(pv, q.w), pu));
+  alignas(32) int32_t at[8];
+  _mm256_store_si256(reinterpret_cast<__m256i*>(at), index);
+  const uint16_t* p = q.base;
+  const __m256i g = _mm256_setr_epi32(p[at[0]], p[at[1]], p[at[2]], p[at[3]], p[at[4]], p[at[5]], p[at[6]], p[at[7]]);
+  return _mm256_or_si256(g, _mm256_and_si256(outside, q.background));
 }
 
-// The same as pixel_features, 8 candidates per AVX2 instruction for the offsets and bounds and
-// 16 for the binning; probes are masked gathers of 32-bit words at the element's address whose low
-// half is the element (little-endian; masked-off lanes keep the background). A gather may read the
-// 2 bytes after an image's last element: heap blocks are allocated in 16-byte units, so they are
-// inside the allocation's rounding or the allocator's next header, never unmapped.
-__attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
-                                                         int32_t v, int32_t s, int16_t*, int16_t* bin) {
+// bin[c] = the number of lane c's thresholds below feature[c], 16 lanes per instruction, with
+// four independent counts so that the compare chain over the thresholds is a quarter as long.
+__attribute__((target("avx2"), always_inline)) inline void bin_features(const CandidateLanes& l,
+                                                                         const int16_t* feature, int16_t* bin) {
+  const size_t stride = size_t(l.padded);
+  for (int c = 0; c < l.padded; c += 16) {
+    const __m256i f = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(feature + c));
+    __m256i n0 = _mm256_setzero_si256(), n1 = n0, n2 = n0, n3 = n0;
+    const int16_t* t = l.table.data() + c;
+#define DP_BELOW(k) _mm256_cmpgt_epi16(f, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t + (k) * stride)))
+    int k = 0;
+    for (; k + 4 <= l.thresholds; k += 4) {
+      n0 = _mm256_sub_epi16(n0, DP_BELOW(k));
+      n1 = _mm256_sub_epi16(n1, DP_BELOW(k + 1));
+      n2 = _mm256_sub_epi16(n2, DP_BELOW(k + 2));
+      n3 = _mm256_sub_epi16(n3, DP_BELOW(k + 3));
+    }
+    for (; k < l.thresholds; ++k) n0 = _mm256_sub_epi16(n0, DP_BELOW(k));
+#undef DP_BELOW
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(bin + c),
+                        _mm256_add_epi16(_mm256_add_epi16(n0, n1), _mm256_add_epi16(n2, n3)));
+  }
+}
+
+// feature[lane] for every lane of `l` (its offsets only: thresholds are not read), 8 lanes per
+// AVX2 instruction for the offsets and bounds (probe_avx2).
+__attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v,
+                                                   int32_t s, int16_t* feature) {
   ProbeAvx2 q;
   q.vs = _mm256_set1_epi32(s);
   q.vu = _mm256_set1_epi32(u);
@@ -290,21 +338,27 @@ __attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l
   q.h1 = _mm256_set1_epi32(im.height - 1);
   q.half = _mm256_set1_epi32(kScaleOneQ13 >> 1);
   q.background = _mm256_set1_epi32(kBackgroundDepthMm);
-  q.low16 = _mm256_set1_epi32(0xFFFF);
-  q.ones = _mm256_set1_epi32(-1);
-  q.base = reinterpret_cast<const int*>(im.probe);
+  q.base = im.probe;
+  // A unary lane's second probe is at offset 0: the pixel itself, always inside the image.
+  const __m256i own = _mm256_set1_epi32(im.probe[v * im.width + u]);
+  // Two loops: the features of every lane first, then the bins. Each block's chain (offsets →
+  // index → loads → feature → 20 compares) is longer than the out-of-order window holds; split,
+  // the loads of consecutive blocks overlap, and so do the compare chains.
   for (int c = 0; c < l.padded; c += 16) {
-    const __m256i f0 = _mm256_sub_epi32(probe_avx2(q, &l.du1[c], &l.dv1[c]), probe_avx2(q, &l.du2[c], &l.dv2[c]));
-    const __m256i f1 =
-        _mm256_sub_epi32(probe_avx2(q, &l.du1[c + 8], &l.dv1[c + 8]), probe_avx2(q, &l.du2[c + 8], &l.dv2[c + 8]));
+    const __m256i f0 = _mm256_sub_epi32(probe_avx2(q, &l.du1[c], &l.dv1[c]),
+                                        c + 8 <= l.unary ? own : probe_avx2(q, &l.du2[c], &l.dv2[c]));
+    const __m256i f1 = _mm256_sub_epi32(probe_avx2(q, &l.du1[c + 8], &l.dv1[c + 8]),
+                                        c + 16 <= l.unary ? own : probe_avx2(q, &l.du2[c + 8], &l.dv2[c + 8]));
     // packs interleaves 128-bit halves: [f0 0-3, f1 0-3, f0 4-7, f1 4-7] → reorder the quadwords.
-    const __m256i f = _mm256_permute4x64_epi64(_mm256_packs_epi32(f0, f1), 0xD8);
-    __m256i count = _mm256_setzero_si256();
-    const int16_t* t = l.table.data() + c;
-    for (int k = 0; k < l.thresholds; ++k, t += l.padded)
-      count = _mm256_sub_epi16(count, _mm256_cmpgt_epi16(f, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t))));
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(bin + c), count);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(feature + c),
+                        _mm256_permute4x64_epi64(_mm256_packs_epi32(f0, f1), 0xD8));
   }
+}
+// The same as pixel_features: features_avx2, then bin_features (16 lanes per instruction).
+__attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
+                                                         int32_t v, int32_t s, int16_t* feature, int16_t* bin) {
+  features_avx2(l, im, u, v, s, feature);
+  bin_features(l, feature, bin);
 }
 
 // AVX2 when the CPU has it (same results: integer arithmetic throughout, tested against the
@@ -350,7 +404,8 @@ struct Scratch {
   Block sample{};
   std::vector<Candidate> candidates;
   CandidateLanes lanes;
-  std::vector<int16_t> feature, bin;  // one pixel's features and bins per candidate (pixel_features)
+  std::vector<int16_t> feature, bin;  // one pixel's features and bins per lane (pixel_features)
+  std::vector<int16_t> sample_features;  // threshold sample × lanes (prepare_group)
   std::vector<uint32_t> counts;   // classification histograms
   std::vector<int64_t> sums;      // regression histograms (fixed point, pixel_offsets)
   std::vector<int32_t> offsets;   // regression: one pixel's joints × {w, dx, dy, dz}
@@ -546,7 +601,27 @@ class Grower {
     g.c1 = c1;
     g.candidates.resize(c1 - c0);
     decode_sample(node, s.sample);
-    for (int c = 0; c < c1 - c0; ++c) make_candidate(node, c0 + c, s.sample, g.candidates[c]);
+    if (features_ != pixel_features_avx2) {
+      for (int c = 0; c < c1 - c0; ++c) make_candidate(node, c0 + c, s.sample, g.candidates[c]);
+      finish_group(g);
+      return;
+    }
+    // With AVX2 the sample's features come from the pixel-major kernel (the same values as
+    // block_features): a node of ~100 pixels spends as much on its ≤ 255-pixel sample as on
+    // its pixels, so the sample gets the fast kernel too.
+    for (int c = 0; c < c1 - c0; ++c) draw_offsets(node, c0 + c, g.candidates[c]);
+    make_offset_lanes(g.candidates, g.lanes);
+    const size_t padded = size_t(g.lanes.padded);
+    const int n = s.sample.count;
+    s.sample_features.resize(n * padded);
+    for (int i = 0; i < n; ++i)
+      features_avx2(g.lanes, {s.sample.image[i], s.sample.width[i], s.sample.height[i]}, s.sample.u[i], s.sample.v[i],
+                    s.sample.scale[i], s.sample_features.data() + i * padded);
+    for (int c = 0; c < c1 - c0; ++c) {
+      const int lane = g.lanes.lane[c];
+      for (int i = 0; i < n; ++i) s.sample.feature[i] = s.sample_features[i * padded + lane];
+      set_thresholds(g.candidates[c], s.sample.feature, n);
+    }
     finish_group(g);
   }
   // The same group when the sample's features come from all ranks: `features` holds
@@ -588,9 +663,9 @@ class Grower {
     return static_cast<int>(std::min<uint32_t>(node.count, std::min(p_.threshold_candidates, kMaxThresholds)));
   }
 
-  // Classification: adds pixels [begin, end) of `node` to `counts`, cells [class][bin][candidate]
+  // Classification: adds pixels [begin, end) of `node` to `counts`, cells [class][bin][lane]
   // (histogram_cells of them): a pixel's increments for all candidates fall in its class's
-  // bins × candidates block (a few kB, L1-resident). Integer counts: partial histograms over
+  // bins × lanes block (a few kB, L1-resident). Integer counts: partial histograms over
   // disjoint pixel ranges sum to the same cells in any order (threads here; processes later).
   void accumulate(const NodeInfo& node, const CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts,
                   int thread) {
@@ -618,7 +693,7 @@ class Grower {
     cum.resize(k);
     for (int c = 0; c < nc; ++c) {
       const Candidate& cand = g.candidates[c];
-      const uint32_t* h = counts + c;
+      const uint32_t* h = counts + g.lanes.lane[c];
       std::fill(cum.begin(), cum.end(), 0u);
       uint32_t left = 0;
       for (int t = 0; t < cand.thresholds; ++t) {
@@ -663,7 +738,7 @@ class Grower {
       features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
       pixel_offsets(p, s.offsets.data());
       for (int c = 0; c < nc; ++c) {
-        const size_t cell = size_t(c) * bins + s.bin[c];
+        const size_t cell = size_t(c) * bins + s.bin[l.lane[c]];
         ++counts[cell];
         add_offsets(s.offsets.data(), J, sums + cell * row);
       }
@@ -1113,17 +1188,17 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       c.dv1 = g.dv1;
       c.du2 = g.du2;
       c.dv2 = g.dv2;
+      // One feature per pixel: the right side's pixels go to tmp in order, the left side's are
+      // compacted in place (a write never overtakes the read), then the right side follows.
       uint32_t l = g.begin, r = g.begin;
-      for (uint32_t i = g.begin; i < g.end; ++i)
-        if (!(feature_of_pixel(set, pixels[i], c) > g.threshold)) ++r;
-      left_counts[k] = r - g.begin;
       for (uint32_t i = g.begin; i < g.end; ++i) {
         if (feature_of_pixel(set, pixels[i], c) > g.threshold)
           tmp[r++] = pixels[i];
         else
-          tmp[l++] = pixels[i];
+          pixels[l++] = pixels[i];
       }
-      std::copy(tmp.begin() + g.begin, tmp.begin() + g.end, pixels.begin() + g.begin);
+      left_counts[k] = l - g.begin;
+      std::copy(tmp.begin() + g.begin, tmp.begin() + r, pixels.begin() + l);
     });
     std::vector<size_t> next;
     for (size_t k = 0; k < splitting.size(); ++k) {
