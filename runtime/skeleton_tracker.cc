@@ -24,6 +24,10 @@ constexpr int32_t kLeavesFirst[kSkeletonJoints - 1] = {kHandL,  kHandR,  kWristL
                                                        kElbowR, kShoulderL, kShoulderR, kFootL, kFootR,
                                                        kAnkleL, kAnkleR, kKneeL, kKneeR, kHead};
 // +1 for the subject's left joints, −1 for the right ones, 0 on the mid-line.
+// The same joint on the other side (itself on the mid-line).
+constexpr int32_t kMirror[kSkeletonJoints] = {kHead,   kNeck,   kShoulderR, kShoulderL, kElbowR, kElbowL,
+                                              kWristR, kWristL, kHandR,     kHandL,     kKneeR,  kKneeL,
+                                              kAnkleR, kAnkleL, kFootR,     kFootL};
 constexpr float kSide[kSkeletonJoints] = {0, 0, 1, -1, 1, -1, 1, -1, 1, -1, 1, -1, 1, -1, 1, -1};
 
 // Generic bone lengths (metres, by child joint): medians over synthetic bodies of every shape
@@ -56,6 +60,9 @@ constexpr float kWeightFacingTurn = 3.0f;  // × (1 − cos) of the facing chang
 constexpr float kWeightFacingAway = 1.0f;  // new user: × the facing's component away from the camera
 constexpr float kMinShoulderSpanM = 0.10f; // two shoulders closer than this are one place
 constexpr float kShoulderOverlapCost = 6.0f;
+constexpr float kMinLimbSeparationM = 0.08f;  // a left and a right limb joint closer than this coincide
+constexpr float kCoincideCost = 4.0f;
+constexpr float kMirrorCost = 1.0f;       // taking the mirror joint's proposal
 constexpr float kPredictedCost = 3.0f;     // choosing the last position instead of any proposal
 constexpr float kAbsentCost = 8.0f;        // choosing nothing
 constexpr int32_t kMaxPredictedFrames = 10;  // a joint unseen longer than this is missing
@@ -67,7 +74,7 @@ constexpr int32_t kMaxPredictedFrames = 10;  // a joint unseen longer than this 
 constexpr float kCalibration[kEvidenceClasses] = {0.20f, 0.25f, 0.30f, 0.35f, 0.40f, 0.45f, 0.50f, 0.60f,
                                                   0.70f, 0.80f, 0.40f, 0.30f, 0.25f, 0.20f, 0.10f, 0.20f};
 
-constexpr int kMaxJointCandidates = kMaxProposals + 2;  // proposals, the prediction, "absent"
+constexpr int kMaxJointCandidates = 2 * kMaxProposals + 2;  // own and mirror proposals, the prediction, "absent"
 constexpr int32_t kKindPredicted = -1;
 constexpr int32_t kKindAbsent = -2;
 constexpr float kInfinity = 3.0e38f;
@@ -82,6 +89,7 @@ float capped(float v, float cap) { return v < cap ? v : cap; }
 struct Candidates {
   int32_t count[kSkeletonJoints];
   int32_t kind[kSkeletonJoints][kMaxJointCandidates];     // proposal index, kKindPredicted or kKindAbsent
+  int32_t source[kSkeletonJoints][kMaxJointCandidates];   // the joint whose proposal it is
   float pos[kSkeletonJoints][kMaxJointCandidates][3];
   float unary[kSkeletonJoints][kMaxJointCandidates];
   float pair[kSkeletonJoints][kMaxJointCandidates][kMaxJointCandidates];  // [joint][its candidate][parent's]
@@ -171,6 +179,73 @@ float solve(const Candidates& c, const Torso& t, int a, int b, int32_t arg[kSkel
     }
   }
   return best + t.cost;
+}
+
+// A limb pair: the left joints from the torso outwards; the right ones are their mirrors.
+struct LimbChain {
+  int32_t left[3];
+};
+constexpr LimbChain kArmChain{{kElbowL, kWristL, kHandL}};
+constexpr LimbChain kLegChain{{kKneeL, kAnkleL, kFootL}};
+
+float pair_unary(const Candidates& c, const Torso& t, int32_t jl, int l, int32_t jr, int r) {
+  float cost = c.unary[jl][l] + side_cost(t, jl, c.pos[jl][l]) + c.unary[jr][r] + side_cost(t, jr, c.pos[jr][r]);
+  if (c.kind[jl][l] != kKindAbsent && c.kind[jr][r] != kKindAbsent &&
+      distance(c.pos[jl][l], c.pos[jr][r]) < kMinLimbSeparationM)
+    cost += kCoincideCost;
+  return cost;
+}
+
+// Min-sum over the chain of (left, right) candidate pairs, the parents' choices fixed; writes the
+// limbs' choices. O(3 · C⁴) for C candidates per joint.
+void solve_limb_pair(const Candidates& c, const Torso& t, const LimbChain& chain, int32_t* choice) {
+  // msg[l][r]: best cost of the levels below, given the pair (l, r) at the current level.
+  float msg[kMaxJointCandidates][kMaxJointCandidates];
+  int16_t arg[3][kMaxJointCandidates][kMaxJointCandidates][2];
+  for (int l = 0; l < kMaxJointCandidates; ++l)
+    for (int r = 0; r < kMaxJointCandidates; ++r) msg[l][r] = 0.0f;
+  for (int level = 2; level >= 1; --level) {
+    const int32_t jl = chain.left[level], jr = kMirror[jl];
+    const int32_t pl = chain.left[level - 1], pr = kMirror[pl];
+    float next[kMaxJointCandidates][kMaxJointCandidates];
+    for (int a = 0; a < c.count[pl]; ++a)
+      for (int b = 0; b < c.count[pr]; ++b) {
+        float best = kInfinity;
+        int16_t bl = 0, br = 0;
+        for (int l = 0; l < c.count[jl]; ++l)
+          for (int r = 0; r < c.count[jr]; ++r) {
+            const float v = pair_unary(c, t, jl, l, jr, r) + c.pair[jl][l][a] + c.pair[jr][r][b] + msg[l][r];
+            if (v < best) {
+              best = v;
+              bl = int16_t(l);
+              br = int16_t(r);
+            }
+          }
+        next[a][b] = best;
+        arg[level][a][b][0] = bl;
+        arg[level][a][b][1] = br;
+      }
+    for (int a = 0; a < c.count[pl]; ++a)
+      for (int b = 0; b < c.count[pr]; ++b) msg[a][b] = next[a][b];
+  }
+  const int32_t jl = chain.left[0], jr = kMirror[jl];
+  const int32_t a = choice[kParent[jl]], b = choice[kParent[jr]];
+  float best = kInfinity;
+  for (int l = 0; l < c.count[jl]; ++l)
+    for (int r = 0; r < c.count[jr]; ++r) {
+      const float v = pair_unary(c, t, jl, l, jr, r) + c.pair[jl][l][a] + c.pair[jr][r][b] + msg[l][r];
+      if (v < best) {
+        best = v;
+        choice[jl] = l;
+        choice[jr] = r;
+      }
+    }
+  for (int level = 1; level <= 2; ++level) {
+    const int32_t pl = chain.left[level - 1], pr = kMirror[pl];
+    const int32_t l = chain.left[level];
+    choice[l] = arg[level][choice[pl]][choice[pr]][0];
+    choice[kMirror[l]] = arg[level][choice[pl]][choice[pr]][1];
+  }
 }
 
 float bone_tolerance(int32_t joint, float length, bool measured) {
@@ -277,30 +352,40 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
   Candidates c;
   for (int j = 0; j < kSkeletonJoints; ++j) {
     int n = 0;
-    const int proposals = r.proposal_count[j] < config_.max_candidates ? r.proposal_count[j] : config_.max_candidates;
-    const float top = proposals > 0 ? r.proposals[j][0].confidence : 0.0f;
     const float motion_scale = kMotionScaleM * float(1 + (u.missed[j] < 5 ? u.missed[j] : 5));
-    for (int k = 0; k < proposals; ++k, ++n) {
-      const JointProposal& p = r.proposals[j][k];
-      c.kind[j][n] = k;
-      c.pos[j][n][0] = p.x_m;
-      c.pos[j][n][1] = p.y_m;
-      c.pos[j][n][2] = p.z_m;
-      const float ratio = top > 0.0f && p.confidence > 0.0f ? p.confidence / top : 0.0f;
-      float cost = ratio > 0.0f ? capped(kWeightProposal * -logf(ratio), kMaxProposalCost) : kMaxProposalCost;
-      if (u.has_last[j]) {
-        const float d = distance(c.pos[j][n], u.last[j]) / motion_scale;
-        cost += capped(d * d, kMaxContinuityCost);
+    // The joint's own proposals, then its mirror joint's (the forest often puts a left joint's
+    // best mode on the right limb and the reverse; the side and bone costs tell them apart).
+    const int32_t sources[2] = {j, kMirror[j]};
+    for (int si = 0; si < (kMirror[j] != j ? 2 : 1); ++si) {
+      const int32_t src = sources[si];
+      const int count = r.proposal_count[src] < config_.max_candidates ? r.proposal_count[src] : config_.max_candidates;
+      const float src_top = count > 0 ? r.proposals[src][0].confidence : 0.0f;
+      for (int k = 0; k < count; ++k, ++n) {
+        const JointProposal& p = r.proposals[src][k];
+        c.kind[j][n] = k;
+        c.source[j][n] = src;
+        c.pos[j][n][0] = p.x_m;
+        c.pos[j][n][1] = p.y_m;
+        c.pos[j][n][2] = p.z_m;
+        const float ratio = src_top > 0.0f && p.confidence > 0.0f ? p.confidence / src_top : 0.0f;
+        float cost = ratio > 0.0f ? capped(kWeightProposal * -logf(ratio), kMaxProposalCost) : kMaxProposalCost;
+        if (src != j) cost += kMirrorCost;
+        if (u.has_last[j]) {
+          const float d = distance(c.pos[j][n], u.last[j]) / motion_scale;
+          cost += capped(d * d, kMaxContinuityCost);
+        }
+        c.unary[j][n] = cost;
       }
-      c.unary[j][n] = cost;
     }
     if (u.has_last[j]) {
       c.kind[j][n] = kKindPredicted;
+      c.source[j][n] = j;
       for (int a = 0; a < 3; ++a) c.pos[j][n][a] = u.last[j][a];
       c.unary[j][n] = kPredictedCost;
       ++n;
     }
     c.kind[j][n] = kKindAbsent;
+    c.source[j][n] = j;
     c.pos[j][n][0] = c.pos[j][n][1] = c.pos[j][n][2] = 0.0f;
     c.unary[j][n] = kAbsentCost;
     c.count[j] = n + 1;
@@ -345,6 +430,10 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
     const int32_t j = kLeavesFirst[i];
     choice[j] = arg[j][choice[kParent[j]]];
   }
+  // Second round: each pair of limbs (arms from the chosen shoulders, legs from the chosen neck)
+  // as one chain of left/right pairs, so that the two sides cannot settle on the same place.
+  solve_limb_pair(c, torso, kArmChain, choice);
+  solve_limb_pair(c, torso, kLegChain, choice);
 
   // States, confidences, filter, and the user's memory.
   memset(out, 0, sizeof *out);
@@ -355,6 +444,7 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
     const int k = choice[j];
     const int32_t kind = c.kind[j][k];
     o.proposal = kind >= 0 ? kind : -1;
+    o.proposal_joint = kind >= 0 ? c.source[j][k] : -1;
     o.evidence = -1;
     if (kind == kKindAbsent) {
       o.state = JointState::kMissing;

@@ -2,8 +2,9 @@
 // skeleton per user that fits a body — the "downstream kinematic tracker" the forest leaves to others.
 //
 // Per user and frame (update()):
-//   candidates  each joint's first max_candidates proposals, plus its last position (a prediction,
-//               when the user was seen before), plus "absent".
+//   candidates  each joint's first max_candidates proposals and, for a left or right joint, those
+//               of the same joint on the other side (at a cost), plus its last position (a
+//               prediction, when the user was seen before), plus "absent".
 //   choice      a dynamic program over the joint tree (neck at the root; head; shoulder → elbow →
 //               wrist → hand; neck → knee → ankle → foot), conditioned on each pair of shoulder
 //               candidates, minimises the sum of
@@ -61,6 +62,7 @@ struct TrackedJoint {
   float confidence;      // [0, 1], calibrated (see above); 0 when missing
   JointState state;
   int32_t proposal;      // index of the chosen proposal, −1 for a prediction or missing
+  int32_t proposal_joint;  // whose proposal: this joint or its mirror (left ↔ right); −1 as above
   // The evidence class the confidence is calibrated on (0..kEvidenceClasses−1; −1 when missing):
   // 0..9 tracked, by tenth of the fit score exp(−local cost / 2); 10..14 a prediction for the
   // 1st, 2nd, 3rd, 4th, ≥5th update in a row; 15 a proposal that does not fit its bone.

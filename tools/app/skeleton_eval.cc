@@ -59,8 +59,14 @@ struct Track {
 bool is_left_right(int j) { return j >= kShoulderL; }
 int mirror(int j) { return j + ((j - kShoulderL) % 2 == 0 ? 1 : -1); }
 
-// A left/right swap: the joint is off by more than 0.1 m and nearer its mirror joint's truth.
+// A left/right swap: the joint lies at its mirror joint's place (within 0.1 m of the mirror's
+// truth) and not at its own.
 bool swapped(int j, const Vec& p, const std::array<Vec, kSkeletonJoints>& truth) {
+  const double own = dist(p, truth[size_t(j)]), other = dist(p, truth[size_t(mirror(j))]);
+  return own > kHitM && other <= kHitM;
+}
+// Looser: off by more than 0.1 m and nearer the mirror's truth than its own.
+bool nearer_mirror(int j, const Vec& p, const std::array<Vec, kSkeletonJoints>& truth) {
   const double own = dist(p, truth[size_t(j)]);
   return own > kHitM && dist(p, truth[size_t(mirror(j))]) < own;
 }
@@ -227,8 +233,14 @@ SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& o) {
               rep.proposal_hits[size_t(j)] += has_proposal && dist(first, truth[size_t(j)]) <= kHitM;
               if (is_left_right(j)) {
                 ++rep.lr_joint_frames;
-                rep.proposal_swaps += has_proposal && swapped(j, first, truth);
-                rep.tracker_swaps += located[size_t(j)] && swapped(j, out[size_t(j)], truth);
+                const bool proposal_swap = has_proposal && swapped(j, first, truth);
+                const bool tracker_swap = located[size_t(j)] && swapped(j, out[size_t(j)], truth);
+                rep.proposal_swaps += proposal_swap;
+                rep.tracker_swaps += tracker_swap;
+                rep.proposal_swaps_by_joint[size_t(j)] += proposal_swap;
+                rep.proposal_nearer_mirror += has_proposal && nearer_mirror(j, first, truth);
+                rep.tracker_nearer_mirror += located[size_t(j)] && nearer_mirror(j, out[size_t(j)], truth);
+                rep.tracker_swaps_by_joint[size_t(j)] += tracker_swap;
               }
             }
           }

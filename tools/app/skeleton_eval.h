@@ -39,7 +39,11 @@ struct SkeletonEvalReport {
   long frames = 0, body_frames = 0;
   std::array<long, kSkeletonJoints> joint_frames{};
   std::array<long, kSkeletonJoints> proposal_hits{}, tracker_hits{};  // within 0.1 m
+  // Swaps: a left/right joint within 0.1 m of its mirror joint's truth and not of its own; "nearer
+  // mirror": off by more than 0.1 m and nearer the mirror's truth than its own.
   long lr_joint_frames = 0, proposal_swaps = 0, tracker_swaps = 0;
+  long proposal_nearer_mirror = 0, tracker_nearer_mirror = 0;
+  std::array<long, kSkeletonJoints> proposal_swaps_by_joint{}, tracker_swaps_by_joint{};
   // Evidence classes of the tracker's confidence (skeleton_tracker.cc): count and hits.
   std::array<long, kEvidenceClasses> class_count{}, class_hits{};
   // Reliability: 10 confidence bins (of the reported confidence): count, Σ confidence, hits.

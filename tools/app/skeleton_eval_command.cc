@@ -49,21 +49,29 @@ int skeleton_eval_main(int argc, char** argv) {
   const SkeletonEvalReport r = evaluate_skeletons(o);
 
   std::printf("%ld frames, %ld body-frames scored (%zu sequences)\n\n", r.frames, r.body_frames, o.datasets.size());
-  std::printf("| joint | first proposal within 0.1 m | tracker within 0.1 m |\n|---|---|---|\n");
+  std::printf("| joint | first proposal within 0.1 m | tracker within 0.1 m | swaps ‰ first proposal | swaps ‰ tracker |\n"
+              "|---|---|---|---|---|\n");
   long p_all = 0, t_all = 0, n_all = 0;
   for (int j = 0; j < kSkeletonJoints; ++j) {
     const double n = double(std::max(1L, r.joint_frames[size_t(j)]));
-    std::printf("| %s | %.3f | %.3f |\n", skeleton_joint_name(j), double(r.proposal_hits[size_t(j)]) / n,
+    std::printf("| %s | %.3f | %.3f ", skeleton_joint_name(j), double(r.proposal_hits[size_t(j)]) / n,
                 double(r.tracker_hits[size_t(j)]) / n);
+    if (j >= kShoulderL)
+      std::printf("| %.1f | %.1f |\n", 1000.0 * double(r.proposal_swaps_by_joint[size_t(j)]) / n,
+                  1000.0 * double(r.tracker_swaps_by_joint[size_t(j)]) / n);
+    else
+      std::printf("| – | – |\n");
     p_all += r.proposal_hits[size_t(j)];
     t_all += r.tracker_hits[size_t(j)];
     n_all += r.joint_frames[size_t(j)];
   }
-  std::printf("| **all** | **%.3f** | **%.3f** |\n\n", double(p_all) / double(std::max(1L, n_all)),
+  std::printf("| **all** | **%.3f** | **%.3f** | | |\n\n", double(p_all) / double(std::max(1L, n_all)),
               double(t_all) / double(std::max(1L, n_all)));
   const double lr = double(std::max(1L, r.lr_joint_frames));
   std::printf("left/right swaps per 1000 left/right joint-frames: first proposal %.1f, tracker %.1f (%ld joint-frames)\n\n",
               1000.0 * double(r.proposal_swaps) / lr, 1000.0 * double(r.tracker_swaps) / lr, r.lr_joint_frames);
+  std::printf("off by > 0.1 m and nearer the mirror joint's truth, per 1000: first proposal %.1f, tracker %.1f\n\n",
+              1000.0 * double(r.proposal_nearer_mirror) / lr, 1000.0 * double(r.tracker_nearer_mirror) / lr);
   const long states = r.state_count[0] + r.state_count[1] + r.state_count[2];
   std::printf("states: tracked %.3f, inferred %.3f, missing %.3f\n\n", double(r.state_count[2]) / double(std::max(1L, states)),
               double(r.state_count[1]) / double(std::max(1L, states)), double(r.state_count[0]) / double(std::max(1L, states)));
