@@ -148,8 +148,12 @@ float side_cost(const Torso& t, int32_t joint, const float* p) {
 float solve(const Candidates& c, const Torso& t, int a, int b, int32_t arg[kSkeletonJoints][kMaxJointCandidates],
             int32_t* neck_choice) {
   float child_sum[kSkeletonJoints][kMaxJointCandidates];
+  float own[kSkeletonJoints][kMaxJointCandidates];  // unary + side, per candidate
   for (int j = 0; j < kSkeletonJoints; ++j)
-    for (int k = 0; k < kMaxJointCandidates; ++k) child_sum[j][k] = 0.0f;
+    for (int k = 0; k < c.count[j]; ++k) {
+      child_sum[j][k] = 0.0f;
+      own[j][k] = c.unary[j][k] + side_cost(t, j, c.pos[j][k]);
+    }
   for (int i = 0; i < kSkeletonJoints - 1; ++i) {
     const int32_t j = kLeavesFirst[i];
     const int32_t p = kParent[j];
@@ -159,7 +163,7 @@ float solve(const Candidates& c, const Torso& t, int a, int b, int32_t arg[kSkel
       float best = kInfinity;
       int32_t best_k = lo;
       for (int k = lo; k < hi; ++k) {
-        const float v = c.unary[j][k] + side_cost(t, j, c.pos[j][k]) + c.pair[j][k][cp] + child_sum[j][k];
+        const float v = own[j][k] + c.pair[j][k][cp] + child_sum[j][k];
         if (v < best) {
           best = v;
           best_k = k;
@@ -208,13 +212,16 @@ void solve_limb_pair(const Candidates& c, const Torso& t, const LimbChain& chain
     const int32_t jl = chain.left[level], jr = kMirror[jl];
     const int32_t pl = chain.left[level - 1], pr = kMirror[pl];
     float next[kMaxJointCandidates][kMaxJointCandidates];
+    float own[kMaxJointCandidates][kMaxJointCandidates];
+    for (int l = 0; l < c.count[jl]; ++l)
+      for (int r = 0; r < c.count[jr]; ++r) own[l][r] = pair_unary(c, t, jl, l, jr, r) + msg[l][r];
     for (int a = 0; a < c.count[pl]; ++a)
       for (int b = 0; b < c.count[pr]; ++b) {
         float best = kInfinity;
         int16_t bl = 0, br = 0;
         for (int l = 0; l < c.count[jl]; ++l)
           for (int r = 0; r < c.count[jr]; ++r) {
-            const float v = pair_unary(c, t, jl, l, jr, r) + c.pair[jl][l][a] + c.pair[jr][r][b] + msg[l][r];
+            const float v = own[l][r] + c.pair[jl][l][a] + c.pair[jr][r][b];
             if (v < best) {
               best = v;
               bl = int16_t(l);
@@ -272,7 +279,7 @@ const char* joint_state_name(JointState s) {
 
 SkeletonConfig default_skeleton_config() {
   SkeletonConfig c{};
-  c.max_candidates = 5;
+  c.max_candidates = 4;
   c.frame_period_s = 1.0f / 30.0f;
   c.forget_frames = 30;
   c.filter = skeleton_filter_preset(SkeletonFilterPreset::kDefault);
