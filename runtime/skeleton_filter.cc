@@ -15,7 +15,7 @@ SkeletonFilterParams skeleton_filter_preset(SkeletonFilterPreset preset) {
   // frame while cutting still-joint jitter; strong trades about one more frame of lag for less jitter.
   switch (preset) {
     case SkeletonFilterPreset::kOff: return {0, 1.0f, 0.0f, 1.0f};
-    case SkeletonFilterPreset::kDefault: return {1, 1.5f, 2.0f, 1.0f};
+    case SkeletonFilterPreset::kDefault: return {1, 0.5f, 2.0f, 1.0f};
     case SkeletonFilterPreset::kStrong: return {1, 0.5f, 0.5f, 1.0f};
   }
   return {0, 1.0f, 0.0f, 1.0f};

@@ -1,9 +1,9 @@
 // Temporal smoothing of one tracked joint: the 1€ filter (Casiry, Roussel, Vogel, CHI 2012), an
-// exponential low-pass whose cutoff rises with the joint's speed, so a still joint is smoothed hard
+// exponential smoother whose cutoff rises with the joint's speed, so a still joint is smoothed hard
 // (little jitter) while a fast one follows closely (little lag).
 //
 // Per update, with dt the frame period:
-//   speed   = |x − x̂_prev| / dt, itself low-passed at d_cutoff_hz        (m/s)
+//   speed   = |x − x̂_prev| / dt, itself smoothed at d_cutoff_hz        (m/s)
 //   cutoff  = min_cutoff_hz + beta · speed                              (Hz)
 //   α       = 1 / (1 + 1 / (2π · cutoff · dt))
 //   x̂       = x̂_prev + α · (x − x̂_prev)                                 (each axis, metres)
@@ -30,11 +30,11 @@ bool skeleton_filter_params_valid(const SkeletonFilterParams& params);
 // One joint's filter state. reset() before the first sample of a new track.
 struct JointFilter {
   float x[3];       // last output (metres)
-  float speed;      // low-passed speed (m/s)
+  float speed;      // smoothed speed (m/s)
   int32_t primed;   // 0 until the first sample
 
   void reset() { primed = 0; }
-  // Filters `in` (metres) over a frame period `dt_s` > 0 into `out`; the first sample is passed through.
+  // Filters `in` (metres) over a frame period `dt_s` > 0 into `out`; the first sample is returned unchanged.
   void update(const SkeletonFilterParams& params, float dt_s, const float in[3], float out[3]);
 };
 

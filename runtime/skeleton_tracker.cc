@@ -47,7 +47,7 @@ constexpr float kBoneSlackM = 0.02f;
 // term cannot dominate). Chosen on the validation sequences (docs/skeleton.md).
 constexpr float kWeightProposal = 1.0f;    // per unit of −log(confidence ratio)
 constexpr float kMaxProposalCost = 6.0f;
-constexpr float kMotionScaleM = 0.12f;     // continuity: distance per frame that costs 1
+constexpr float kMotionScaleM = 0.2f;      // continuity: distance per frame that costs 1 (validation: 0.08 / 0.12 / 0.2 / 0.3 m gave 0.702 / 0.700 / 0.711 / 0.703 within 0.1 m)
 constexpr float kMaxContinuityCost = 6.0f;
 constexpr float kWeightBone = 1.0f;
 constexpr float kMaxBoneCost = 9.0f;
@@ -68,11 +68,11 @@ constexpr float kAbsentCost = 8.0f;        // choosing nothing
 constexpr int32_t kMaxPredictedFrames = 10;  // a joint unseen longer than this is missing
 
 // Calibration of the confidence (probability of being within 0.1 m of the truth) per evidence
-// class (TrackedJoint::evidence). Fitted (isotonic over the
+// class (TrackedJoint::evidence), with the default filter. Fitted (isotonic over the
 // tracked classes) by `depthpose skeleton-eval --fit-calibration` on the validation sequences
 // (docs/skeleton.md, "Confidence").
-constexpr float kCalibration[kEvidenceClasses] = {0.20f, 0.25f, 0.30f, 0.35f, 0.40f, 0.45f, 0.50f, 0.60f,
-                                                  0.70f, 0.80f, 0.40f, 0.30f, 0.25f, 0.20f, 0.10f, 0.20f};
+constexpr float kCalibration[kEvidenceClasses] = {0.18f, 0.24f, 0.31f, 0.40f, 0.46f, 0.52f, 0.58f, 0.68f,
+                                                  0.78f, 0.90f, 0.28f, 0.28f, 0.13f, 0.14f, 0.07f, 0.59f};
 
 constexpr int kMaxJointCandidates = 2 * kMaxProposals + 2;  // own and mirror proposals, the prediction, "absent"
 constexpr int32_t kKindPredicted = -1;
@@ -84,6 +84,7 @@ float distance(const float* a, const float* b) {
   return sqrtf(dx * dx + dy * dy + dz * dz);
 }
 float capped(float v, float cap) { return v < cap ? v : cap; }
+bool is_shoulder(int32_t joint) { return joint == kShoulderL || joint == kShoulderR; }
 
 // The per-frame working set of one update (on the stack: ~8 KB).
 struct Candidates {
@@ -361,9 +362,10 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
     int n = 0;
     const float motion_scale = kMotionScaleM * float(1 + (u.missed[j] < 5 ? u.missed[j] : 5));
     // The joint's own proposals, then its mirror joint's (the forest often puts a left joint's
-    // best mode on the right limb and the reverse; the side and bone costs tell them apart).
+    // best mode on the right limb and the reverse; the side and bone costs tell them apart). Not
+    // for the shoulders: they anchor the torso's facing, and their own proposals rarely swap.
     const int32_t sources[2] = {j, kMirror[j]};
-    for (int si = 0; si < (kMirror[j] != j ? 2 : 1); ++si) {
+    for (int si = 0; si < (kMirror[j] != j && !is_shoulder(j) ? 2 : 1); ++si) {
       const int32_t src = sources[si];
       const int count = r.proposal_count[src] < config_.max_candidates ? r.proposal_count[src] : config_.max_candidates;
       const float src_top = count > 0 ? r.proposals[src][0].confidence : 0.0f;
