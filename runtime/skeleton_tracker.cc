@@ -71,8 +71,8 @@ constexpr int32_t kMaxPredictedFrames = 10;  // a joint unseen longer than this 
 // class (TrackedJoint::evidence), with the default filter. Fitted (isotonic over the
 // tracked classes) by `depthpose skeleton-eval --fit-calibration` on the validation sequences
 // (docs/skeleton.md, "Confidence").
-constexpr float kCalibration[kEvidenceClasses] = {0.18f, 0.24f, 0.31f, 0.40f, 0.46f, 0.52f, 0.58f, 0.68f,
-                                                  0.78f, 0.90f, 0.28f, 0.28f, 0.13f, 0.14f, 0.07f, 0.59f};
+constexpr float kCalibration[kEvidenceClasses] = {0.15f, 0.20f, 0.21f, 0.25f, 0.32f, 0.33f, 0.42f, 0.52f,
+                                                  0.63f, 0.80f, 0.19f, 0.18f, 0.13f, 0.11f, 0.13f, 0.30f};
 
 constexpr int kMaxJointCandidates = 2 * kMaxProposals + 2;  // own and mirror proposals, the prediction, "absent"
 constexpr int32_t kKindPredicted = -1;
