@@ -1,4 +1,4 @@
-// Temporal smoothing of one tracked joint: the 1€ filter (Casiry, Roussel, Vogel, CHI 2012), an
+// Temporal smoothing of one tracked joint: the 1€ filter (Casiez, Roussel, Vogel, CHI 2012), an
 // exponential smoother whose cutoff rises with the joint's speed, so a still joint is smoothed hard
 // (little jitter) while a fast one follows closely (little lag).
 //
