@@ -55,6 +55,16 @@ float distance(const TrackedJoint& t, const float* p) {
                    (t.raw_m[2] - p[2]) * (t.raw_m[2] - p[2]));
 }
 
+// `frames` updates of user 1 with clean proposals of the standing body; the last skeleton in `out`.
+void feed_still_body(SkeletonTracker& tracker, int frames, Skeleton* out) {
+  float truth[kSkeletonJoints][3];
+  body(0.0f, truth);
+  for (int f = 0; f < frames; ++f) {
+    tracker.begin_frame();
+    ASSERT_EQ(tracker.update(1, *clean_frame(truth), out), Status::kOk);
+  }
+}
+
 SkeletonConfig unfiltered() {
   SkeletonConfig c = default_skeleton_config();
   c.filter = skeleton_filter_preset(SkeletonFilterPreset::kOff);
@@ -125,10 +135,7 @@ TEST(SkeletonTracker, ChoosesTheProposalThatFitsOverAStrongerDecoyAndUndoesSwaps
   float truth[kSkeletonJoints][3];
   Skeleton s;
   body(0.0f, truth);
-  for (int f = 0; f < 10; ++f) {  // learn the body
-    tracker->begin_frame();
-    ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
-  }
+  feed_still_body(*tracker, 10, &s);  // learn the body
   body(0.02f, truth);
   auto r = clean_frame(truth);
   // The left hand's best proposal lies 0.6 m off (a decoy), the true one second.
@@ -155,10 +162,7 @@ TEST(SkeletonTracker, AJointWithoutProposalsIsInferredThenMissing) {
   float truth[kSkeletonJoints][3];
   body(0.0f, truth);
   Skeleton s;
-  for (int f = 0; f < 5; ++f) {
-    tracker->begin_frame();
-    ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
-  }
+  feed_still_body(*tracker, 5, &s);
   const float before = s.joints[kWristR].confidence;
   auto r = clean_frame(truth);
   r->proposal_count[kWristR] = 0;  // occluded
@@ -190,10 +194,7 @@ TEST(SkeletonTracker, AUserUnseenForForgetFramesStartsAfresh) {
   float truth[kSkeletonJoints][3];
   body(0.0f, truth);
   Skeleton s;
-  for (int f = 0; f < 4; ++f) {
-    tracker->begin_frame();
-    ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
-  }
+  feed_still_body(*tracker, 4, &s);
   EXPECT_EQ(s.frames_tracked, 4);
   for (int f = 0; f < 3; ++f) tracker->begin_frame();
   ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
@@ -226,8 +227,9 @@ TEST(SkeletonFilter, OffPassesThroughDefaultCutsJitterAndFollowsMotion) {
     off.update(p_off, dt, in, out[0]);
     def.update(p_def, dt, in, out[1]);
     strong.update(p_strong, dt, in, out[2]);
-    if (f == 0)
-      for (int k = 0; k < 3; ++k) EXPECT_EQ(out[k][0], in[0]) << "the first sample passes through";
+    if (f == 0) {
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(out[k][0], in[0]) << "the first sample is reported unchanged";
+    }
     if (f >= 30)
       for (int k = 0; k < 3; ++k) jitter[k] += std::fabs(out[k][0] - prev[k][0]);
     for (int k = 0; k < 3; ++k) std::memcpy(prev[k], out[k], sizeof prev[k]);

@@ -100,6 +100,16 @@ class TimeHistogram {
   double max_ = 0;
 };
 
+// ,"x":..,"y":..,"z":.. (metres).
+void write_position(LineBuffer& line, float x, float y, float z) {
+  line.add(",\"x\":");
+  line.number(x);
+  line.add(",\"y\":");
+  line.number(y);
+  line.add(",\"z\":");
+  line.number(z);
+}
+
 // [{"name":..,"x":..,"y":..,"z":..,"confidence":..,"state":..}, ...]. With a skeleton (the tracker
 // runs): its joints, confidence in [0, 1], the chosen proposal's vote weight. Without: the best
 // proposal of every joint, confidence = its vote weight.
@@ -110,16 +120,8 @@ void write_joints_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameR
     line.string(b.meta->joint_names[j], blob::kNameBytes);
     if (sk) {
       const TrackedJoint& t = sk->joints[j];
-      if (t.state == JointState::kMissing) {
-        line.add(",\"x\":null,\"y\":null,\"z\":null");
-      } else {
-        line.add(",\"x\":");
-        line.number(t.x_m);
-        line.add(",\"y\":");
-        line.number(t.y_m);
-        line.add(",\"z\":");
-        line.number(t.z_m);
-      }
+      if (t.state == JointState::kMissing) line.add(",\"x\":null,\"y\":null,\"z\":null");
+      else write_position(line, t.x_m, t.y_m, t.z_m);
       line.add(",\"confidence\":");
       line.number(t.confidence, "%.2f");
       line.add(",\"state\":\"%s\",\"vote_weight\":", joint_state_name(t.state));
@@ -127,12 +129,7 @@ void write_joints_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameR
       else line.add("null");
     } else if (r.proposal_count[j] > 0) {
       const JointProposal& p = r.proposals[j][0];
-      line.add(",\"x\":");
-      line.number(p.x_m);
-      line.add(",\"y\":");
-      line.number(p.y_m);
-      line.add(",\"z\":");
-      line.number(p.z_m);
+      write_position(line, p.x_m, p.y_m, p.z_m);
       line.add(",\"confidence\":");
       line.number(p.confidence, "%.5g");
       line.add(",\"state\":\"tracked\"");
