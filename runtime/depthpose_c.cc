@@ -207,7 +207,9 @@ dp_status dp_tracker_get_user(const dp_tracker* t, int32_t index, dp_user* out) 
   for (int k = 0; k < 3; ++k) out->centroid[k] = u.centroid_m[k];
   for (int j = 0; j < DP_JOINT_COUNT; ++j) {
     const dp::TrackedJoint& tj = s.joints[j];
-    out->joints[j] = {tj.x_m, tj.y_m, tj.z_m, tj.confidence, int32_t(tj.state)};
+    const float* q = s.bone_rotation[j];
+    out->joints[j] = {tj.x_m, tj.y_m, tj.z_m, tj.confidence, int32_t(tj.state), {q[0], q[1], q[2], q[3]},
+                      s.bone_rotation_valid[j]};
   }
   return DP_OK;
 }

@@ -58,6 +58,11 @@ typedef struct dp_joint {
   float x, y, z;     /* metres, camera frame; 0 when missing */
   float confidence;  /* [0, 1]: of joints reported at c, about a fraction c lie within 0.1 m of the truth */
   int32_t state;     /* dp_joint_state */
+  /* The bone ending at this joint (from its parent: docs/skeleton.md): unit quaternion w, x, y, z
+   * turning the bone's rest direction (T-pose facing the camera) into its direction, camera frame.
+   * orientation_valid 0 (and the identity) for the neck and when either end is missing. */
+  float orientation[4];
+  int32_t orientation_valid;
 } dp_joint;
 
 typedef struct dp_user {

@@ -30,6 +30,11 @@ constexpr int32_t kMirror[kSkeletonJoints] = {kHead,   kNeck,   kShoulderR, kSho
                                               kAnkleR, kAnkleL, kFootR,     kFootL};
 constexpr float kSide[kSkeletonJoints] = {0, 0, 1, -1, 1, -1, 1, -1, 1, -1, 1, -1, 1, -1, 1, -1};
 
+// Rest directions of the bones (by child joint; Skeleton::bone_rotation): a T-pose facing −z.
+constexpr float kRestDirection[kSkeletonJoints][3] = {
+    {0, 1, 0},  {0, 0, 0},  {1, 0, 0},  {-1, 0, 0}, {1, 0, 0},  {-1, 0, 0}, {1, 0, 0},  {-1, 0, 0},
+    {1, 0, 0},  {-1, 0, 0}, {0, -1, 0}, {0, -1, 0}, {0, -1, 0}, {0, -1, 0}, {0, 0, -1}, {0, 0, -1}};
+
 // Generic bone lengths (metres, by child joint): medians over synthetic bodies of every shape
 // (`depthpose synth --bodies wide`, heights 1.1–2.0 m); they stand in until a user's own lengths are
 // measured. The neck→knee "bone" spans torso and thigh, so it bends with the hips.
@@ -253,6 +258,69 @@ void solve_limb_pair(const Candidates& c, const Torso& t, const LimbChain& chain
     const int32_t l = chain.left[level];
     choice[l] = arg[level][choice[pl]][choice[pr]][0];
     choice[kMirror[l]] = arg[level][choice[pl]][choice[pr]][1];
+  }
+}
+
+// Quaternion (w, x, y, z) products and rotation of a vector.
+void quat_multiply(const float* a, const float* b, float* out) {
+  out[0] = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
+  out[1] = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
+  out[2] = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
+  out[3] = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
+}
+void quat_rotate(const float* q, const float* v, float* out) {
+  const float p[4] = {0.0f, v[0], v[1], v[2]};
+  const float conj[4] = {q[0], -q[1], -q[2], -q[3]};
+  float t[4], r[4];
+  quat_multiply(q, p, t);
+  quat_multiply(t, conj, r);
+  out[0] = r[1];
+  out[1] = r[2];
+  out[2] = r[3];
+}
+// The shortest rotation taking unit a onto unit b (half-angle form); for opposite vectors, a half
+// turn about an axis perpendicular to a.
+void quat_from_to(const float* a, const float* b, float* q) {
+  float w = 1.0f + a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  float x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2], z = a[0] * b[1] - a[1] * b[0];
+  if (w < 1e-6f) {
+    w = 0.0f;
+    // a × (unit axis least aligned with a)
+    if (fabsf(a[0]) < 0.6f) { x = 0.0f; y = a[2]; z = -a[1]; }
+    else { x = -a[2]; y = 0.0f; z = a[0]; }
+  }
+  const float n = sqrtf(w * w + x * x + y * y + z * z);
+  q[0] = w / n;
+  q[1] = x / n;
+  q[2] = y / n;
+  q[3] = z / n;
+}
+
+void bone_rotations(Skeleton* s) {
+  // The torso's yaw: rest facing (0, 0, −1) turned about +y onto the facing.
+  float yaw[4] = {1.0f, 0.0f, 0.0f, 0.0f};
+  if (s->facing_known) {
+    const float half = 0.5f * atan2f(-s->facing[0], -s->facing[2]);
+    yaw[0] = cosf(half);
+    yaw[2] = sinf(half);
+  }
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    float* q = s->bone_rotation[j];
+    q[0] = 1.0f;
+    q[1] = q[2] = q[3] = 0.0f;
+    s->bone_rotation_valid[j] = 0;
+    const int32_t p = kParent[j];
+    if (p < 0 || s->joints[j].state == JointState::kMissing || s->joints[p].state == JointState::kMissing) continue;
+    float d[3] = {s->joints[j].x_m - s->joints[p].x_m, s->joints[j].y_m - s->joints[p].y_m,
+                  s->joints[j].z_m - s->joints[p].z_m};
+    const float n = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (n < 1e-6f) continue;
+    for (int a = 0; a < 3; ++a) d[a] /= n;
+    float rest[3], swing[4];
+    quat_rotate(yaw, kRestDirection[j], rest);
+    quat_from_to(rest, d, swing);
+    quat_multiply(swing, yaw, q);
+    s->bone_rotation_valid[j] = 1;
   }
 }
 
@@ -498,6 +566,7 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
   for (int a = 0; a < 3; ++a) out->facing[a] = torso.facing[a];
   update_bones(u, *out);
   for (int j = 0; j < kSkeletonJoints; ++j) out->bone_length_m[j] = kParent[j] >= 0 ? u.bone_length[j] : 0.0f;
+  bone_rotations(out);
   out->cycles = cycle_count() - t0;
   return Status::kOk;
 }

@@ -24,6 +24,7 @@
 //   confidence  in [0, 1], calibrated: of the joints reported at confidence c, about a fraction c
 //               lie within 0.1 m of the truth (on held-out synthetic sequences, docs/skeleton.md).
 //   filter      each reported joint goes through its JointFilter (skeleton_filter.h).
+//   bones       a quaternion per bone from the filtered joints (Skeleton::bone_rotation).
 //
 // Contract (firmware style, as dp::Pipeline): the tracker is a fixed-size object (state for
 // kMaxUsers users is a member array) with no arena and no allocation; init() validates the config
@@ -77,6 +78,15 @@ struct Skeleton {
   float facing[3];           // unit, up × (shoulder_l − shoulder_r): where the torso faces
   TrackedJoint joints[kSkeletonJoints];
   float bone_length_m[kSkeletonJoints];  // this user's estimate per bone (child joint), 0 for the neck
+  // Bone orientations, per bone (named by its child joint): a unit quaternion (w, x, y, z) in the
+  // camera frame that turns the bone's rest direction into its direction this frame. Rest pose:
+  // a T-pose facing the camera (facing −z, the subject's left +x, up +y): head and neck→shoulder,
+  // arm bones along ±x (left +x), neck→knee and shin along −y, ankle→foot along −z. The rotation
+  // is the torso's yaw (rest facing −z → `facing`, about +y; none when the facing is unknown)
+  // followed by the shortest turn from the yawed rest direction onto the bone. Valid when the
+  // bone's two joints are not missing; otherwise, and for the neck, (1, 0, 0, 0) and valid 0.
+  float bone_rotation[kSkeletonJoints][4];
+  int32_t bone_rotation_valid[kSkeletonJoints];
   uint64_t cycles;           // counter ticks of this update (runtime/cycle_counter.h)
 };
 

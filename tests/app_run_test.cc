@@ -295,6 +295,7 @@ TEST(AppRunSharedData, TheFrameLoopAllocatesNothing) {
   ASSERT_TRUE(k.lines[11]["skeleton"].get<bool>()) << k.log;
   ASSERT_FALSE(k.lines[11]["users"].empty());
   EXPECT_TRUE(k.lines[11]["users"][0]["joints"][0].contains("state"));
+  EXPECT_TRUE(k.lines[11]["users"][0]["joints"][1]["orientation"].is_null()) << "the neck ends no bone";
   EXPECT_GT(k.lines[11]["stage_cycles"]["skeleton"].get<uint64_t>(), 0u);
   EXPECT_EQ(news_in_loop, 0) << "frames 3..12 with segmentation and the skeleton tracker must not allocate";
 }

@@ -72,6 +72,12 @@ int dp_c_api_selftest(const void* blob, size_t blob_bytes, const uint16_t* depth
         const dp_joint* jt = &u.joints[j];
         CHECK(jt->confidence >= 0.0f && jt->confidence <= 1.0f, "%s confidence %f", dp_joint_name(j), jt->confidence);
         CHECK(jt->state >= DP_JOINT_MISSING && jt->state <= DP_JOINT_TRACKED, "%s state %d", dp_joint_name(j), jt->state);
+        if (jt->orientation_valid) {
+          const float* q = jt->orientation;
+          CHECK(fabsf(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] - 1.0f) < 1e-4f, "%s orientation not unit",
+                dp_joint_name(j));
+        }
+        CHECK(!(j == 1 && jt->orientation_valid), "the neck has no bone orientation");
         if (jt->state == DP_JOINT_MISSING) continue;
         tracked += jt->state == DP_JOINT_TRACKED;
         CHECK(jt->z > 0.3f && jt->z < 9.0f, "%s of user %d at z %f m", dp_joint_name(j), u.id, jt->z);

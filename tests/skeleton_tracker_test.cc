@@ -250,3 +250,48 @@ TEST(SkeletonFilter, OffPassesThroughDefaultCutsJitterAndFollowsMotion) {
   EXPECT_LT(truth - out_def[0], truth - out_strong[0]);
   EXPECT_LT(truth - out_def[0], 2.0f * 2.0f * dt) << "default lags by less than two frames at 2 m/s";
 }
+
+namespace {
+// q (w, x, y, z) applied to v.
+void rotate(const float* q, const float* v, float* out) {
+  const float w = q[0], x = q[1], y = q[2], z = q[3];
+  // v + 2w (u × v) + 2 u × (u × v), u = (x, y, z)
+  const float c1[3] = {y * v[2] - z * v[1], z * v[0] - x * v[2], x * v[1] - y * v[0]};
+  const float c2[3] = {y * c1[2] - z * c1[1], z * c1[0] - x * c1[2], x * c1[1] - y * c1[0]};
+  for (int a = 0; a < 3; ++a) out[a] = v[a] + 2.0f * w * c1[a] + 2.0f * c2[a];
+}
+}  // namespace
+
+TEST(SkeletonTracker, BoneRotationsTurnTheRestPoseOntoTheBones) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  ASSERT_EQ(tracker->init(skeleton_meta(), unfiltered()), Status::kOk);
+  float truth[kSkeletonJoints][3];
+  body(0.0f, truth);
+  Skeleton s;
+  feed_still_body(*tracker, 3, &s);
+  struct Case {
+    int joint;
+    float rest[3];
+  };
+  const Case cases[] = {{kHead, {0, 1, 0}}, {kShoulderL, {1, 0, 0}}, {kElbowL, {1, 0, 0}}, {kElbowR, {-1, 0, 0}},
+                        {kKneeR, {0, -1, 0}}, {kFootL, {0, 0, -1}}};
+  for (const Case& c : cases) {
+    const int p = skeleton_parent(c.joint);
+    float d[3];
+    float n = 0;
+    for (int a = 0; a < 3; ++a) {
+      d[a] = truth[c.joint][a] - truth[p][a];
+      n += d[a] * d[a];
+    }
+    n = std::sqrt(n);
+    ASSERT_EQ(s.bone_rotation_valid[c.joint], 1) << skeleton_joint_name(c.joint);
+    const float* q = s.bone_rotation[c.joint];
+    EXPECT_NEAR(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3], 1.0f, 1e-5f);
+    float turned[3];
+    rotate(q, c.rest, turned);
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(turned[a], d[a] / n, 1e-4f) << skeleton_joint_name(c.joint) << " axis " << a;
+  }
+  EXPECT_EQ(s.bone_rotation_valid[kNeck], 0);
+  // Facing the camera, the foot points at the camera as in the rest pose: almost no rotation.
+  EXPECT_GT(std::fabs(s.bone_rotation[kFootL][0]), 0.99f);
+}

@@ -111,7 +111,8 @@ void write_position(LineBuffer& line, float x, float y, float z) {
 }
 
 // [{"name":..,"x":..,"y":..,"z":..,"confidence":..,"state":..}, ...]. With a skeleton (the tracker
-// runs): its joints, confidence in [0, 1], the chosen proposal's vote weight. Without: the best
+// runs): its joints, confidence in [0, 1], the chosen proposal's vote weight, the orientation of
+// the bone ending at the joint. Without: the best
 // proposal of every joint, confidence = its vote weight.
 void write_joints_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameResult& r, const Skeleton* sk) {
   line.add("[");
@@ -127,6 +128,12 @@ void write_joints_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameR
       line.add(",\"state\":\"%s\",\"vote_weight\":", joint_state_name(t.state));
       if (t.proposal >= 0) line.number(r.proposals[t.proposal_joint][t.proposal].confidence, "%.5g");
       else line.add("null");
+      if (sk->bone_rotation_valid[j]) {
+        const float* q = sk->bone_rotation[j];
+        line.add(",\"orientation\":[%.4f,%.4f,%.4f,%.4f]", q[0], q[1], q[2], q[3]);
+      } else {
+        line.add(",\"orientation\":null");
+      }
     } else if (r.proposal_count[j] > 0) {
       const JointProposal& p = r.proposals[j][0];
       write_position(line, p.x_m, p.y_m, p.z_m);

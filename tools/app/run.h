@@ -8,7 +8,8 @@
 //
 // Output (stdout with --json), one line per processed frame:
 //   {"frame":N,"source_index":I,"timestamp_us":T,"frame_ms":F,"kernel":"avx2",
-//    "joints":[{"name":"head","x":..,"y":..,"z":..,"confidence":..,"state":..,"vote_weight":..}, ... ],
+//    "joints":[{"name":"head","x":..,"y":..,"z":..,"confidence":..,"state":..,"vote_weight":..,
+//               "orientation":[w,x,y,z]|null}, ... ],
 //             // the skeleton tracker's joints when the blob has its 16 joints ("skeleton":true:
 //             // confidence in [0, 1], state tracked/inferred/missing, docs/skeleton.md); otherwise
 //             // the best proposal (confidence = its vote weight); x/y/z metres, null when missing
