@@ -49,7 +49,8 @@ constexpr float kBoneToleranceHipSpan = 0.35f;
 constexpr float kBoneSlackM = 0.02f;
 
 // Cost weights (dimensionless: each term is a squared normalised deviation, capped so that one bad
-// term cannot dominate). Chosen on the validation sequences (docs/skeleton.md).
+// term cannot dominate). Set by hand, except the continuity scale, chosen on the validation
+// sequences (docs/skeleton.md).
 constexpr float kWeightProposal = 1.0f;    // per unit of −log(confidence ratio)
 constexpr float kMaxProposalCost = 6.0f;
 constexpr float kMotionScaleM = 0.2f;      // continuity: distance per frame that costs 1 (validation: 0.08 / 0.12 / 0.2 / 0.3 m gave 0.702 / 0.700 / 0.711 / 0.703 within 0.1 m)

@@ -28,8 +28,9 @@
 //
 // Contract (firmware style, as dp::Pipeline): the tracker is a fixed-size object (state for
 // kMaxUsers users is a member array) with no arena and no allocation; init() validates the config
-// and the blob's joint set; update() runs a bounded amount of work (max_candidates ≤ kMaxProposals;
-// the choice costs O(C² · 16 · C²) additions for C candidates per joint); no exceptions.
+// and the blob's joint set; update() runs a bounded amount of work (max_candidates ≤ kMaxProposals,
+// so C ≤ 2·kMaxProposals + 2 candidates per joint: the shoulder pairs cost O(C² · 15 · C²)
+// additions, the two limb-pair chains O(6 · C⁴)); no exceptions.
 // Units: metres in the camera frame (runtime/depthpose.h); y is treated as "up" for the facing.
 #pragma once
 #include <stdint.h>
