@@ -65,6 +65,8 @@ enum Stage : int32_t {
   kStageForest,          // tree traversal for every evaluated pixel
   kStageVotes,           // vote casting and bounded top-N selection
   kStageMeanShift,       // aggregation into proposals
+  kStageSkeleton,        // the skeleton tracker (runtime/skeleton_tracker.h), run by its caller after
+                         // the pipeline; Pipeline::process leaves it 0
   kStageCount
 };
 const char* stage_name(int32_t stage);

@@ -33,7 +33,7 @@ const char* status_message(Status s) {
 }
 
 const char* stage_name(int32_t stage) {
-  static const char* const names[kStageCount] = {"foreground", "forest", "votes", "mean_shift"};
+  static const char* const names[kStageCount] = {"foreground", "forest", "votes", "mean_shift", "skeleton"};
   return stage >= 0 && stage < kStageCount ? names[stage] : "?";
 }
 

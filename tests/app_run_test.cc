@@ -286,6 +286,18 @@ TEST(AppRunSharedData, TheFrameLoopAllocatesNothing) {
   ASSERT_TRUE(s.summary.segmented);
   ASSERT_TRUE(s.lines[11].contains("users"));
   EXPECT_EQ(news_in_loop, 0) << "frames 3..12 with segmentation must not allocate";
+  // With the skeleton tracker (the shipped blob has its 16 joints): per-user skeletons in the JSON.
+  o.blob_path = "models/ojr.blob";
+  news_in_loop = -1;
+  Captured k = run_captured(o);
+  t_count_news = false;
+  ASSERT_EQ(k.summary.frames_processed, 12) << k.log;
+  ASSERT_TRUE(k.lines[11]["skeleton"].get<bool>()) << k.log;
+  ASSERT_FALSE(k.lines[11]["users"].empty());
+  EXPECT_TRUE(k.lines[11]["users"][0]["joints"][0].contains("state"));
+  EXPECT_TRUE(k.lines[11]["users"][0]["joints"][1]["orientation"].is_null()) << "the neck ends no bone";
+  EXPECT_GT(k.lines[11]["stage_cycles"]["skeleton"].get<uint64_t>(), 0u);
+  EXPECT_EQ(news_in_loop, 0) << "frames 3..12 with segmentation and the skeleton tracker must not allocate";
 }
 
 TEST(AppRun, ReplaysARecordingMadeByRecord) {

@@ -19,6 +19,7 @@
 #include "platform/usb_devices.h"
 #include "runtime/cycle_counter.h"
 #include "runtime/segmentation/segmenter.h"
+#include "runtime/skeleton_tracker.h"
 #include "tools/segeval/segmenter_config_text.h"
 #include "tools/app/overlay.h"
 #include "tools/common/error.h"
@@ -99,24 +100,48 @@ class TimeHistogram {
   double max_ = 0;
 };
 
-// [{"name":..,"x":..,"y":..,"z":..,"confidence":..}, ...]: the best proposal of every joint.
-void write_joints_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameResult& r) {
+// ,"x":..,"y":..,"z":.. (metres).
+void write_position(LineBuffer& line, float x, float y, float z) {
+  line.add(",\"x\":");
+  line.number(x);
+  line.add(",\"y\":");
+  line.number(y);
+  line.add(",\"z\":");
+  line.number(z);
+}
+
+// [{"name":..,"x":..,"y":..,"z":..,"confidence":..,"state":..}, ...]. With a skeleton (the tracker
+// runs): its joints, confidence in [0, 1], the chosen proposal's vote weight, the orientation of
+// the bone ending at the joint. Without: the best
+// proposal of every joint, confidence = its vote weight.
+void write_joints_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameResult& r, const Skeleton* sk) {
   line.add("[");
   for (int j = 0; j < r.joint_count; ++j) {
     line.add(j ? ",{\"name\":" : "{\"name\":");
     line.string(b.meta->joint_names[j], blob::kNameBytes);
-    if (r.proposal_count[j] > 0) {
+    if (sk) {
+      const TrackedJoint& t = sk->joints[j];
+      if (t.state == JointState::kMissing) line.add(",\"x\":null,\"y\":null,\"z\":null");
+      else write_position(line, t.x_m, t.y_m, t.z_m);
+      line.add(",\"confidence\":");
+      line.number(t.confidence, "%.2f");
+      line.add(",\"state\":\"%s\",\"vote_weight\":", joint_state_name(t.state));
+      if (t.proposal >= 0) line.number(r.proposals[t.proposal_joint][t.proposal].confidence, "%.5g");
+      else line.add("null");
+      if (sk->bone_rotation_valid[j]) {
+        const float* q = sk->bone_rotation[j];
+        line.add(",\"orientation\":[%.4f,%.4f,%.4f,%.4f]", q[0], q[1], q[2], q[3]);
+      } else {
+        line.add(",\"orientation\":null");
+      }
+    } else if (r.proposal_count[j] > 0) {
       const JointProposal& p = r.proposals[j][0];
-      line.add(",\"x\":");
-      line.number(p.x_m);
-      line.add(",\"y\":");
-      line.number(p.y_m);
-      line.add(",\"z\":");
-      line.number(p.z_m);
+      write_position(line, p.x_m, p.y_m, p.z_m);
       line.add(",\"confidence\":");
       line.number(p.confidence, "%.5g");
+      line.add(",\"state\":\"tracked\"");
     } else {
-      line.add(",\"x\":null,\"y\":null,\"z\":null,\"confidence\":0");
+      line.add(",\"x\":null,\"y\":null,\"z\":null,\"confidence\":0,\"state\":\"missing\"");
     }
     line.add("}");
   }
@@ -127,6 +152,8 @@ void write_joints_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameR
 struct SegmentedFrame {
   const SegmentationResult* seg = nullptr;  // null without segmentation
   const FrameResult* users = nullptr;       // [seg->user_count]
+  const Skeleton* skeletons = nullptr;      // [seg->user_count] with the tracker, else null
+  const Skeleton* frame_skeleton = nullptr; // the top-level joints' skeleton (primary user or whole frame)
 };
 
 void write_flag_names(LineBuffer& line, uint32_t flags, const char* (*name)(int)) {
@@ -169,7 +196,7 @@ void write_users_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameRe
     line.add(",");
     line.number(u.centroid_m[2]);
     line.add("],\"frames_tracked\":%d,\"joints\":", u.frames_tracked);
-    write_joints_json(line, b, sf.users[i]);
+    write_joints_json(line, b, sf.users[i], sf.skeletons ? &sf.skeletons[i] : nullptr);
     line.add(",\"cycles\":%llu,\"evaluated_pixels\":%d,\"flags\":[", (unsigned long long)sf.users[i].total_cycles,
              sf.users[i].evaluated_pixels);
     write_flag_names(line, sf.users[i].flags, frame_flag_name);
@@ -201,7 +228,8 @@ void write_frame_json(LineBuffer& line, const RunOptions& options, const blob::L
   // "cntvct_ticks" on aarch64.
   line.add(",\"kernel\":\"%s\",\"counter_unit\":\"%s\",\"joints\":", kernel_isa_name(pipeline.kernel()),
            cycle_counter_unit());
-  write_joints_json(line, b, r);
+  write_joints_json(line, b, r, sf.frame_skeleton);
+  line.add(",\"skeleton\":%s", sf.frame_skeleton ? "true" : "false");
   if (options.all_proposals) {
     line.add(",\"proposals\":[");
     for (int j = 0; j < r.joint_count; ++j) {
@@ -370,6 +398,17 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
     seg_result->labels = labels.data();
     frame.foreground_mask = labels.data();
   }
+  // The skeleton tracker, when the blob's joints are its 16 (otherwise joints are the best proposals).
+  auto tracker = std::make_unique<SkeletonTracker>();
+  SkeletonConfig skeleton_config = default_skeleton_config();
+  skeleton_config.filter = skeleton_filter_preset(options.smoothing);
+  const bool track = tracker->init(*b.meta, skeleton_config) == Status::kOk;
+  std::vector<Skeleton> skeletons(static_cast<size_t>(kMaxUsers));
+  std::fprintf(log, "run: skeleton tracker %s\n",
+               track ? (options.smoothing == SkeletonFilterPreset::kOff     ? "on (smoothing off)"
+                        : options.smoothing == SkeletonFilterPreset::kStrong ? "on (smoothing strong)"
+                                                                             : "on (smoothing default)")
+                     : "off (the blob's joints are not the 16 of docs/dataset_format.md)");
   std::vector<bool> ids_seen(kMaxUsers + 1, false);
   auto result = std::make_unique<FrameResult>();
   ImageRgb overlay;
@@ -480,9 +519,31 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
         s = pipeline.process(own, &user_results[size_t(i)]);
         if (draw && s == Status::kOk) draw_evaluated_pixels(pipeline, &overlay);
       }
+      if (s == Status::kOk && track) {
+        tracker->begin_frame();
+        for (int i = 0; i < seg_result->user_count; ++i) {
+          FrameResult& ur = user_results[size_t(i)];
+          tracker->update(seg_result->users[i].id, ur, &skeletons[size_t(i)]);
+          ur.stage_cycles[kStageSkeleton] = skeletons[size_t(i)].cycles;
+          ur.total_cycles += skeletons[size_t(i)].cycles;
+        }
+        sf.skeletons = skeletons.data();
+        sf.frame_skeleton = &skeletons[size_t(primary_user_index(*seg_result))];
+      }
       if (s == Status::kOk) combine_users(*seg_result, user_results.data(), result.get());
     } else if (s == Status::kOk) {
       s = pipeline.process(frame, result.get());  // no segmentation, or nobody: labels all zero
+      if (s == Status::kOk && track) {
+        // Without segmentation the frame is one person (user 1); with segmentation and nobody in
+        // view there is no skeleton.
+        tracker->begin_frame();
+        if (!segment) {
+          tracker->update(1, *result, &skeletons[0]);
+          result->stage_cycles[kStageSkeleton] = skeletons[0].cycles;
+          result->total_cycles += skeletons[0].cycles;
+          sf.frame_skeleton = &skeletons[0];
+        }
+      }
     }
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     if (s != Status::kOk) {

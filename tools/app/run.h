@@ -8,8 +8,12 @@
 //
 // Output (stdout with --json), one line per processed frame:
 //   {"frame":N,"source_index":I,"timestamp_us":T,"frame_ms":F,"kernel":"avx2",
-//    "joints":[{"name":"head","x":..,"y":..,"z":..,"confidence":..}, ... ],   // best proposal,
-//             //  x/y/z metres (camera frame, y up), null when the joint has no proposal
+//    "joints":[{"name":"head","x":..,"y":..,"z":..,"confidence":..,"state":..,"vote_weight":..,
+//               "orientation":[w,x,y,z]|null}, ... ],
+//             // the skeleton tracker's joints when the blob has its 16 joints ("skeleton":true:
+//             // confidence in [0, 1], state tracked/inferred/missing, docs/skeleton.md); otherwise
+//             // the best proposal (confidence = its vote weight); x/y/z metres, null when missing
+//    "skeleton":true|false,
 //    "proposals":[[[x,y,z,c],...], ...],      // only with --all-proposals, per joint
 //    "stage_cycles":{"foreground":..,"forest":..,"votes":..,"mean_shift":..},"total_cycles":..,
 //    "flags":["pixels_strided",...],"over_budget":false,
@@ -37,6 +41,7 @@
 
 #include "platform/frame_source.h"
 #include "runtime/depthpose.h"
+#include "runtime/skeleton_filter.h"
 #include "tools/common/budget_options.h"
 
 namespace dp::tools {
@@ -55,6 +60,8 @@ struct RunOptions {
   bool json = false;             // JSON lines on json_out; otherwise one short text line per frame
   bool quiet = false;            // no per-frame output at all (summary only)
   bool all_proposals = false;
+  // The skeleton tracker's temporal filter (runtime/skeleton_filter.h, docs/skeleton.md).
+  SkeletonFilterPreset smoothing = SkeletonFilterPreset::kDefault;
   std::string overlay_dir;      // empty = no overlays
   int every = 1;                // process every N-th frame of the source
   bool realtime = false;        // pace files at their timestamps; drop frames when late

@@ -17,7 +17,7 @@ static void on_interrupt(int) { request_stop(); }
 
 static int run_run(int argc, char** argv) {
   std::vector<std::string> options = kSourceOptionNames;
-  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--loop", "--kernel", "--segment", "--segment-config",
+  options.insert(options.end(), {"--blob", "--source", "--overlay", "--every", "--frames", "--loop", "--kernel", "--segment", "--segment-config", "--smoothing",
                                     kBudgetOptionNames[0], kBudgetOptionNames[1]});
   Args args(argc, argv,
             std::string("usage: depthpose run --blob BLOB --source SRC [--json] [--overlay DIR] [--every N]\n"
@@ -44,6 +44,7 @@ static int run_run(int argc, char** argv) {
                 "  --segment-config FILE  SegmenterConfig settings over the defaults: key = value lines (# comments)\n"
                 "                       or a JSON object; an unknown key or a bad or out-of-range value is an error\n"
                 "                       (keys, ranges: docs/segmentation.md)\n"
+                "  --smoothing P        the skeleton's temporal filter: off, default or strong (docs/skeleton.md)\n"
                 "  --no-usb-watch       live sources: do not watch the USB bus for the camera leaving/returning\n",
             options, {"--json", "--quiet", "--realtime", "--all-proposals", "--no-usb-watch"});
   if (args.help_requested()) {
@@ -74,6 +75,11 @@ static int run_run(int argc, char** argv) {
   else if (segment == "off") o.segment = SegmentMode::kOff;
   else fail("--segment wants on, off or auto, got '" + segment + "'");
   o.segment_config_path = args.get("--segment-config", "");
+  const std::string smoothing = args.get("--smoothing", "default");
+  if (smoothing == "off") o.smoothing = SkeletonFilterPreset::kOff;
+  else if (smoothing == "default") o.smoothing = SkeletonFilterPreset::kDefault;
+  else if (smoothing == "strong") o.smoothing = SkeletonFilterPreset::kStrong;
+  else fail("--smoothing wants off, default or strong, got '" + smoothing + "'");
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
   RunSummary s = run_app(o, stdout, stderr);

@@ -1,0 +1,575 @@
+// The kinematic choice: a min-sum dynamic program over the joint tree for every pair of shoulder
+// candidates (the pair fixes the torso's mid-plane, which the side costs need), then states,
+// calibrated confidences, bone-length statistics and the temporal filter. See the header for the
+// cost terms; the weights below are declared once, with what they mean.
+#include "runtime/skeleton_tracker.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "runtime/cycle_counter.h"
+
+namespace dp {
+
+namespace {
+
+constexpr int32_t kParent[kSkeletonJoints] = {kNeck,   -1,     kNeck,   kNeck,   kShoulderL, kShoulderR,
+                                              kElbowL, kElbowR, kWristL, kWristR, kNeck,      kNeck,
+                                              kKneeL,  kKneeR,  kAnkleL, kAnkleR};
+constexpr const char* kNames[kSkeletonJoints] = {"head",    "neck",    "shoulder_l", "shoulder_r", "elbow_l", "elbow_r",
+                                                 "wrist_l", "wrist_r", "hand_l",     "hand_r",     "knee_l",  "knee_r",
+                                                 "ankle_l", "ankle_r", "foot_l",     "foot_r"};
+// Children before parents; the neck (root) last and not listed.
+constexpr int32_t kLeavesFirst[kSkeletonJoints - 1] = {kHandL,  kHandR,  kWristL, kWristR, kElbowL,
+                                                       kElbowR, kShoulderL, kShoulderR, kFootL, kFootR,
+                                                       kAnkleL, kAnkleR, kKneeL, kKneeR, kHead};
+// +1 for the subject's left joints, −1 for the right ones, 0 on the mid-line.
+// The same joint on the other side (itself on the mid-line).
+constexpr int32_t kMirror[kSkeletonJoints] = {kHead,   kNeck,   kShoulderR, kShoulderL, kElbowR, kElbowL,
+                                              kWristR, kWristL, kHandR,     kHandL,     kKneeR,  kKneeL,
+                                              kAnkleR, kAnkleL, kFootR,     kFootL};
+constexpr float kSide[kSkeletonJoints] = {0, 0, 1, -1, 1, -1, 1, -1, 1, -1, 1, -1, 1, -1, 1, -1};
+
+// Rest directions of the bones (by child joint; Skeleton::bone_rotation): a T-pose facing −z.
+constexpr float kRestDirection[kSkeletonJoints][3] = {
+    {0, 1, 0},  {0, 0, 0},  {1, 0, 0},  {-1, 0, 0}, {1, 0, 0},  {-1, 0, 0}, {1, 0, 0},  {-1, 0, 0},
+    {1, 0, 0},  {-1, 0, 0}, {0, -1, 0}, {0, -1, 0}, {0, -1, 0}, {0, -1, 0}, {0, 0, -1}, {0, 0, -1}};
+
+// Generic bone lengths (metres, by child joint): medians over synthetic bodies of every shape
+// (`depthpose synth --bodies wide`, heights 1.1–2.0 m); they stand in until a user's own lengths are
+// measured. The neck→knee "bone" spans torso and thigh, so it bends with the hips.
+constexpr float kGenericBoneM[kSkeletonJoints] = {0.10f,  0.0f,   0.24f, 0.24f, 0.255f, 0.255f, 0.24f,  0.24f,
+                                                  0.055f, 0.055f, 0.95f, 0.95f, 0.42f,  0.42f,  0.156f, 0.156f};
+// Bone length tolerance as a fraction of the length (plus kBoneSlackM): generic lengths cover bodies
+// from 1.1 to 2.0 m tall; a user's measured lengths vary only with the proposals' noise, except the
+// neck→knee span (hip flexion: 0.5–1.3 m on the synthetic motion).
+constexpr float kBoneToleranceGeneric = 0.35f;
+constexpr float kBoneToleranceMeasured = 0.15f;
+constexpr float kBoneToleranceHipSpan = 0.35f;
+constexpr float kBoneSlackM = 0.02f;
+
+// Cost weights (dimensionless: each term is a squared normalised deviation, capped so that one bad
+// term cannot dominate). Set by hand, except the continuity scale, chosen on the validation
+// sequences (docs/skeleton.md).
+constexpr float kWeightProposal = 1.0f;    // per unit of −log(confidence ratio)
+constexpr float kMaxProposalCost = 6.0f;
+constexpr float kMotionScaleM = 0.2f;      // continuity: distance per frame that costs 1 (validation: 0.08 / 0.12 / 0.2 / 0.3 m gave 0.702 / 0.700 / 0.711 / 0.703 within 0.1 m)
+constexpr float kMaxContinuityCost = 6.0f;
+constexpr float kWeightBone = 1.0f;
+constexpr float kMaxBoneCost = 9.0f;
+constexpr float kFitBoneCost = 4.0f;       // bone cost above which a proposal "does not fit" (2 tolerances)
+constexpr float kSideScaleM = 0.08f;       // side: distance on the wrong side of the mid-plane that costs 1
+constexpr float kMaxSideCost = 6.0f;
+constexpr float kSideWeight[kSkeletonJoints] = {0, 0, 0, 0, 1.0f, 1.0f, 0.5f, 0.5f, 0.5f, 0.5f,
+                                                1.0f, 1.0f, 0.5f, 0.5f, 0.5f, 0.5f};
+constexpr float kWeightFacingTurn = 3.0f;  // × (1 − cos) of the facing change since the last frame
+constexpr float kWeightFacingAway = 1.0f;  // new user: × the facing's component away from the camera
+constexpr float kMinShoulderSpanM = 0.10f; // two shoulders closer than this are one place
+constexpr float kShoulderOverlapCost = 6.0f;
+constexpr float kMinLimbSeparationM = 0.08f;  // a left and a right limb joint closer than this coincide
+constexpr float kCoincideCost = 4.0f;
+constexpr float kMirrorCost = 1.0f;       // taking the mirror joint's proposal
+constexpr float kPredictedCost = 3.0f;     // choosing the last position instead of any proposal
+constexpr float kAbsentCost = 8.0f;        // choosing nothing
+constexpr int32_t kMaxPredictedFrames = 10;  // a joint unseen longer than this is missing
+
+// Calibration of the confidence (probability of being within 0.1 m of the truth) per evidence
+// class (TrackedJoint::evidence), with the default filter. Fitted (isotonic over the
+// tracked classes) by `depthpose skeleton-eval --fit-calibration` on the validation sequences
+// (docs/skeleton.md, "Confidence").
+constexpr float kCalibration[kEvidenceClasses] = {0.15f, 0.20f, 0.21f, 0.25f, 0.32f, 0.33f, 0.42f, 0.52f,
+                                                  0.63f, 0.80f, 0.19f, 0.18f, 0.13f, 0.11f, 0.13f, 0.30f};
+
+constexpr int kMaxJointCandidates = 2 * kMaxProposals + 2;  // own and mirror proposals, the prediction, "absent"
+constexpr int32_t kKindPredicted = -1;
+constexpr int32_t kKindAbsent = -2;
+constexpr float kInfinity = 3.0e38f;
+
+float distance(const float* a, const float* b) {
+  const float dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+  return sqrtf(dx * dx + dy * dy + dz * dz);
+}
+float capped(float v, float cap) { return v < cap ? v : cap; }
+bool is_shoulder(int32_t joint) { return joint == kShoulderL || joint == kShoulderR; }
+
+// The per-frame working set of one update (on the stack: ~8 KB).
+struct Candidates {
+  int32_t count[kSkeletonJoints];
+  int32_t kind[kSkeletonJoints][kMaxJointCandidates];     // proposal index, kKindPredicted or kKindAbsent
+  int32_t source[kSkeletonJoints][kMaxJointCandidates];   // the joint whose proposal it is
+  float pos[kSkeletonJoints][kMaxJointCandidates][3];
+  float unary[kSkeletonJoints][kMaxJointCandidates];
+  float pair[kSkeletonJoints][kMaxJointCandidates][kMaxJointCandidates];  // [joint][its candidate][parent's]
+};
+
+// Side and facing terms of one shoulder pair.
+struct Torso {
+  int32_t valid;     // both shoulders located and apart
+  float mid[3];      // shoulder midpoint
+  float left[3];     // unit, shoulder_r → shoulder_l
+  float facing[3];   // unit, up × left, in the horizontal plane
+  float cost;        // facing + overlap
+};
+
+Torso torso_of(const Candidates& c, int a, int b, int32_t facing_known, const float* last_facing) {
+  Torso t{};
+  if (c.kind[kShoulderL][a] == kKindAbsent || c.kind[kShoulderR][b] == kKindAbsent) return t;
+  const float* l = c.pos[kShoulderL][a];
+  const float* r = c.pos[kShoulderR][b];
+  const float span = distance(l, r);
+  if (span < kMinShoulderSpanM) {
+    t.cost = kShoulderOverlapCost;
+    return t;
+  }
+  t.valid = 1;
+  for (int k = 0; k < 3; ++k) {
+    t.mid[k] = 0.5f * (l[k] + r[k]);
+    t.left[k] = (l[k] - r[k]) / span;
+  }
+  // up × left = (left_z, 0, −left_x), normalised in the horizontal plane.
+  const float horizontal = sqrtf(t.left[2] * t.left[2] + t.left[0] * t.left[0]);
+  if (horizontal > 1e-3f) {
+    t.facing[0] = t.left[2] / horizontal;
+    t.facing[2] = -t.left[0] / horizontal;
+    if (facing_known) {
+      const float cosine = t.facing[0] * last_facing[0] + t.facing[2] * last_facing[2];
+      t.cost += kWeightFacingTurn * (1.0f - cosine);
+    } else if (t.facing[2] > 0.0f) {
+      t.cost += kWeightFacingAway * t.facing[2];
+    }
+  }
+  return t;
+}
+
+float side_cost(const Torso& t, int32_t joint, const float* p) {
+  if (!t.valid || kSideWeight[joint] == 0.0f) return 0.0f;
+  const float lateral = kSide[joint] * ((p[0] - t.mid[0]) * t.left[0] + (p[1] - t.mid[1]) * t.left[1] +
+                                        (p[2] - t.mid[2]) * t.left[2]);
+  if (lateral >= 0.0f) return 0.0f;
+  const float n = lateral / kSideScaleM;
+  return kSideWeight[joint] * capped(n * n, kMaxSideCost);
+}
+
+// Min-sum over the tree with the shoulders fixed to candidates a and b. Fills arg[j][parent
+// candidate] and returns the total cost and the neck's best candidate.
+float solve(const Candidates& c, const Torso& t, int a, int b, int32_t arg[kSkeletonJoints][kMaxJointCandidates],
+            int32_t* neck_choice) {
+  float child_sum[kSkeletonJoints][kMaxJointCandidates];
+  float own[kSkeletonJoints][kMaxJointCandidates];  // unary + side, per candidate
+  for (int j = 0; j < kSkeletonJoints; ++j)
+    for (int k = 0; k < c.count[j]; ++k) {
+      child_sum[j][k] = 0.0f;
+      own[j][k] = c.unary[j][k] + side_cost(t, j, c.pos[j][k]);
+    }
+  for (int i = 0; i < kSkeletonJoints - 1; ++i) {
+    const int32_t j = kLeavesFirst[i];
+    const int32_t p = kParent[j];
+    const int lo = j == kShoulderL ? a : j == kShoulderR ? b : 0;
+    const int hi = j == kShoulderL ? a + 1 : j == kShoulderR ? b + 1 : c.count[j];
+    for (int cp = 0; cp < c.count[p]; ++cp) {
+      float best = kInfinity;
+      int32_t best_k = lo;
+      for (int k = lo; k < hi; ++k) {
+        const float v = own[j][k] + c.pair[j][k][cp] + child_sum[j][k];
+        if (v < best) {
+          best = v;
+          best_k = k;
+        }
+      }
+      child_sum[p][cp] += best;
+      arg[j][cp] = best_k;
+    }
+  }
+  float best = kInfinity;
+  *neck_choice = 0;
+  for (int n = 0; n < c.count[kNeck]; ++n) {
+    const float v = c.unary[kNeck][n] + child_sum[kNeck][n];
+    if (v < best) {
+      best = v;
+      *neck_choice = n;
+    }
+  }
+  return best + t.cost;
+}
+
+// A limb pair: the left joints from the torso outwards; the right ones are their mirrors.
+struct LimbChain {
+  int32_t left[3];
+};
+constexpr LimbChain kArmChain{{kElbowL, kWristL, kHandL}};
+constexpr LimbChain kLegChain{{kKneeL, kAnkleL, kFootL}};
+
+float pair_unary(const Candidates& c, const Torso& t, int32_t jl, int l, int32_t jr, int r) {
+  float cost = c.unary[jl][l] + side_cost(t, jl, c.pos[jl][l]) + c.unary[jr][r] + side_cost(t, jr, c.pos[jr][r]);
+  if (c.kind[jl][l] != kKindAbsent && c.kind[jr][r] != kKindAbsent &&
+      distance(c.pos[jl][l], c.pos[jr][r]) < kMinLimbSeparationM)
+    cost += kCoincideCost;
+  return cost;
+}
+
+// Min-sum over the chain of (left, right) candidate pairs, the parents' choices fixed; writes the
+// limbs' choices. O(3 · C⁴) for C candidates per joint.
+void solve_limb_pair(const Candidates& c, const Torso& t, const LimbChain& chain, int32_t* choice) {
+  // msg[l][r]: best cost of the levels below, given the pair (l, r) at the current level.
+  float msg[kMaxJointCandidates][kMaxJointCandidates];
+  int16_t arg[3][kMaxJointCandidates][kMaxJointCandidates][2];
+  for (int l = 0; l < kMaxJointCandidates; ++l)
+    for (int r = 0; r < kMaxJointCandidates; ++r) msg[l][r] = 0.0f;
+  for (int level = 2; level >= 1; --level) {
+    const int32_t jl = chain.left[level], jr = kMirror[jl];
+    const int32_t pl = chain.left[level - 1], pr = kMirror[pl];
+    float next[kMaxJointCandidates][kMaxJointCandidates];
+    float own[kMaxJointCandidates][kMaxJointCandidates];
+    for (int l = 0; l < c.count[jl]; ++l)
+      for (int r = 0; r < c.count[jr]; ++r) own[l][r] = pair_unary(c, t, jl, l, jr, r) + msg[l][r];
+    for (int a = 0; a < c.count[pl]; ++a)
+      for (int b = 0; b < c.count[pr]; ++b) {
+        float best = kInfinity;
+        int16_t bl = 0, br = 0;
+        for (int l = 0; l < c.count[jl]; ++l)
+          for (int r = 0; r < c.count[jr]; ++r) {
+            const float v = own[l][r] + c.pair[jl][l][a] + c.pair[jr][r][b];
+            if (v < best) {
+              best = v;
+              bl = int16_t(l);
+              br = int16_t(r);
+            }
+          }
+        next[a][b] = best;
+        arg[level][a][b][0] = bl;
+        arg[level][a][b][1] = br;
+      }
+    for (int a = 0; a < c.count[pl]; ++a)
+      for (int b = 0; b < c.count[pr]; ++b) msg[a][b] = next[a][b];
+  }
+  const int32_t jl = chain.left[0], jr = kMirror[jl];
+  const int32_t a = choice[kParent[jl]], b = choice[kParent[jr]];
+  float best = kInfinity;
+  for (int l = 0; l < c.count[jl]; ++l)
+    for (int r = 0; r < c.count[jr]; ++r) {
+      const float v = pair_unary(c, t, jl, l, jr, r) + c.pair[jl][l][a] + c.pair[jr][r][b] + msg[l][r];
+      if (v < best) {
+        best = v;
+        choice[jl] = l;
+        choice[jr] = r;
+      }
+    }
+  for (int level = 1; level <= 2; ++level) {
+    const int32_t pl = chain.left[level - 1], pr = kMirror[pl];
+    const int32_t l = chain.left[level];
+    choice[l] = arg[level][choice[pl]][choice[pr]][0];
+    choice[kMirror[l]] = arg[level][choice[pl]][choice[pr]][1];
+  }
+}
+
+// Quaternion (w, x, y, z) products and rotation of a vector.
+void quat_multiply(const float* a, const float* b, float* out) {
+  out[0] = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
+  out[1] = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
+  out[2] = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
+  out[3] = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
+}
+void quat_rotate(const float* q, const float* v, float* out) {
+  const float p[4] = {0.0f, v[0], v[1], v[2]};
+  const float conj[4] = {q[0], -q[1], -q[2], -q[3]};
+  float t[4], r[4];
+  quat_multiply(q, p, t);
+  quat_multiply(t, conj, r);
+  out[0] = r[1];
+  out[1] = r[2];
+  out[2] = r[3];
+}
+// The shortest rotation taking unit a onto unit b (half-angle form); for opposite vectors, a half
+// turn about an axis perpendicular to a.
+void quat_from_to(const float* a, const float* b, float* q) {
+  float w = 1.0f + a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  float x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2], z = a[0] * b[1] - a[1] * b[0];
+  if (w < 1e-6f) {
+    w = 0.0f;
+    // a × (unit axis least aligned with a)
+    if (fabsf(a[0]) < 0.6f) { x = 0.0f; y = a[2]; z = -a[1]; }
+    else { x = -a[2]; y = 0.0f; z = a[0]; }
+  }
+  const float n = sqrtf(w * w + x * x + y * y + z * z);
+  q[0] = w / n;
+  q[1] = x / n;
+  q[2] = y / n;
+  q[3] = z / n;
+}
+
+void bone_rotations(Skeleton* s) {
+  // The torso's yaw: rest facing (0, 0, −1) turned about +y onto the facing.
+  float yaw[4] = {1.0f, 0.0f, 0.0f, 0.0f};
+  if (s->facing_known) {
+    const float half = 0.5f * atan2f(-s->facing[0], -s->facing[2]);
+    yaw[0] = cosf(half);
+    yaw[2] = sinf(half);
+  }
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    float* q = s->bone_rotation[j];
+    q[0] = 1.0f;
+    q[1] = q[2] = q[3] = 0.0f;
+    s->bone_rotation_valid[j] = 0;
+    const int32_t p = kParent[j];
+    if (p < 0 || s->joints[j].state == JointState::kMissing || s->joints[p].state == JointState::kMissing) continue;
+    float d[3] = {s->joints[j].x_m - s->joints[p].x_m, s->joints[j].y_m - s->joints[p].y_m,
+                  s->joints[j].z_m - s->joints[p].z_m};
+    const float n = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (n < 1e-6f) continue;
+    for (int a = 0; a < 3; ++a) d[a] /= n;
+    float rest[3], swing[4];
+    quat_rotate(yaw, kRestDirection[j], rest);
+    quat_from_to(rest, d, swing);
+    quat_multiply(swing, yaw, q);
+    s->bone_rotation_valid[j] = 1;
+  }
+}
+
+float bone_tolerance(int32_t joint, float length, bool measured) {
+  const float fraction = joint == kKneeL || joint == kKneeR ? kBoneToleranceHipSpan
+                         : measured                          ? kBoneToleranceMeasured
+                                                             : kBoneToleranceGeneric;
+  return fraction * length + kBoneSlackM;
+}
+
+}  // namespace
+
+int32_t skeleton_parent(int32_t joint) { return joint >= 0 && joint < kSkeletonJoints ? kParent[joint] : -1; }
+const char* skeleton_joint_name(int32_t joint) {
+  return joint >= 0 && joint < kSkeletonJoints ? kNames[joint] : "?";
+}
+const char* joint_state_name(JointState s) {
+  switch (s) {
+    case JointState::kMissing: return "missing";
+    case JointState::kInferred: return "inferred";
+    case JointState::kTracked: return "tracked";
+  }
+  return "?";
+}
+
+SkeletonConfig default_skeleton_config() {
+  SkeletonConfig c{};
+  c.max_candidates = 4;
+  c.frame_period_s = 1.0f / 30.0f;
+  c.forget_frames = 30;
+  c.filter = skeleton_filter_preset(SkeletonFilterPreset::kDefault);
+  return c;
+}
+
+Status SkeletonTracker::set_config(const SkeletonConfig& config) {
+  if (config.max_candidates < 1 || config.max_candidates > kMaxProposals || !(config.frame_period_s > 0.0f) ||
+      !(config.frame_period_s <= 1.0f) || config.forget_frames < 1 || config.forget_frames > 10000 ||
+      !skeleton_filter_params_valid(config.filter))
+    return Status::kBadConfig;
+  config_ = config;
+  return Status::kOk;
+}
+
+Status SkeletonTracker::init(const blob::ForestMeta& meta, const SkeletonConfig& config) {
+  initialized_ = false;
+  if (meta.joint_count != kSkeletonJoints) return Status::kBadArgument;
+  for (int j = 0; j < kSkeletonJoints; ++j)
+    if (strncmp(meta.joint_names[j], kNames[j], blob::kNameBytes) != 0) return Status::kBadArgument;
+  if (Status s = set_config(config); s != Status::kOk) return s;
+  for (int id = 0; id <= kMaxUsers; ++id) reset_user(users_[id]);
+  initialized_ = true;
+  return Status::kOk;
+}
+
+void SkeletonTracker::reset_user(UserState& u) {
+  memset(&u, 0, sizeof u);
+  for (int j = 0; j < kSkeletonJoints; ++j) u.bone_length[j] = kGenericBoneM[j];
+}
+
+void SkeletonTracker::forget(int32_t user_id) {
+  if (user_id >= 1 && user_id <= kMaxUsers) reset_user(users_[user_id]);
+}
+
+void SkeletonTracker::begin_frame() {
+  for (int id = 1; id <= kMaxUsers; ++id) {
+    UserState& u = users_[id];
+    if (!u.active) continue;
+    if (++u.frames_unseen > config_.forget_frames) reset_user(u);
+  }
+}
+
+void SkeletonTracker::update_bones(UserState& u, const Skeleton& s) {
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    const int32_t p = kParent[j];
+    if (p < 0 || s.joints[j].state != JointState::kTracked || s.joints[p].state != JointState::kTracked) continue;
+    u.bone_samples[j][u.bone_next[j]] = distance(s.joints[j].raw_m, s.joints[p].raw_m);
+    u.bone_next[j] = (u.bone_next[j] + 1) % kBoneSamples;
+    if (u.bone_count[j] < kBoneSamples) ++u.bone_count[j];
+    if (u.bone_count[j] < kBoneSamplesTrusted) continue;
+    float sorted[kBoneSamples];
+    const int n = u.bone_count[j];
+    for (int i = 0; i < n; ++i) {  // insertion sort of at most kBoneSamples values
+      const float v = u.bone_samples[j][i];
+      int k = i;
+      for (; k > 0 && sorted[k - 1] > v; --k) sorted[k] = sorted[k - 1];
+      sorted[k] = v;
+    }
+    u.bone_length[j] = sorted[n / 2];
+  }
+}
+
+Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* out) {
+  if (!initialized_) return Status::kNotInitialized;
+  if (!out || user_id < 1 || user_id > kMaxUsers || r.joint_count != kSkeletonJoints) return Status::kBadArgument;
+  const uint64_t t0 = cycle_count();
+  UserState& u = users_[user_id];
+  if (!u.active) {
+    reset_user(u);
+    u.active = 1;
+  }
+  u.frames_unseen = 0;
+  ++u.frames_tracked;
+
+  // Candidates and their own costs.
+  Candidates c;
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    int n = 0;
+    const float motion_scale = kMotionScaleM * float(1 + (u.missed[j] < 5 ? u.missed[j] : 5));
+    // The joint's own proposals, then its mirror joint's (the forest often puts a left joint's
+    // best mode on the right limb and the reverse; the side and bone costs tell them apart). Not
+    // for the shoulders: they anchor the torso's facing, and their own proposals rarely swap.
+    const int32_t sources[2] = {j, kMirror[j]};
+    for (int si = 0; si < (kMirror[j] != j && !is_shoulder(j) ? 2 : 1); ++si) {
+      const int32_t src = sources[si];
+      const int count = r.proposal_count[src] < config_.max_candidates ? r.proposal_count[src] : config_.max_candidates;
+      const float src_top = count > 0 ? r.proposals[src][0].confidence : 0.0f;
+      for (int k = 0; k < count; ++k, ++n) {
+        const JointProposal& p = r.proposals[src][k];
+        c.kind[j][n] = k;
+        c.source[j][n] = src;
+        c.pos[j][n][0] = p.x_m;
+        c.pos[j][n][1] = p.y_m;
+        c.pos[j][n][2] = p.z_m;
+        const float ratio = src_top > 0.0f && p.confidence > 0.0f ? p.confidence / src_top : 0.0f;
+        float cost = ratio > 0.0f ? capped(kWeightProposal * -logf(ratio), kMaxProposalCost) : kMaxProposalCost;
+        if (src != j) cost += kMirrorCost;
+        if (u.has_last[j]) {
+          const float d = distance(c.pos[j][n], u.last[j]) / motion_scale;
+          cost += capped(d * d, kMaxContinuityCost);
+        }
+        c.unary[j][n] = cost;
+      }
+    }
+    if (u.has_last[j]) {
+      c.kind[j][n] = kKindPredicted;
+      c.source[j][n] = j;
+      for (int a = 0; a < 3; ++a) c.pos[j][n][a] = u.last[j][a];
+      c.unary[j][n] = kPredictedCost;
+      ++n;
+    }
+    c.kind[j][n] = kKindAbsent;
+    c.source[j][n] = j;
+    c.pos[j][n][0] = c.pos[j][n][1] = c.pos[j][n][2] = 0.0f;
+    c.unary[j][n] = kAbsentCost;
+    c.count[j] = n + 1;
+  }
+  // Bone costs against every parent candidate.
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    const int32_t p = kParent[j];
+    if (p < 0) continue;
+    const float length = u.bone_length[j];
+    const float tolerance = bone_tolerance(j, length, u.bone_count[j] >= kBoneSamplesTrusted);
+    for (int k = 0; k < c.count[j]; ++k)
+      for (int q = 0; q < c.count[p]; ++q) {
+        if (c.kind[j][k] == kKindAbsent || c.kind[p][q] == kKindAbsent) {
+          c.pair[j][k][q] = 0.0f;
+          continue;
+        }
+        const float n = (distance(c.pos[j][k], c.pos[p][q]) - length) / tolerance;
+        c.pair[j][k][q] = kWeightBone * capped(n * n, kMaxBoneCost);
+      }
+  }
+
+  // Every shoulder pair, then the best again to read its choices.
+  int32_t arg[kSkeletonJoints][kMaxJointCandidates];
+  int32_t neck = 0;
+  float best = kInfinity;
+  int best_a = 0, best_b = 0;
+  for (int a = 0; a < c.count[kShoulderL]; ++a)
+    for (int b = 0; b < c.count[kShoulderR]; ++b) {
+      const Torso t = torso_of(c, a, b, u.facing_known, u.facing);
+      const float cost = solve(c, t, a, b, arg, &neck);
+      if (cost < best) {
+        best = cost;
+        best_a = a;
+        best_b = b;
+      }
+    }
+  const Torso torso = torso_of(c, best_a, best_b, u.facing_known, u.facing);
+  solve(c, torso, best_a, best_b, arg, &neck);
+  int32_t choice[kSkeletonJoints];
+  choice[kNeck] = neck;
+  for (int i = kSkeletonJoints - 2; i >= 0; --i) {
+    const int32_t j = kLeavesFirst[i];
+    choice[j] = arg[j][choice[kParent[j]]];
+  }
+  // Second round: each pair of limbs (arms from the chosen shoulders, legs from the chosen neck)
+  // as one chain of left/right pairs, so that the two sides cannot settle on the same place.
+  solve_limb_pair(c, torso, kArmChain, choice);
+  solve_limb_pair(c, torso, kLegChain, choice);
+
+  // States, confidences, filter, and the user's memory.
+  memset(out, 0, sizeof *out);
+  out->user_id = user_id;
+  out->frames_tracked = u.frames_tracked;
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    TrackedJoint& o = out->joints[j];
+    const int k = choice[j];
+    const int32_t kind = c.kind[j][k];
+    o.proposal = kind >= 0 ? kind : -1;
+    o.proposal_joint = kind >= 0 ? c.source[j][k] : -1;
+    o.evidence = -1;
+    if (kind == kKindAbsent) {
+      o.state = JointState::kMissing;
+      u.filters[j].reset();
+      u.has_last[j] = 0;
+      u.missed[j] = 0;
+      continue;
+    }
+    const int32_t p = kParent[j];
+    const float bone = p >= 0 ? c.pair[j][k][choice[p]] : 0.0f;
+    int evidence;
+    if (kind == kKindPredicted) {
+      const int frames = u.missed[j] + 1;
+      evidence = 10 + (frames < 5 ? frames : 5) - 1;
+    } else if (bone > kFitBoneCost) {
+      evidence = 15;
+    } else {
+      const float local = c.unary[j][k] + bone + side_cost(torso, j, c.pos[j][k]);
+      int bin = int(10.0f * expf(-0.5f * local));
+      evidence = bin > 9 ? 9 : bin;
+    }
+    o.evidence = evidence;
+    o.state = evidence < 10 ? JointState::kTracked : JointState::kInferred;
+    o.confidence = kCalibration[evidence];
+    for (int a = 0; a < 3; ++a) o.raw_m[a] = c.pos[j][k][a];
+    float filtered[3];
+    u.filters[j].update(config_.filter, config_.frame_period_s, o.raw_m, filtered);
+    o.x_m = filtered[0];
+    o.y_m = filtered[1];
+    o.z_m = filtered[2];
+    for (int a = 0; a < 3; ++a) u.last[j][a] = o.raw_m[a];
+    u.has_last[j] = 1;
+    u.missed[j] = o.state == JointState::kTracked ? 0 : u.missed[j] + 1;
+    if (u.missed[j] > kMaxPredictedFrames) u.has_last[j] = 0;
+  }
+  if (torso.valid && out->joints[kShoulderL].state == JointState::kTracked &&
+      out->joints[kShoulderR].state == JointState::kTracked) {
+    u.facing_known = 1;
+    for (int a = 0; a < 3; ++a) u.facing[a] = torso.facing[a];
+  }
+  out->facing_known = torso.valid;
+  for (int a = 0; a < 3; ++a) out->facing[a] = torso.facing[a];
+  update_bones(u, *out);
+  for (int j = 0; j < kSkeletonJoints; ++j) out->bone_length_m[j] = kParent[j] >= 0 ? u.bone_length[j] : 0.0f;
+  bone_rotations(out);
+  out->cycles = cycle_count() - t0;
+  return Status::kOk;
+}
+
+}  // namespace dp

@@ -1,0 +1,297 @@
+// The skeleton tracker (runtime/skeleton_tracker.h) and its filter (runtime/skeleton_filter.h) on
+// hand-made proposals around a known body: choice against decoys and left/right confusions, states,
+// confidences, bone lengths, the filter's presets, and the argument checks.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+
+#include "runtime/skeleton_tracker.h"
+
+using namespace dp;
+
+namespace {
+
+blob::ForestMeta skeleton_meta() {
+  blob::ForestMeta m;
+  std::memset(&m, 0, sizeof m);
+  m.joint_count = kSkeletonJoints;
+  for (int j = 0; j < kSkeletonJoints; ++j) std::strncpy(m.joint_names[j], skeleton_joint_name(j), blob::kNameBytes - 1);
+  return m;
+}
+
+// A standing body facing the camera 2.5 m away (its left at +x), arms hanging, walking sideways
+// along x by `shift` metres.
+void body(float shift, float out[kSkeletonJoints][3]) {
+  const float p[kSkeletonJoints][3] = {
+      {0.0f, 0.80f, 2.5f},   {0.0f, 0.70f, 2.5f},   {0.20f, 0.62f, 2.5f},  {-0.20f, 0.62f, 2.5f},
+      {0.25f, 0.37f, 2.5f},  {-0.25f, 0.37f, 2.5f}, {0.27f, 0.13f, 2.5f},  {-0.27f, 0.13f, 2.5f},
+      {0.28f, 0.08f, 2.5f},  {-0.28f, 0.08f, 2.5f}, {0.12f, -0.25f, 2.5f}, {-0.12f, -0.25f, 2.5f},
+      {0.12f, -0.67f, 2.5f}, {-0.12f, -0.67f, 2.5f}, {0.12f, -0.70f, 2.35f}, {-0.12f, -0.70f, 2.35f}};
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    out[j][0] = p[j][0] + shift;
+    out[j][1] = p[j][1];
+    out[j][2] = p[j][2];
+  }
+}
+
+void set_proposal(FrameResult* r, int joint, int k, const float* p, float confidence) {
+  r->proposals[joint][k] = {p[0], p[1], p[2], confidence};
+  if (r->proposal_count[joint] < k + 1) r->proposal_count[joint] = k + 1;
+}
+
+// Every joint's first proposal at the truth.
+std::unique_ptr<FrameResult> clean_frame(const float truth[kSkeletonJoints][3]) {
+  auto r = std::make_unique<FrameResult>();
+  std::memset(r.get(), 0, sizeof *r);
+  r->joint_count = kSkeletonJoints;
+  for (int j = 0; j < kSkeletonJoints; ++j) set_proposal(r.get(), j, 0, truth[j], 100.0f);
+  return r;
+}
+
+float distance(const TrackedJoint& t, const float* p) {
+  return std::sqrt((t.raw_m[0] - p[0]) * (t.raw_m[0] - p[0]) + (t.raw_m[1] - p[1]) * (t.raw_m[1] - p[1]) +
+                   (t.raw_m[2] - p[2]) * (t.raw_m[2] - p[2]));
+}
+
+// `frames` updates of user 1 with clean proposals of the standing body; the last skeleton in `out`.
+void feed_still_body(SkeletonTracker& tracker, int frames, Skeleton* out) {
+  float truth[kSkeletonJoints][3];
+  body(0.0f, truth);
+  for (int f = 0; f < frames; ++f) {
+    tracker.begin_frame();
+    ASSERT_EQ(tracker.update(1, *clean_frame(truth), out), Status::kOk);
+  }
+}
+
+SkeletonConfig unfiltered() {
+  SkeletonConfig c = default_skeleton_config();
+  c.filter = skeleton_filter_preset(SkeletonFilterPreset::kOff);
+  return c;
+}
+
+}  // namespace
+
+TEST(SkeletonTracker, RefusesOtherJointSetsAndBadConfigs) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  blob::ForestMeta m = skeleton_meta();
+  std::strncpy(m.joint_names[2], "shoulder_r", blob::kNameBytes - 1);  // left and right exchanged
+  EXPECT_EQ(tracker->init(m, default_skeleton_config()), Status::kBadArgument);
+  m = skeleton_meta();
+  m.joint_count = 15;
+  EXPECT_EQ(tracker->init(m, default_skeleton_config()), Status::kBadArgument);
+  m = skeleton_meta();
+  SkeletonConfig c = default_skeleton_config();
+  c.max_candidates = kMaxProposals + 1;
+  EXPECT_EQ(tracker->init(m, c), Status::kBadConfig);
+  c = default_skeleton_config();
+  c.filter.min_cutoff_hz = 0.0f;
+  EXPECT_EQ(tracker->init(m, c), Status::kBadConfig);
+  c = default_skeleton_config();
+  c.frame_period_s = std::nanf("");
+  EXPECT_EQ(tracker->init(m, c), Status::kBadConfig);
+  float truth[kSkeletonJoints][3];
+  body(0.0f, truth);
+  auto r = clean_frame(truth);
+  Skeleton s;
+  EXPECT_EQ(tracker->update(1, *r, &s), Status::kNotInitialized);
+  ASSERT_EQ(tracker->init(m, default_skeleton_config()), Status::kOk);
+  EXPECT_EQ(tracker->update(0, *r, &s), Status::kBadArgument);
+  EXPECT_EQ(tracker->update(kMaxUsers + 1, *r, &s), Status::kBadArgument);
+  EXPECT_EQ(tracker->update(1, *r, nullptr), Status::kBadArgument);
+  r->joint_count = 3;
+  EXPECT_EQ(tracker->update(1, *r, &s), Status::kBadArgument);
+}
+
+TEST(SkeletonTracker, CleanProposalsAreTrackedWithHighConfidence) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  ASSERT_EQ(tracker->init(skeleton_meta(), unfiltered()), Status::kOk);
+  float truth[kSkeletonJoints][3];
+  Skeleton s;
+  for (int f = 0; f < 12; ++f) {
+    body(0.01f * float(f), truth);
+    tracker->begin_frame();
+    ASSERT_EQ(tracker->update(3, *clean_frame(truth), &s), Status::kOk);
+  }
+  EXPECT_EQ(s.user_id, 3);
+  EXPECT_EQ(s.frames_tracked, 12);
+  EXPECT_EQ(s.facing_known, 1);
+  EXPECT_LT(s.facing[2], -0.9f) << "the body faces the camera";
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    EXPECT_EQ(s.joints[j].state, JointState::kTracked) << skeleton_joint_name(j);
+    EXPECT_LT(distance(s.joints[j], truth[j]), 1e-5f) << skeleton_joint_name(j);
+    EXPECT_GE(s.joints[j].confidence, 0.5f) << skeleton_joint_name(j);
+    EXPECT_LE(s.joints[j].confidence, 1.0f) << skeleton_joint_name(j);
+  }
+  // Bone lengths are this body's after kBoneSamplesTrusted frames: upper arm 0.255 m.
+  EXPECT_NEAR(s.bone_length_m[kElbowL], std::hypot(0.05f, 0.25f), 1e-4f);
+  EXPECT_EQ(s.bone_length_m[kNeck], 0.0f);
+}
+
+TEST(SkeletonTracker, ChoosesTheProposalThatFitsOverAStrongerDecoyAndUndoesSwaps) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  ASSERT_EQ(tracker->init(skeleton_meta(), unfiltered()), Status::kOk);
+  float truth[kSkeletonJoints][3];
+  Skeleton s;
+  body(0.0f, truth);
+  feed_still_body(*tracker, 10, &s);  // learn the body
+  body(0.02f, truth);
+  auto r = clean_frame(truth);
+  // The left hand's best proposal lies 0.6 m off (a decoy), the true one second.
+  const float decoy[3] = {truth[kHandL][0] + 0.6f, truth[kHandL][1] + 0.3f, truth[kHandL][2]};
+  set_proposal(r.get(), kHandL, 0, decoy, 100.0f);
+  set_proposal(r.get(), kHandL, 1, truth[kHandL], 60.0f);
+  // Both ankles' best proposals sit on the right ankle; the left ankle's true place is only the
+  // right ankle's second proposal.
+  set_proposal(r.get(), kAnkleL, 0, truth[kAnkleR], 100.0f);
+  r->proposal_count[kAnkleL] = 1;
+  set_proposal(r.get(), kAnkleR, 1, truth[kAnkleL], 50.0f);
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *r, &s), Status::kOk);
+  EXPECT_LT(distance(s.joints[kHandL], truth[kHandL]), 1e-5f);
+  EXPECT_EQ(s.joints[kHandL].proposal, 1);
+  EXPECT_LT(distance(s.joints[kAnkleL], truth[kAnkleL]), 1e-5f) << "the left ankle took the right's 2nd proposal";
+  EXPECT_EQ(s.joints[kAnkleL].proposal_joint, kAnkleR);
+  EXPECT_LT(distance(s.joints[kAnkleR], truth[kAnkleR]), 1e-5f);
+}
+
+TEST(SkeletonTracker, AJointWithoutProposalsIsInferredThenMissing) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  ASSERT_EQ(tracker->init(skeleton_meta(), unfiltered()), Status::kOk);
+  float truth[kSkeletonJoints][3];
+  body(0.0f, truth);
+  Skeleton s;
+  feed_still_body(*tracker, 5, &s);
+  const float before = s.joints[kWristR].confidence;
+  auto r = clean_frame(truth);
+  r->proposal_count[kWristR] = 0;  // occluded
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *r, &s), Status::kOk);
+  EXPECT_EQ(s.joints[kWristR].state, JointState::kInferred);
+  EXPECT_EQ(s.joints[kWristR].proposal, -1);
+  EXPECT_LT(distance(s.joints[kWristR], truth[kWristR]), 1e-5f) << "held at its last place";
+  EXPECT_LT(s.joints[kWristR].confidence, before);
+  int frames = 1;
+  for (; frames < 40 && s.joints[kWristR].state != JointState::kMissing; ++frames) {
+    tracker->begin_frame();
+    ASSERT_EQ(tracker->update(1, *r, &s), Status::kOk);
+  }
+  EXPECT_EQ(s.joints[kWristR].state, JointState::kMissing) << "after " << frames << " frames";
+  EXPECT_EQ(s.joints[kWristR].confidence, 0.0f);
+  // A new user (never seen) with no proposal for a joint: missing at once.
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(2, *r, &s), Status::kOk);
+  EXPECT_EQ(s.joints[kWristR].state, JointState::kMissing);
+  EXPECT_EQ(s.frames_tracked, 1);
+}
+
+TEST(SkeletonTracker, AUserUnseenForForgetFramesStartsAfresh) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  SkeletonConfig c = unfiltered();
+  c.forget_frames = 3;
+  ASSERT_EQ(tracker->init(skeleton_meta(), c), Status::kOk);
+  float truth[kSkeletonJoints][3];
+  body(0.0f, truth);
+  Skeleton s;
+  feed_still_body(*tracker, 4, &s);
+  EXPECT_EQ(s.frames_tracked, 4);
+  for (int f = 0; f < 3; ++f) tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
+  EXPECT_EQ(s.frames_tracked, 5) << "3 frames unseen is within forget_frames";
+  for (int f = 0; f < 4; ++f) tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
+  EXPECT_EQ(s.frames_tracked, 1);
+  tracker->forget(1);
+  ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
+  EXPECT_EQ(s.frames_tracked, 1);
+}
+
+TEST(SkeletonFilter, OffPassesThroughDefaultCutsJitterAndFollowsMotion) {
+  const float dt = 1.0f / 30.0f;
+  JointFilter off{}, def{}, strong{};
+  off.reset();
+  def.reset();
+  strong.reset();
+  const SkeletonFilterParams p_off = skeleton_filter_preset(SkeletonFilterPreset::kOff);
+  const SkeletonFilterParams p_def = skeleton_filter_preset(SkeletonFilterPreset::kDefault);
+  const SkeletonFilterParams p_strong = skeleton_filter_preset(SkeletonFilterPreset::kStrong);
+  ASSERT_TRUE(skeleton_filter_params_valid(p_def));
+  ASSERT_TRUE(skeleton_filter_params_valid(p_strong));
+  // A still joint with ±1 cm alternating noise.
+  double jitter[3] = {0, 0, 0};
+  float prev[3][3] = {};
+  for (int f = 0; f < 60; ++f) {
+    const float in[3] = {f % 2 ? 0.01f : -0.01f, 1.0f, 2.0f};
+    float out[3][3];
+    off.update(p_off, dt, in, out[0]);
+    def.update(p_def, dt, in, out[1]);
+    strong.update(p_strong, dt, in, out[2]);
+    if (f == 0) {
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(out[k][0], in[0]) << "the first sample is reported unchanged";
+    }
+    if (f >= 30)
+      for (int k = 0; k < 3; ++k) jitter[k] += std::fabs(out[k][0] - prev[k][0]);
+    for (int k = 0; k < 3; ++k) std::memcpy(prev[k], out[k], sizeof prev[k]);
+  }
+  EXPECT_NEAR(jitter[0] / 30.0, 0.02, 1e-6);
+  EXPECT_LT(jitter[1], 0.5 * jitter[0]);
+  EXPECT_LT(jitter[2], jitter[1]);
+  // A joint moving at 2 m/s: default ends closer behind than strong.
+  def.reset();
+  strong.reset();
+  float out_def[3], out_strong[3];
+  for (int f = 0; f < 30; ++f) {
+    const float in[3] = {2.0f * dt * float(f), 1.0f, 2.0f};
+    def.update(p_def, dt, in, out_def);
+    strong.update(p_strong, dt, in, out_strong);
+  }
+  const float truth = 2.0f * dt * 29.0f;
+  EXPECT_LT(truth - out_def[0], truth - out_strong[0]);
+  EXPECT_LT(truth - out_def[0], 2.0f * 2.0f * dt) << "default lags by less than two frames at 2 m/s";
+}
+
+namespace {
+// q (w, x, y, z) applied to v.
+void rotate(const float* q, const float* v, float* out) {
+  const float w = q[0], x = q[1], y = q[2], z = q[3];
+  // v + 2w (u × v) + 2 u × (u × v), u = (x, y, z)
+  const float c1[3] = {y * v[2] - z * v[1], z * v[0] - x * v[2], x * v[1] - y * v[0]};
+  const float c2[3] = {y * c1[2] - z * c1[1], z * c1[0] - x * c1[2], x * c1[1] - y * c1[0]};
+  for (int a = 0; a < 3; ++a) out[a] = v[a] + 2.0f * w * c1[a] + 2.0f * c2[a];
+}
+}  // namespace
+
+TEST(SkeletonTracker, BoneRotationsTurnTheRestPoseOntoTheBones) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  ASSERT_EQ(tracker->init(skeleton_meta(), unfiltered()), Status::kOk);
+  float truth[kSkeletonJoints][3];
+  body(0.0f, truth);
+  Skeleton s;
+  feed_still_body(*tracker, 3, &s);
+  struct Case {
+    int joint;
+    float rest[3];
+  };
+  const Case cases[] = {{kHead, {0, 1, 0}}, {kShoulderL, {1, 0, 0}}, {kElbowL, {1, 0, 0}}, {kElbowR, {-1, 0, 0}},
+                        {kKneeR, {0, -1, 0}}, {kFootL, {0, 0, -1}}};
+  for (const Case& c : cases) {
+    const int p = skeleton_parent(c.joint);
+    float d[3];
+    float n = 0;
+    for (int a = 0; a < 3; ++a) {
+      d[a] = truth[c.joint][a] - truth[p][a];
+      n += d[a] * d[a];
+    }
+    n = std::sqrt(n);
+    ASSERT_EQ(s.bone_rotation_valid[c.joint], 1) << skeleton_joint_name(c.joint);
+    const float* q = s.bone_rotation[c.joint];
+    EXPECT_NEAR(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3], 1.0f, 1e-5f);
+    float turned[3];
+    rotate(q, c.rest, turned);
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(turned[a], d[a] / n, 1e-4f) << skeleton_joint_name(c.joint) << " axis " << a;
+  }
+  EXPECT_EQ(s.bone_rotation_valid[kNeck], 0);
+  // Facing the camera, the foot points at the camera as in the rest pose: almost no rotation.
+  EXPECT_GT(std::fabs(s.bone_rotation[kFootL][0]), 0.99f);
+}

@@ -1,0 +1,62 @@
+// `depthpose skeleton-eval`: measures the skeleton tracker (runtime/skeleton_tracker.h) on
+// synthetic sequences with ground truth (`depthpose synth --sequence`, one or more people).
+//
+// Each body is cut out by its ground-truth mask (people/NNNNNN.png, or parts ≠ 255 for one
+// body), so the figures measure the tracker and the forest, not the people finder. Per body and
+// frame the pipeline's proposals feed one tracker per filter preset (off, default, strong).
+// Figures (docs/skeleton.md): per joint, within-0.1 m rate of the first proposal and of the
+// tracker's joint; left/right swaps per 1000 left/right joint-frames; the confidence's reliability
+// (and a fitted calibration table); jitter of still joints and lag on fast motion per preset; the
+// tracker's cost per user and frame.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "runtime/skeleton_tracker.h"
+
+namespace dp::tools {
+
+struct SkeletonEvalOptions {
+  std::string blob_path;
+  std::vector<std::string> datasets;  // each one sequence (frames in order)
+  int max_frames = -1;                // per dataset, −1 = all
+  // Extra filter settings measured besides the presets (--filter-sweep).
+  std::vector<SkeletonFilterParams> sweep;
+};
+
+struct FilterFigures {
+  SkeletonFilterParams params{};
+  double jitter_mm = 0;     // RMS frame-to-frame motion of the output where the truth moved < 5 mm
+  long still_samples = 0;
+  double lag_frames = 0;    // shift s (0..8, parabola-refined) minimising mean |output(t) − truth(t − s)|, fast joints
+  long fast_samples = 0;
+  double within_rate = 0;   // all joints, reported position within 0.1 m
+};
+
+struct SkeletonEvalReport {
+  long frames = 0, body_frames = 0;
+  std::array<long, kSkeletonJoints> joint_frames{};
+  std::array<long, kSkeletonJoints> proposal_hits{}, tracker_hits{};  // within 0.1 m
+  // Swaps: a left/right joint within 0.1 m of its mirror joint's truth and not of its own; "nearer
+  // mirror": off by more than 0.1 m and nearer the mirror's truth than its own.
+  long lr_joint_frames = 0, proposal_swaps = 0, tracker_swaps = 0;
+  long proposal_nearer_mirror = 0, tracker_nearer_mirror = 0;
+  std::array<long, kSkeletonJoints> proposal_swaps_by_joint{}, tracker_swaps_by_joint{};
+  // Evidence classes of the tracker's confidence (skeleton_tracker.cc): count and hits.
+  std::array<long, kEvidenceClasses> class_count{}, class_hits{};
+  // Reliability: 10 confidence bins (of the reported confidence): count, Σ confidence, hits.
+  std::array<long, 10> bin_count{}, bin_hits{};
+  std::array<double, 10> bin_confidence_sum{};
+  std::array<long, 3> state_count{};  // missing, inferred, tracked
+  std::vector<FilterFigures> filters;  // off, default, strong, then the sweep
+  double tracker_cycles_per_user_frame = 0;
+  double pipeline_cycles_per_user_frame = 0;
+};
+
+// Throws ToolError for a missing/bad blob or dataset (naming it) or a blob whose joints are not the
+// tracker's 16.
+SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& options);
+
+}  // namespace dp::tools
