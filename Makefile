@@ -120,11 +120,19 @@ $(BUILD)/obj/%.o: %.cc
 # Test drivers (tests/*.cc, not the benches) compile at TEST_OPT with line tables only; the code they
 # test keeps its own flags. Measured on three heavy test files (CPU seconds, -O2 -g → -O1 -g1):
 # runtime_kernel_test 19.2 → 8.8, segmentation_cut_test 18.2 → 9.5, train_dataset_test 8.8 → 4.1.
+# They share a precompiled header (tests/test_pch.h, built per build folder with their flags):
+# -1.0 to -3.2 s CPU per driver (train_dataset_test 5.4 → 3.9, segmentation_cut_test 9.0 → 5.8).
 TEST_OPT ?= $(if $(filter -O0,$(OPT)),-O0,-O1)
 TEST_CXXFLAGS := $(filter-out $(OPT) $(DEBUGINFO),$(TOOLS_CXXFLAGS)) $(TEST_OPT) -g1
-$(TEST_OBJS): $(BUILD)/obj/tests/%.o: tests/%.cc
+TEST_PCH := $(BUILD)/pch/test_pch.h
+$(TEST_PCH): tests/test_pch.h
 	@mkdir -p $(@D)
-	$(CXX) $(TEST_CXXFLAGS) $(DEPFLAGS) -c $< -o $@
+	cp $< $@
+$(TEST_PCH).gch: $(TEST_PCH)
+	$(CXX) $(TEST_CXXFLAGS) -x c++-header $< -o $@
+$(TEST_OBJS): $(BUILD)/obj/tests/%.o: tests/%.cc $(TEST_PCH).gch
+	@mkdir -p $(@D)
+	$(CXX) $(TEST_CXXFLAGS) -Winvalid-pch -include $(TEST_PCH) $(DEPFLAGS) -c $< -o $@
 
 $(RUNTIME_LIB): $(RUNTIME_OBJS)
 	@mkdir -p $(@D)

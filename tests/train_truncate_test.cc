@@ -44,7 +44,9 @@ TEST(TrainTruncate, CutsAtDepthAndRenumbersLeaves) {
   EXPECT_FALSE(c.has_part_distributions);
   for (const TrainedNode& n : c.trees[0].nodes) {
     EXPECT_EQ(n.is_leaf(), heap_level(n.heap_index) == 3) << n.heap_index;
-    if (!n.is_leaf()) EXPECT_EQ(n.threshold_mm, float(n.heap_index));  // splits kept as they were
+    if (!n.is_leaf()) {
+      EXPECT_EQ(n.threshold_mm, float(n.heap_index));  // splits kept as they were
+    }
   }
   // Leaves numbered in heap order.
   EXPECT_EQ(c.trees[0].nodes[7].leaf, 0);
