@@ -22,15 +22,15 @@ START=$(date +%s)
 echo "# $(date -u +%FT%TZ) make_model: $TRAIN_FRAMES training frames in $SHARDS shard(s), depth ${MODEL_DEPTH:-20}" >> "$D/times.txt"
 
 elapsed() { local s=$(( $(date +%s) - START )); printf '%d:%02d:%02d' $((s / 3600)) $((s % 3600 / 60)) $((s % 60)); }
-step() {  # step NAME command...: runs and times one step
+step() {  # step NAME command...: runs and times one step (its own lines on stderr: stdout may be a report file)
   local name=$1; shift
   local t0=$(date +%s.%N)
-  echo "== [$(elapsed) elapsed] $name: $*" | tee -a "$D/commands.txt"
+  echo "== [$(elapsed) elapsed] $name: $*" | tee -a "$D/commands.txt" >&2
   "$@"
   local t1=$(date +%s.%N)
-  awk -v n="$name" -v a="$t0" -v b="$t1" 'BEGIN { printf "%s %.1f s\n", n, b - a }' | tee -a "$D/times.txt"
+  awk -v n="$name" -v a="$t0" -v b="$t1" 'BEGIN { printf "%s %.1f s\n", n, b - a }' | tee -a "$D/times.txt" >&2
 }
-skip() { echo "== [$(elapsed) elapsed] $1: done already ($2)"; }
+skip() { echo "== [$(elapsed) elapsed] $1: done already ($2)" >&2; }
 complete() {  # complete DIR FRAMES: the dataset has all its frames (synth writes the folder atomically)
   [ -f "$1/frames.jsonl" ] && [ "$(wc -l < "$1/frames.jsonl")" -eq "$2" ]
 }
