@@ -2,9 +2,10 @@
 # Regenerates the shipped models from ../shared/assets with our own tools (`make model`; the knobs,
 # their defaults and the pilot preset are in mk/model.mk, the usage in docs/results.md).
 # Resumable: every step whose output is complete is skipped on a rerun — a training shard with all
-# its frames, a trained forest, a tuned blob, an eval — and BPC training continues from its
-# per-level checkpoint (`train --resume`). Each step's wall time is appended to $MODEL_DIR/times.txt
-# and its command to commands.txt; report.txt puts the new models beside the ones they replace.
+# its frames, a forest trained by the same command (knobs unchanged), a tuned blob of that forest —
+# and BPC training continues from its per-level checkpoint (`train --resume`). Each step's wall time
+# is appended to $MODEL_DIR/times.txt and its command to commands.txt; report.txt puts the new
+# models beside the ones they replace.
 set -euo pipefail
 CLI=${CLI:-build/bin/depthpose}
 D=${MODEL_DIR:-build/model}
@@ -31,15 +32,29 @@ step() {  # step NAME command...: runs and times one step (its own lines on stde
   awk -v n="$name" -v a="$t0" -v b="$t1" 'BEGIN { printf "%s %.1f s\n", n, b - a }' | tee -a "$D/times.txt" >&2
 }
 skip() { echo "== [$(elapsed) elapsed] $1: done already ($2)" >&2; }
-complete() {  # complete DIR FRAMES: the dataset has all its frames (synth writes the folder atomically)
-  [ -f "$1/frames.jsonl" ] && [ "$(wc -l < "$1/frames.jsonl")" -eq "$2" ]
+made() {  # made FILE command...: FILE exists and was made by this very command (knobs unchanged)
+  local file=$1; shift
+  [ -f "$file" ] && [ -f "$file.cmd" ] && [ "$(cat "$file.cmd")" = "$*" ]
 }
-synth() {  # synth NAME LABEL SEED FRAMES CLIPS [more synth options]
+make_file() {  # make_file NAME FILE command...: runs the step, then records the command beside FILE
+  local name=$1 file=$2; shift 2
+  rm -f "$file.cmd"
+  step "$name" "$@"
+  echo "$*" > "$file.cmd"
+}
+synth() {  # synth NAME LABEL SEED FRAMES CLIPS [more synth options]: renders a dataset unless made already
   local name=$1 label=$2 seed=$3 frames=$4 clips=$5; shift 5
-  if complete "$D/$name" "$frames"; then skip "$label" "$D/$name"; return 0; fi
+  local cmd=("$CLI" synth --assets "${ASSETS:-../shared/assets}" --out "$D/$name" --frames "$frames" --seed "$seed"
+             --clips "$clips" --width "$W" --height "$H" "$@")
+  # synth swaps a finished dataset in whole, so a directory with frames.jsonl is a complete one;
+  # frames.jsonl.cmd beside it is the command that made it (other knobs: rendered again).
+  if made "$D/$name/frames.jsonl" "${cmd[@]}"; then skip "$label" "$D/$name"; return 0; fi
   rm -rf "$D/$name"
-  step "$label" "$CLI" synth --assets "${ASSETS:-../shared/assets}" --out "$D/$name" --frames "$frames" \
-       --seed "$seed" --clips "$clips" --width "$W" --height "$H" "$@"
+  case $name in  # what was made from the old data is made again
+    train_*) rm -f "$D/bpc.forest.cmd" "$D/bpc.forest.checkpoint" "$D/ojr.forest.cmd" ;;
+    val) rm -f "$D/bpc.blob" "$D/ojr.blob" ;;
+  esac
+  make_file "$label" "$D/$name/frames.jsonl" "${cmd[@]}"
 }
 # Every split: the varied pose pool, wide bodies, clothing and a hand-placed camera; each split has
 # its own seeds, so no body, outfit or pose variant is shared with training.
@@ -68,19 +83,24 @@ if [ -n "${OLD_MODELS:-}" ]; then
   done
 fi
 
-if [ -f "$D/bpc.forest" ]; then skip train_bpc "$D/bpc.forest"; else
+bpc_train=("$CLI" train --data "$train_dirs" --method bpc --trees "${MODEL_TREES:-3}" --depth "${MODEL_DEPTH:-20}"
+  --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --offsets "$OFFSETS" --thresholds "$THRESHOLDS"
+  --min-samples "$MIN_SAMPLES" --seed 1 --out "$D/bpc.forest" --resume)
+if made "$D/bpc.forest" "${bpc_train[@]}"; then skip train_bpc "$D/bpc.forest"; else
   # Checkpointed after every level; an interrupted run continues from it (train prints level ETAs).
-  step train_bpc "$CLI" train --data "$train_dirs" --method bpc --trees "${MODEL_TREES:-3}" --depth "${MODEL_DEPTH:-20}" \
-       --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --offsets "$OFFSETS" --thresholds "$THRESHOLDS" \
-       --min-samples "$MIN_SAMPLES" --seed 1 --out "$D/bpc.forest" --resume
+  rm -f "$D/ojr.forest.cmd" "$D/bpc.blob" "$D/ojr.blob"  # everything made from the old forest
+  make_file train_bpc "$D/bpc.forest" "${bpc_train[@]}"
 fi
 # OJR: the BPC structure cut back to OJR_STRUCTURE_DEPTH, vote leaves retro-fitted (paper 3.5.2);
-# minutes, so it is not checkpointed: a killed retro-fit starts again.
-if [ -f "$D/ojr.forest" ]; then skip train_ojr "$D/ojr.forest"; else
-  step train_ojr "$CLI" train --data "$train_dirs" --method ojr --structure "$D/bpc.forest" --structure-depth "$OJR_DEPTH" \
-       --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --seed 1 --out "$D/ojr.forest"
+# not checkpointed: a killed retro-fit starts again.
+ojr_train=("$CLI" train --data "$train_dirs" --method ojr --structure "$D/bpc.forest" --structure-depth "$OJR_DEPTH"
+  --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --seed 1 --out "$D/ojr.forest")
+if made "$D/ojr.forest" "${ojr_train[@]}"; then skip train_ojr "$D/ojr.forest"; else
+  rm -f "$D/ojr.blob"
+  make_file train_ojr "$D/ojr.forest" "${ojr_train[@]}"
 fi
 for m in bpc ojr; do
+  # The tuned blob stands while its forest does (a retrained forest removes it, above).
   if [ -f "$D/$m.blob" ]; then skip "tune_$m" "$D/$m.blob"; else
     step "convert_$m" "$CLI" convert "$D/$m.forest" --out "$D/${m}_untuned.blob"
     step "tune_$m" "$CLI" tune --blob "$D/${m}_untuned.blob" --data "$D/val" --out "$D/$m.blob.tmp" --json "$D/tune_$m.json"
