@@ -1,51 +1,140 @@
 #!/usr/bin/env bash
-# Reproduces the shipped models from ../shared/assets with our own tools (`make model`).
-# Every size, seed and clip list comes from mk/model.mk (overridable on the make command line);
-# the timings of each step are appended to $MODEL_DIR/times.txt for docs/results.md.
+# Regenerates the shipped models from ../shared/assets with our own tools (`make model`; the knobs,
+# their defaults and the pilot preset are in mk/model.mk, the usage in docs/results.md).
+# Resumable: every step whose output is complete is skipped on a rerun — a training shard with all
+# its frames, a forest trained by the same command (knobs unchanged), a tuned blob of that forest —
+# and BPC training continues from its per-level checkpoint (`train --resume`). Each step's wall time
+# is appended to $MODEL_DIR/times.txt and its command to commands.txt; report.txt puts the new
+# models beside the ones they replace.
 set -euo pipefail
 CLI=${CLI:-build/bin/depthpose}
 D=${MODEL_DIR:-build/model}
+OUT=${MODEL_OUT:-models}   # the tuned blobs (the chain smoke test writes elsewhere)
 W=${MODEL_W:-320}; H=${MODEL_H:-240}
+TRAIN_FRAMES=${TRAIN_FRAMES:-120000}; SHARD_FRAMES=${SHARD_FRAMES:-5000}
 PIXELS=${TRAIN_PIXELS:-1000}; OFFSETS=${TRAIN_OFFSETS:-400}; THRESHOLDS=${TRAIN_THRESHOLDS:-20}
-MIN_SAMPLES=${TRAIN_MIN_SAMPLES:-30}; IMAGES_PER_TREE=${TRAIN_IMAGES_PER_TREE:-1000}
+MIN_SAMPLES=${TRAIN_MIN_SAMPLES:-10}; IMAGES_PER_TREE=${TRAIN_IMAGES_PER_TREE:-0}
 OJR_DEPTH=${OJR_STRUCTURE_DEPTH:-13}
-OUT=${MODEL_OUT:-models}   # where the blobs and demo.oni go (the chain smoke test writes elsewhere)
+SEED0=${TRAIN_SEED:-1000}
+[ "$SHARD_FRAMES" -ge 1 ] && [ "$TRAIN_FRAMES" -ge 1 ] || { echo "make_model: TRAIN_FRAMES and SHARD_FRAMES must be >= 1" >&2; exit 2; }
+SHARDS=$(( (TRAIN_FRAMES + SHARD_FRAMES - 1) / SHARD_FRAMES ))
 mkdir -p "$D" "$OUT"
-: > "$D/times.txt"
-step() {  # step NAME command...
+START=$(date +%s)
+echo "# $(date -u +%FT%TZ) make_model: $TRAIN_FRAMES training frames in $SHARDS shard(s), depth ${MODEL_DEPTH:-20}" >> "$D/times.txt"
+
+elapsed() { local s=$(( $(date +%s) - START )); printf '%d:%02d:%02d' $((s / 3600)) $((s % 3600 / 60)) $((s % 60)); }
+step() {  # step NAME command...: runs and times one step (its own lines on stderr: stdout may be a report file)
   local name=$1; shift
   local t0=$(date +%s.%N)
-  echo "== $name: $*" | tee -a "$D/commands.txt"
+  echo "== [$(elapsed) elapsed] $name: $*" | tee -a "$D/commands.txt" >&2
   "$@"
   local t1=$(date +%s.%N)
-  awk -v n="$name" -v a="$t0" -v b="$t1" 'BEGIN { printf "%s %.1f s\n", n, b - a }' | tee -a "$D/times.txt"
+  awk -v n="$name" -v a="$t0" -v b="$t1" 'BEGIN { printf "%s %.1f s\n", n, b - a }' | tee -a "$D/times.txt" >&2
 }
-synth() {  # synth NAME SEED FRAMES CLIPS [more synth options]
-  local name=$1 seed=$2 frames=$3 clips=$4; shift 4
-  [ -f "$D/$name/frames.jsonl" ] && [ "$(wc -l < "$D/$name/frames.jsonl")" -eq "$frames" ] && return 0
+skip() { echo "== [$(elapsed) elapsed] $1: done already ($2)" >&2; }
+made() {  # made FILE command...: FILE exists and was made by this very command (knobs unchanged)
+  local file=$1; shift
+  [ -f "$file" ] && [ -f "$file.cmd" ] && [ "$(cat "$file.cmd")" = "$*" ]
+}
+make_file() {  # make_file NAME FILE command...: runs the step, then records the command beside FILE
+  local name=$1 file=$2; shift 2
+  rm -f "$file.cmd"
+  step "$name" "$@"
+  echo "$*" > "$file.cmd"
+}
+synth() {  # synth NAME LABEL SEED FRAMES CLIPS [more synth options]: renders a dataset unless made already
+  local name=$1 label=$2 seed=$3 frames=$4 clips=$5; shift 5
+  local cmd=("$CLI" synth --assets "${ASSETS:-../shared/assets}" --out "$D/$name" --frames "$frames" --seed "$seed"
+             --clips "$clips" --width "$W" --height "$H" "$@")
+  # synth swaps a finished dataset in whole, so a directory with frames.jsonl is a complete one;
+  # frames.jsonl.cmd beside it is the command that made it (other knobs: rendered again).
+  if made "$D/$name/frames.jsonl" "${cmd[@]}"; then skip "$label" "$D/$name"; return 0; fi
   rm -rf "$D/$name"
-  step "synth_$name" "$CLI" synth --assets "${ASSETS:-../shared/assets}" --out "$D/$name" --frames "$frames" \
-       --seed "$seed" --clips "$clips" --width "$W" --height "$H" --preview "$D/${name}_preview.png" "$@"
+  case $name in  # what was made from the old data is made again
+    train_*) rm -f "$D/bpc.forest.cmd" "$D/bpc.forest.checkpoint" "$D/ojr.forest.cmd" ;;
+    val) rm -f "$D/bpc.blob" "$D/ojr.blob" ;;
+  esac
+  make_file "$label" "$D/$name/frames.jsonl" "${cmd[@]}"
 }
-synth train 101 "${TRAIN_FRAMES:-3000}" "$TRAIN_CLIPS"
-synth val   202 "${VAL_FRAMES:-300}"    "$VAL_CLIPS"
-synth test  303 "${TEST_FRAMES:-500}"   "$TEST_CLIPS"
-# The demo is a recording-like scene: one camera, a floor, furniture and two people moving through
-# a test clip (`make run` segments it and prints joints per user).
-synth demo  "${DEMO_SEED:-415}" "${DEMO_FRAMES:-45}" "$DEMO_CLIPS" --sequence --floor --clutter 3 --people 2
+# Every split: the varied pose pool, wide bodies, clothing and a hand-placed camera; each split has
+# its own seeds, so no body, outfit or pose variant is shared with training.
+corpus=(--pose-pool "${POSE_POOL:-varied}" --pose-stride "${POSE_STRIDE:-4}" --bodies "${BODIES:-wide}"
+        --clothed "${CLOTHED:-0.8}" --camera-height "${CAMERA_HEIGHT:-0.5-1.9}" --camera-pitch "${CAMERA_PITCH:--5-25}"
+        --camera-roll "${CAMERA_ROLL:-6}")
 
-step train_bpc "$CLI" train --data "$D/train" --method bpc --trees "${MODEL_TREES:-3}" --depth "${MODEL_DEPTH:-16}" \
-     --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --offsets "$OFFSETS" --thresholds "$THRESHOLDS" \
-     --min-samples "$MIN_SAMPLES" --seed 1 --out "$D/bpc.forest" --resume  # an interrupted run continues
-# OJR: the classification structure cut back to depth 13 (so 16 joints x K=2 vote leaves fit ~6 MB),
-# vote leaves retro-fitted (paper 3.5.2).
-step train_ojr "$CLI" train --data "$D/train" --method ojr --structure "$D/bpc.forest" --structure-depth "$OJR_DEPTH" \
-     --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --seed 1 --out "$D/ojr.forest"
-for m in bpc ojr; do
-  step "convert_$m" "$CLI" convert "$D/$m.forest" --out "$D/${m}_untuned.blob"
-  step "tune_$m" "$CLI" tune --blob "$D/${m}_untuned.blob" --data "$D/val" --out "$D/$m.blob" --json "$D/tune_$m.json"
-  cp "$D/$m.blob" "$OUT/$m.blob"
-  step "eval_$m" "$CLI" eval --blob "$OUT/$m.blob" --data "$D/test" --json "$D/eval_$m.json" --plots "$D/plots_$m"
+train_dirs=""
+for ((k = 0; k < SHARDS; ++k)); do
+  n=$(( TRAIN_FRAMES - k * SHARD_FRAMES < SHARD_FRAMES ? TRAIN_FRAMES - k * SHARD_FRAMES : SHARD_FRAMES ))
+  name=$(printf 'train_%03d' "$k")
+  synth "$name" "synth_train_shard $((k + 1))/$SHARDS" $((SEED0 + k)) "$n" "${TRAIN_CLIPS:-split:train}" \
+        --pose-seed $((SEED0 + k)) "${corpus[@]}"
+  train_dirs+="${train_dirs:+,}$D/$name"
 done
-step record_demo "$CLI" record --source "dataset:$D/demo" --out "$OUT/demo.oni" --zero-border
+synth val  synth_val  2001 "${VAL_FRAMES:-1000}"  "${VAL_CLIPS:-split:validation}" --pose-seed 2001 "${corpus[@]}" \
+      --preview "$D/val_preview.png"
+synth test synth_test 3001 "${TEST_FRAMES:-3000}" "${TEST_CLIPS:-split:test}" --pose-seed 3001 "${corpus[@]}" \
+      --preview "$D/test_preview.png"
+
+# The models being replaced (OLD_MODELS, e.g. models/; unset = none), copied once, before `make
+# model` overwrites them, and scored on the same test split for the side-by-side report.
+if [ -n "${OLD_MODELS:-}" ]; then
+  for m in bpc ojr; do
+    if [ -f "$OLD_MODELS/$m.blob" ] && [ ! -f "$D/old_$m.blob" ]; then cp "$OLD_MODELS/$m.blob" "$D/old_$m.blob"; fi
+  done
+fi
+
+bpc_train=("$CLI" train --data "$train_dirs" --method bpc --trees "${MODEL_TREES:-3}" --depth "${MODEL_DEPTH:-20}"
+  --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --offsets "$OFFSETS" --thresholds "$THRESHOLDS"
+  --min-samples "$MIN_SAMPLES" --seed 1 --out "$D/bpc.forest" --resume)
+if made "$D/bpc.forest" "${bpc_train[@]}"; then skip train_bpc "$D/bpc.forest"; else
+  # Checkpointed after every level; an interrupted run continues from it (train prints level ETAs).
+  rm -f "$D/ojr.forest.cmd" "$D/bpc.blob" "$D/ojr.blob"  # everything made from the old forest
+  make_file train_bpc "$D/bpc.forest" "${bpc_train[@]}"
+fi
+# OJR: the BPC structure cut back to OJR_STRUCTURE_DEPTH, vote leaves retro-fitted (paper 3.5.2);
+# not checkpointed: a killed retro-fit starts again.
+ojr_train=("$CLI" train --data "$train_dirs" --method ojr --structure "$D/bpc.forest" --structure-depth "$OJR_DEPTH"
+  --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --seed 1 --out "$D/ojr.forest")
+if made "$D/ojr.forest" "${ojr_train[@]}"; then skip train_ojr "$D/ojr.forest"; else
+  rm -f "$D/ojr.blob"
+  make_file train_ojr "$D/ojr.forest" "${ojr_train[@]}"
+fi
+for m in bpc ojr; do
+  # The tuned blob stands while its forest does (a retrained forest removes it, above).
+  if [ -f "$D/$m.blob" ]; then skip "tune_$m" "$D/$m.blob"; else
+    step "convert_$m" "$CLI" convert "$D/$m.forest" --out "$D/${m}_untuned.blob"
+    step "tune_$m" "$CLI" tune --blob "$D/${m}_untuned.blob" --data "$D/val" --out "$D/$m.blob.tmp" --json "$D/tune_$m.json"
+    mv "$D/$m.blob.tmp" "$D/$m.blob"
+  fi
+  cp "$D/$m.blob" "$OUT/$m.blob"
+  step "eval_$m" "$CLI" eval --blob "$D/$m.blob" --data "$D/test" --json "$D/eval_$m.json" --plots "$D/plots_$m" > "$D/eval_$m.txt"
+  if [ -f "$D/old_$m.blob" ]; then
+    step "eval_old_$m" "$CLI" eval --blob "$D/old_$m.blob" --data "$D/test" --json "$D/eval_old_$m.json" > "$D/eval_old_$m.txt"
+  fi
+done
+# The demo is a recording-like scene (one camera, a floor, furniture, two people moving through a
+# test clip; `make run` plays it). It stays as shipped: recorded only when missing.
+if [ -f "$OUT/demo.oni" ]; then skip record_demo "$OUT/demo.oni"; else
+  synth demo synth_demo "${DEMO_SEED:-415}" "${DEMO_FRAMES:-45}" "${DEMO_CLIPS:-02_06}" --sequence --floor --clutter 3 --people 2
+  step record_demo "$CLI" record --source "dataset:$D/demo" --out "$OUT/demo.oni" --zero-border
+fi
+
+# report.txt: mAP overall and per held-out category, new beside old, from the eval JSONs.
+{
+  echo "held-out test split ($D/test, $(wc -l < "$D/test/frames.jsonl") frames), mAP at D_tp = 0.1 m"
+  for m in bpc ojr; do
+    files=("$D/eval_$m.json"); labels=("new")
+    [ -f "$D/eval_old_$m.json" ] && { files+=("$D/eval_old_$m.json"); labels+=("old"); }
+    echo "${m^^}:"
+    for i in "${!files[@]}"; do
+      sed -n 's/^  "mAP": \(.*\),$/\1/p' "${files[$i]}" | awk -v l="${labels[$i]}" '{ printf "  %-3s all categories  mAP %.3f\n", l, $1 }'
+    done
+    for i in "${!files[@]}"; do  # the per-category rows of the text report, without the joint columns
+      sed -n '/^mAP per motion category/,/^mAP per mocap subject/p' "${files[$i]%.json}.txt" | sed '1d;$d' |
+        cut -d'|' -f1 | sed "s/^/  ${labels[$i]} /"
+    done
+  done
+} > "$D/report.txt"
+cat "$D/report.txt"
+echo "== [$(elapsed) elapsed] make_model: done; blobs in $OUT"
 ls -l "$OUT"

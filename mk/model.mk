@@ -1,24 +1,68 @@
-# `make model`: reproduces the shipped models (models/bpc.blob, models/ojr.blob, models/demo.oni)
-# from ../shared/assets with our own tools. Sizes and seeds are recorded in docs/results.md.
-# Splits use disjoint mocap clips and disjoint body-shape seeds.
+# `make model`: regenerates the shipped models (models/bpc.blob, models/ojr.blob) from the CMU
+# corpus in ../shared/assets with our own tools (mk/make_model.sh does the work; docs/results.md
+# "Reproducing the models" has the usage, the pilot's timings and the estimate for the full run).
+# Train / validation / test come from the held-out splits of tools/synth/splits.tsv (whole subjects
+# and motion categories), each with its own body, clothing and pose-variation seeds. The training
+# corpus is rendered in shards (one dataset per SHARD_FRAMES frames) and training checkpoints every
+# level, so an interrupted `make model` continues where it stopped. Not run by `make test` or CI.
+#
+#   make model                      the full run (hours): 120 000 training images, BPC depth 20
+#   make model MODEL_SCALE=pilot    the same chain at toy scale (~10 CPU-minutes) into build/model-pilot
+#   make model TRAIN_FRAMES=60000 MODEL_DEPTH=18 ...   any knob below
+MODEL_SCALE   ?= full
+ifeq ($(MODEL_SCALE),pilot)
+MODEL_DIR     ?= build/model-pilot
+MODEL_OUT     ?= build/model-pilot/models
+TRAIN_FRAMES  ?= 1500
+SHARD_FRAMES  ?= 500
+VAL_FRAMES    ?= 150
+TEST_FRAMES   ?= 300
+MODEL_DEPTH   ?= 12
+OJR_STRUCTURE_DEPTH ?= 12
+TRAIN_PIXELS  ?= 500
+TRAIN_OFFSETS ?= 100
+TRAIN_THRESHOLDS ?= 10
+TRAIN_MIN_SAMPLES ?= 10
+POSE_STRIDE   ?= 16
+else ifneq ($(MODEL_SCALE),full)
+$(error MODEL_SCALE must be full or pilot, got '$(MODEL_SCALE)')
+endif
 ASSETS        ?= ../shared/assets
-MODEL_DIR     ?= build/model
+MODEL_DIR     ?= build/model       # datasets, forests, checkpoints, evals, times.txt, report.txt
+MODEL_OUT     ?= models            # where the tuned blobs (and a missing demo.oni) go
+OLD_MODELS    ?= models            # the blobs being replaced: kept as MODEL_DIR/old_*.blob and scored beside the new
 MODEL_W       ?= 320
 MODEL_H       ?= 240
-TRAIN_FRAMES  ?= 3000
-VAL_FRAMES    ?= 300
-TEST_FRAMES   ?= 500
-DEMO_FRAMES   ?= 45
-MODEL_DEPTH   ?= 16
+TRAIN_FRAMES  ?= 120000            # training images (all trees draw from them; paper: 300k-900k per tree)
+SHARD_FRAMES  ?= 5000              # training images per rendered shard (the unit of resumed rendering)
+VAL_FRAMES    ?= 1000              # tune's validation set
+TEST_FRAMES   ?= 3000              # the held-out test set the report scores
 MODEL_TREES   ?= 3
-TRAIN_CLIPS   ?= 01_01,01_02,01_03,01_04,01_05,01_06,01_07,01_08,01_09,01_10,01_11,02_01,02_03,02_04,02_05,02_07,02_08,02_10,03_01,03_02
-VAL_CLIPS     ?= 01_12,02_09,03_03
-TEST_CLIPS    ?= 01_13,01_14,02_02,02_06,03_04
+MODEL_DEPTH   ?= 20                # BPC tree depth
+OJR_STRUCTURE_DEPTH ?= 13          # OJR reuses the BPC trees cut to this depth (leaf votes are retro-fitted)
+TRAIN_PIXELS  ?= 1000              # training pixels per image
+TRAIN_OFFSETS ?= 400               # candidate offset pairs per node (paper: 2000)
+TRAIN_THRESHOLDS ?= 20             # candidate thresholds per offset pair (paper: 50)
+TRAIN_MIN_SAMPLES ?= 10            # nodes with fewer pixels become leaves
+TRAIN_IMAGES_PER_TREE ?= 0         # 0 = every training image in every tree
+POSE_STRIDE   ?= 4                 # every N-th mocap frame enters the pose pool
+POSE_POOL     ?= varied            # real poses plus mirrored, noisy and recombined ones
+BODIES        ?= wide              # every macro control, ages 6-80
+CLOTHED       ?= 0.8               # share of clothed bodies (the rest bare)
+CAMERA_HEIGHT ?= 0.5-1.9           # metres above the floor
+CAMERA_PITCH  ?= -5-25             # degrees, positive looking down
+CAMERA_ROLL   ?= 6                 # degrees, uniform in [-R, R]
+TRAIN_CLIPS   ?= split:train
+VAL_CLIPS     ?= split:validation
+TEST_CLIPS    ?= split:test
+TRAIN_SEED    ?= 1000              # shard k renders with seed TRAIN_SEED + k
+DEMO_FRAMES   ?= 45
 DEMO_CLIPS    ?= 02_06
 
+MODEL_VARS := ASSETS MODEL_DIR MODEL_OUT OLD_MODELS MODEL_W MODEL_H TRAIN_FRAMES SHARD_FRAMES VAL_FRAMES TEST_FRAMES \
+  MODEL_TREES MODEL_DEPTH OJR_STRUCTURE_DEPTH TRAIN_PIXELS TRAIN_OFFSETS TRAIN_THRESHOLDS TRAIN_MIN_SAMPLES \
+  TRAIN_IMAGES_PER_TREE POSE_STRIDE POSE_POOL BODIES CLOTHED CAMERA_HEIGHT CAMERA_PITCH CAMERA_ROLL \
+  TRAIN_CLIPS VAL_CLIPS TEST_CLIPS TRAIN_SEED DEMO_FRAMES DEMO_CLIPS
+
 model: all
-	@mkdir -p $(MODEL_DIR) models
-	MODEL_DIR=$(MODEL_DIR) MODEL_W=$(MODEL_W) MODEL_H=$(MODEL_H) TRAIN_FRAMES=$(TRAIN_FRAMES) VAL_FRAMES=$(VAL_FRAMES) \
-	  TEST_FRAMES=$(TEST_FRAMES) DEMO_FRAMES=$(DEMO_FRAMES) MODEL_DEPTH=$(MODEL_DEPTH) MODEL_TREES=$(MODEL_TREES) \
-	  TRAIN_CLIPS=$(TRAIN_CLIPS) VAL_CLIPS=$(VAL_CLIPS) TEST_CLIPS=$(TEST_CLIPS) DEMO_CLIPS=$(DEMO_CLIPS) ASSETS=$(ASSETS) \
-	  CLI=$(CLI) mk/make_model.sh
+	env $(foreach v,$(MODEL_VARS),$(v)='$(strip $($(v)))') CLI=$(CLI) mk/make_model.sh

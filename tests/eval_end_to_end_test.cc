@@ -197,3 +197,92 @@ TEST(EvalEndToEnd, OccludedJointsAreNotFalseNegativesByDefault) {
   EXPECT_NEAR(*s.ap[1], 2.0 / 3.0, 1e-6);  // the hidden joint is a false negative: recall ≤ 2/3
   EXPECT_NEAR(*lenient.ap[0], 1.0, 1e-9);
 }
+
+// Frames that carry their motion category and clip (as synth writes them) are also scored per
+// category and per subject, each group matched on its own frames only.
+TEST(EvalEndToEnd, AccuracyPerCategoryAndSubject) {
+  TempDir tmp;
+  DiscDatasetSpec spec;
+  spec.discs = {Disc{50, 40, 4, 2000}, Disc{100, 70, 4, 2500}, Disc{80, 60, 5, 1800}, Disc{60, 50, 5, 2200}};
+  write_disc_dataset(tmp.path, spec);
+  // Frames 0-1: Indian dance (subject 94), truth at the disc, where the blob votes; frames 2-3:
+  // karate (subject 135), truth moved 0.3 m up, so every vote there misses.
+  tools::Dataset ds = tools::open_dataset(tmp.path);
+  const char* extra[] = {R"({"category":"indian dance","clip":"94_01"})", R"({"category":"indian dance","clip":"94_03"})",
+                         R"({"category":"martial arts","clip":"135_02"})", R"({"category":"martial arts","clip":"135_02"})"};
+  for (size_t i = 0; i < ds.frames.size(); ++i) {
+    ds.frames[i].extra_json = extra[i];
+    if (i >= 2)
+      for (tools::JointTruth& t : ds.frames[i].joints) t.y += 0.3f;
+  }
+  tools::write_frames_jsonl(tmp.path, ds.frames);
+
+  const tools::EvalReport r = session(tools::single_vote_ojr(2, 0, 0, 0), tmp.path)->evaluate();
+  ASSERT_EQ(r.by_category.size(), 2u);
+  EXPECT_EQ(r.by_category[0].name, "indian dance");
+  EXPECT_EQ(r.by_category[0].frames, 2);
+  EXPECT_NEAR(r.by_category[0].mean_ap.value_or(-1), 1.0, 1e-9);
+  EXPECT_EQ(r.by_category[1].name, "martial arts");
+  EXPECT_NEAR(r.by_category[1].mean_ap.value_or(-1), 0.0, 1e-9);
+  ASSERT_EQ(r.by_category[1].ap.size(), 2u);
+  // The whole set lies between its categories.
+  ASSERT_TRUE(r.mean_ap.has_value());
+  EXPECT_GT(*r.mean_ap, 0.2);
+  EXPECT_LT(*r.mean_ap, 0.8);
+  // Subjects from the clip ids, sorted by name: "135" before "94".
+  ASSERT_EQ(r.by_subject.size(), 2u);
+  EXPECT_EQ(r.by_subject[0].name, "135");
+  EXPECT_NEAR(r.by_subject[0].mean_ap.value_or(-1), 0.0, 1e-9);
+  EXPECT_EQ(r.by_subject[1].name, "94");
+  EXPECT_EQ(r.by_subject[1].frames, 2);
+  EXPECT_NEAR(r.by_subject[1].mean_ap.value_or(-1), 1.0, 1e-9);
+
+  // The CLI: JSON per category and subject, and a table in the text report.
+  const std::string blob_path = tmp.path + "/ojr.dpfb", json_path = tmp.path + "/out.json";
+  blob::save_blob_file(blob_path, blob::write_blob(tools::single_vote_ojr(2, 0, 0, 0)));
+  ASSERT_EQ(run_cli({"eval", "--blob", blob_path, "--data", tmp.path, "--json", json_path}), 0);
+  std::ifstream f(json_path);
+  const nlohmann::json j = nlohmann::json::parse(f);
+  EXPECT_NEAR(j.at("by_category").at("indian dance").at("mAP").get<double>(), 1.0, 1e-9);
+  EXPECT_EQ(j.at("by_category").at("martial arts").at("frames").get<int>(), 2);
+  EXPECT_NEAR(j.at("by_category").at("martial arts").at("per_joint_ap").at("joint1").get<double>(), 0.0, 1e-9);
+  EXPECT_NEAR(j.at("by_subject").at("94").at("mAP").get<double>(), 1.0, 1e-9);
+  char* text = nullptr;
+  size_t size = 0;
+  FILE* out = open_memstream(&text, &size);
+  tools::print_report(r, out);
+  std::fclose(out);
+  const std::string printed(text, size);
+  std::free(text);
+  EXPECT_NE(printed.find("mAP per motion category"), std::string::npos) << printed;
+  EXPECT_NE(printed.find("  martial arts      2 frames  mAP 0.000  | 0.000 0.000\n"), std::string::npos) << printed;
+}
+
+TEST(EvalEndToEnd, FramesWithoutCategoriesHaveNoGroupsAndABadCategoryIsRefused) {
+  TempDir tmp;
+  DiscDatasetSpec spec;
+  spec.discs = three_discs();
+  write_disc_dataset(tmp.path, spec);
+  const tools::EvalReport r = session(tools::single_vote_ojr(2, 0, 0, 0), tmp.path)->evaluate();
+  EXPECT_TRUE(r.by_category.empty());
+  EXPECT_TRUE(r.by_subject.empty());
+  EXPECT_TRUE(tools::report_to_json(r).at("by_category").is_null());
+
+  // A frame without the key joins "(none)"; a category that is not a string names the frame.
+  tools::Dataset ds = tools::open_dataset(tmp.path);
+  ds.frames[0].extra_json = R"({"category":"salsa"})";
+  tools::write_frames_jsonl(tmp.path, ds.frames);
+  const tools::EvalReport some = session(tools::single_vote_ojr(2, 0, 0, 0), tmp.path)->evaluate();
+  ASSERT_EQ(some.by_category.size(), 2u);
+  EXPECT_EQ(some.by_category[0].name, "(none)");
+  EXPECT_EQ(some.by_category[0].frames, 2);
+  EXPECT_EQ(some.by_category[1].name, "salsa");
+  ds.frames[1].extra_json = R"({"category":7})";
+  tools::write_frames_jsonl(tmp.path, ds.frames);
+  try {
+    session(tools::single_vote_ojr(2, 0, 0, 0), tmp.path)->evaluate();
+    FAIL() << "a numeric category was accepted";
+  } catch (const tools::ToolError& e) {
+    EXPECT_NE(std::string(e.what()).find("frame 000001: \"category\""), std::string::npos) << e.what();
+  }
+}

@@ -10,6 +10,8 @@
 #include <tuple>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "tools/cli/command.h"
 #include "tools/common/body_model.h"
 #include "tools/common/dataset.h"
@@ -156,6 +158,10 @@ TEST_F(SynthRenderSharedData, FramesArePureFunctionsOfSeedAndIndex) {
   EXPECT_EQ(a.parts.pixels, b.parts.pixels);
   EXPECT_EQ(a.extra_json, b.extra_json);
   EXPECT_NE(a.depth.pixels, c.depth.pixels);
+  // The record names the pose's clip and its clips.tsv category (eval groups frames by them).
+  const nlohmann::json extra = nlohmann::json::parse(a.extra_json);
+  EXPECT_EQ(extra.value("clip", ""), "02_01") << a.extra_json;
+  EXPECT_EQ(extra.value("category", ""), "various expressions and human behaviors") << a.extra_json;
   // Parts only where depth has a reading; every reading on the body has a part.
   int body = 0;
   for (size_t i = 0; i < a.parts.pixels.size(); ++i) {

@@ -8,6 +8,8 @@
 #include <sstream>
 #include <thread>
 
+#include <nlohmann/json.hpp>
+
 #include "tools/common/args.h"
 #include "tools/common/body_model.h"
 #include "tools/common/error.h"
@@ -307,6 +309,10 @@ EvalReport EvalSession::evaluate(const blob::RuntimeConfig* config) {
     rep.map_vs_dtp.push_back(mean_average_precision(aps));
     rep.ap_vs_dtp.push_back(std::move(aps));
   }
+  for (auto [key, out] : {std::pair{FrameGroupKey::kCategory, &rep.by_category}, std::pair{FrameGroupKey::kSubject, &rep.by_subject}}) {
+    const std::vector<std::string> groups = frame_groups(dataset_, frame_count_, key);
+    if (!groups.empty() && !eval_joints_.empty()) *out = accuracy_by_group(samples, groups, match_options(rep.d_tp));
+  }
   if (rep.has_confusion) rep.class_accuracy = rep.confusion.class_accuracy();
 
   rep.mean_evaluated_pixels = pixels / double(frame_count_);
@@ -392,6 +398,55 @@ std::vector<std::optional<double>> EvalSession::joint_ap_from_cache(const std::v
   const double d_tp = options_.silhouette ? options_.d_tp_px : options_.d_tp_m;
   for (const JointSamples& s : samples) ap.push_back(average_precision(match_joint(s, match_options(d_tp))));
   return ap;
+}
+
+std::vector<GroupAccuracy> accuracy_by_group(const std::vector<JointSamples>& samples,
+                                             const std::vector<std::string>& group_of_frame,
+                                             const MatchOptions& options) {
+  std::vector<std::string> names = group_of_frame;
+  std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  std::vector<GroupAccuracy> out;
+  for (const std::string& name : names) {
+    GroupAccuracy g;
+    g.name = name;
+    for (const JointSamples& joint : samples) {
+      if (joint.truth.size() != group_of_frame.size() || joint.proposals.size() != group_of_frame.size())
+        fail("accuracy_by_group: " + std::to_string(group_of_frame.size()) + " frame groups for " +
+             std::to_string(joint.truth.size()) + " frames");
+      JointSamples subset;
+      for (size_t f = 0; f < group_of_frame.size(); ++f)
+        if (group_of_frame[f] == name) {
+          subset.truth.push_back(joint.truth[f]);
+          subset.proposals.push_back(joint.proposals[f]);
+        }
+      g.frames = long(subset.truth.size());
+      g.ap.push_back(average_precision(match_joint(subset, options)));
+    }
+    g.mean_ap = mean_average_precision(g.ap);
+    out.push_back(std::move(g));
+  }
+  return out;
+}
+
+std::vector<std::string> frame_groups(const Dataset& dataset, long frames, FrameGroupKey key) {
+  const char* field = key == FrameGroupKey::kCategory ? "category" : "clip";
+  std::vector<std::string> groups(size_t(frames), "(none)");
+  bool any = false;
+  for (long f = 0; f < frames; ++f) {
+    const nlohmann::json extra = nlohmann::json::parse(dataset.frames[size_t(f)].extra_json);
+    const auto it = extra.find(field);
+    if (it == extra.end()) continue;
+    if (!it->is_string() || it->get<std::string>().empty())
+      fail(dataset.dir + "/frames.jsonl: frame " + dataset.frames[size_t(f)].id + ": \"" + field +
+           "\" must be a non-empty string");
+    std::string value = it->get<std::string>();
+    if (key == FrameGroupKey::kSubject) value = value.substr(0, value.find('_'));
+    groups[size_t(f)] = std::move(value);
+    any = true;
+  }
+  if (!any) groups.clear();
+  return groups;
 }
 
 }  // namespace dp::tools

@@ -49,6 +49,27 @@ struct OverlayFrame {
   std::vector<JointSamples::Truth> truth;           // per evaluated joint
 };
 
+// Joint accuracy over one group of frames (a motion category or a mocap subject).
+struct GroupAccuracy {
+  std::string name;                      // "martial arts", "135", "(none)" for frames without the key
+  long frames = 0;
+  std::vector<std::optional<double>> ap; // per evaluated joint at d_tp
+  std::optional<double> mean_ap;
+};
+
+// Per-group AP at `options`: frames are grouped by group_of_frame[f] (one entry per frame of
+// `samples`), groups sorted by name. Each group is matched on its own frames only, so a group's
+// AP is what `eval` reports for a dataset holding just those frames.
+std::vector<GroupAccuracy> accuracy_by_group(const std::vector<JointSamples>& samples,
+                                             const std::vector<std::string>& group_of_frame,
+                                             const MatchOptions& options);
+
+// The frame groups a dataset's frames.jsonl records carry (synth writes "clip" and "category"):
+// category = the "category" key, subject = the "clip" key up to its '_' ("135_04" → "135").
+// Frames without the key are "(none)"; an empty vector when no frame has it.
+enum class FrameGroupKey { kCategory, kSubject };
+std::vector<std::string> frame_groups(const Dataset& dataset, long frames, FrameGroupKey key);
+
 struct EvalReport {
   std::string method;                    // "BPC" or "OJR"
   long frames = 0;
@@ -63,6 +84,9 @@ struct EvalReport {
   std::vector<double> dtp_grid;          // AP against D_tp (same unit as d_tp)
   std::vector<std::vector<std::optional<double>>> ap_vs_dtp;  // [grid][joint]
   std::vector<std::optional<double>> map_vs_dtp;
+  // At d_tp, per motion category and per mocap subject of the frames (frame_groups); empty when the
+  // dataset's frames do not say.
+  std::vector<GroupAccuracy> by_category, by_subject;
   // BPC with a labelled dataset: ground truth (blob part order) against the most likely part.
   bool has_confusion = false;
   std::vector<std::string> part_names;

@@ -1,5 +1,6 @@
 #include "tools/eval/report.h"
 
+#include <algorithm>
 #include <string>
 
 namespace dp::tools {
@@ -13,6 +14,30 @@ std::string fmt_ap(const std::optional<double>& v) {
   char b[16];
   std::snprintf(b, sizeof b, "%5.3f", *v);
   return b;
+}
+
+nlohmann::json groups_to_json(const std::vector<GroupAccuracy>& groups, const std::vector<std::string>& joints) {
+  nlohmann::json out = nlohmann::json::object();
+  for (const GroupAccuracy& g : groups) {
+    nlohmann::json per = nlohmann::json::object();
+    for (size_t k = 0; k < joints.size(); ++k) per[joints[k]] = optional_number(g.ap[k]);
+    out[g.name] = {{"frames", g.frames}, {"mAP", optional_number(g.mean_ap)}, {"per_joint_ap", per}};
+  }
+  return out;
+}
+
+// One row per group: frames, mAP, then the AP of every joint (columns in joint order).
+void print_groups(const char* title, const std::vector<GroupAccuracy>& groups, const std::vector<std::string>& joints,
+                  FILE* out) {
+  if (groups.empty()) return;
+  std::fprintf(out, "mAP per %s (%zu joint APs follow, in the order above):\n", title, joints.size());
+  int width = 8;
+  for (const GroupAccuracy& g : groups) width = std::max(width, int(g.name.size()));
+  for (const GroupAccuracy& g : groups) {
+    std::fprintf(out, "  %-*s %6ld frames  mAP %s  |", width, g.name.c_str(), g.frames, fmt_ap(g.mean_ap).c_str());
+    for (const std::optional<double>& ap : g.ap) std::fprintf(out, " %s", fmt_ap(ap).c_str());
+    std::fprintf(out, "\n");
+  }
 }
 
 }  // namespace
@@ -42,6 +67,9 @@ nlohmann::json report_to_json(const EvalReport& r) {
     curve.push_back({{"d_tp", r.dtp_grid[g]}, {"mAP", optional_number(r.map_vs_dtp[g])}, {"per_joint_ap", aps}});
   }
   j["ap_vs_dtp"] = curve;
+  // At d_tp, per motion category / mocap subject of the frames (null when frames.jsonl does not say).
+  j["by_category"] = r.by_category.empty() ? json(nullptr) : groups_to_json(r.by_category, r.joint_names);
+  j["by_subject"] = r.by_subject.empty() ? json(nullptr) : groups_to_json(r.by_subject, r.joint_names);
   j["class_accuracy"] = optional_number(r.class_accuracy);
   if (r.has_confusion) {
     json rows = json::array(), per_class = json::object();
@@ -86,6 +114,8 @@ void print_report(const EvalReport& r, FILE* out) {
       std::fprintf(out, " %g%s=%s", r.dtp_grid[g], r.d_tp_unit.c_str(), fmt_ap(r.map_vs_dtp[g]).c_str());
     std::fprintf(out, "\n");
   }
+  print_groups("motion category", r.by_category, r.joint_names, out);
+  print_groups("mocap subject", r.by_subject, r.joint_names, out);
   if (r.has_confusion) {
     std::fprintf(out, "per-class segmentation accuracy %s (mean diagonal of the row-normalized confusion matrix)\n",
                  fmt_ap(r.class_accuracy).c_str());

@@ -113,6 +113,7 @@ Synthesizer::Synthesizer(const std::string& assets_dir, const SynthConfig& confi
   for (size_t i = 0; i < clips.size(); ++i) {
     clip_names_.push_back(clips[i].name);
     categories.push_back(entries[i].category);
+    clip_categories_.push_back(entries[i].category);
   }
   if (config_.sequence) {
     // A sequence walks through the clips frame by frame: no pruning, clip order kept.
@@ -442,6 +443,14 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
 
   nlohmann::json extra;
   extra["pose"] = library_.origin[p.pose_index];
+  // The clip the pose comes from (for a recombined pose, the clip of its lower body) and its clips.tsv
+  // category: eval reports accuracy per held-out category and subject from these.
+  const std::string& origin = library_.origin[p.pose_index];
+  const std::string clip = origin.substr(0, origin.find(':'));
+  extra["clip"] = clip;
+  const auto named = std::find(clip_names_.begin(), clip_names_.end(), clip);
+  if (named != clip_names_.end() && !clip_categories_[size_t(named - clip_names_.begin())].empty())
+    extra["category"] = clip_categories_[size_t(named - clip_names_.begin())];
   extra["mirror"] = p.mirror;
   extra["shape"] = {{"gender", p.shape.gender},        {"age", p.shape.age},
                     {"muscle", p.shape.muscle},        {"weight", p.shape.weight},

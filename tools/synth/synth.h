@@ -174,6 +174,7 @@ class Synthesizer {
   PoseLibrary library_;
   PosePoolReport pool_report_;
   std::vector<std::string> clip_names_;
+  std::vector<std::string> clip_categories_;  // clips.tsv category per clip_names_ entry ("" = none)
   Wardrobe wardrobe_;
 };
 
