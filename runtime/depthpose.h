@@ -230,6 +230,8 @@ class Pipeline {
     struct Vote* starts = nullptr;       // mean shift: [kMaxStartsCap]
     float* modes = nullptr;              //   [kMaxStartsCap][4]
     float* soa = nullptr;                //   [4][kSoaRow]
+    uint64_t* cell_keys = nullptr;       //   [kCellSlots]
+    int32_t* cell_ids = nullptr;         //   [kCellSlots]
     // persistent (arena tail)
     uint64_t* split_offsets = nullptr;   // split copy of the nodes (kernels::SplitTree), or nullptr
     int16_t* split_thresholds = nullptr;

@@ -50,6 +50,8 @@ struct Layout {
   Vote* starts;
   float* modes;
   float* soa;
+  uint64_t* cell_keys;
+  int32_t* cell_ids;
   uint32_t* select_keys;
   uint16_t* guess_hist;
   blob::RuntimeConfig* config;
@@ -84,6 +86,8 @@ bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int3
   l->starts = c.head<Vote>(blob::kMaxStartsCap);
   l->modes = c.head<float>(size_t(blob::kMaxStartsCap) * 4);
   l->soa = c.head<float>(size_t(kSoaRow) * 4);
+  l->cell_keys = c.head<uint64_t>(kCellSlots);
+  l->cell_ids = c.head<int32_t>(kCellSlots);
   l->select_keys = c.head<uint32_t>(size_t(2 * kVoteSlots));
   l->guess_hist = c.head<uint16_t>(size_t(blob::kMaxJoints) * kGuessBuckets);
   return c.ok();
@@ -162,6 +166,8 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
   s.starts = l.starts;
   s.modes = l.modes;
   s.soa = l.soa;
+  s.cell_keys = l.cell_keys;
+  s.cell_ids = l.cell_ids;
   s.config = l.config;
   *s.config = *blob.config;
   s.split_offsets = l.split_offsets;
@@ -227,7 +233,8 @@ void Pipeline::votes_and_proposals(const CameraIntrinsics& intrinsics, const uin
   r->flags |= cast_votes(in, k.bpc_scan ? &scan : nullptr, sets);
   const uint64_t t1 = cycle_count();
   r->stage_cycles[kStageVotes] = t1 - t0;
-  aggregate_proposals(*s_.config, s_.blob.meta->joint_count, sets, MeanShiftScratch{s_.starts, s_.modes, s_.soa},
+  aggregate_proposals(*s_.config, s_.blob.meta->joint_count, sets,
+                      MeanShiftScratch{s_.starts, s_.modes, s_.soa, s_.cell_keys, s_.cell_ids},
                       MeanShiftKernels{k.mean_shift_sums, k.mode_weights}, r);
   const uint64_t t2 = cycle_count();
   r->stage_cycles[kStageMeanShift] = t2 - t1;

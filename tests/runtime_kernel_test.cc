@@ -24,6 +24,8 @@
 #include "runtime/kernels/forest_kernel.h"
 #include "runtime/kernels/mean_shift_kernel.h"
 #include "runtime/kernels/vote_kernel.h"
+#include "runtime/mean_shift.h"
+#include "runtime/kernels/dispatch.h"
 #include "runtime/ojr_votes.h"
 #include "tests/node_layouts.h"
 #include "tests/shared_data.h"
@@ -721,6 +723,41 @@ std::vector<std::pair<std::string, kernels::MeanShiftSumsFn>> sums_kernels() {
 // The mean-shift sums of every ISA equal the header's definition (16 lanes, lane = i mod 16, the
 // fixed reduction tree) computed here in plain scalar code, bit for bit: near and far votes (kernel
 // arguments beyond 80 give 0), zero weights, vote counts that are not multiples of 16.
+// Mean shift climbs cell votes (mean_shift.h): votes sharing a one-bandwidth cell become one vote at
+// their weighted centroid with their summed weight. Three votes in one cell and one vote 1 m away:
+// two proposals, the heavier at the three votes' weighted centroid with their summed weight as its
+// confidence; every start near the first mode is skipped, so there are exactly two modes.
+TEST(MeanShiftCells, VotesInOneCellBecomeTheirWeightedCentroid) {
+  blob::RuntimeConfig cfg = blob::default_runtime_config(1);
+  cfg.joints[0].bandwidth_mm = 100;
+  std::vector<Vote> votes(kVoteSlots);
+  const float xs[4] = {0.31f, 0.32f, 0.33f, 1.5f}, ws[4] = {1.0f, 2.0f, 3.0f, 0.5f};
+  for (uint32_t i = 0; i < 4; ++i) votes[i] = Vote{xs[i], 0.25f, 2.05f, ws[i], i, 1};
+  int32_t counts[blob::kMaxJoints] = {4};
+  std::vector<Vote> starts(blob::kMaxStartsCap);
+  std::vector<float> modes(size_t(blob::kMaxStartsCap) * 4), soa(size_t(kSoaRow) * 4);
+  std::vector<uint64_t> keys(kCellSlots);
+  std::vector<int32_t> ids(kCellSlots);
+  for (KernelIsa isa : {KernelIsa::kScalar, KernelIsa::kBest}) {
+    FrameResult r{};
+    r.starts_per_joint_used = 24;
+    r.iterations_used = 12;
+    const kernels::KernelSet k =
+        kernels::kernel_set(isa == KernelIsa::kBest ? widest_kernel_isa() : isa, KernelIsa::kScalar);
+    aggregate_proposals(cfg, 1, VoteSets{votes.data(), counts, nullptr},
+                        MeanShiftScratch{starts.data(), modes.data(), soa.data(), keys.data(), ids.data()},
+                        MeanShiftKernels{k.mean_shift_sums, k.mode_weights}, &r);
+    ASSERT_EQ(r.proposal_count[0], 2) << kernel_isa_name(isa);
+    const float cx = (0.31f * 1.0f + 0.32f * 2.0f + 0.33f * 3.0f) / 6.0f;
+    EXPECT_NEAR(r.proposals[0][0].x_m, cx, 1e-6f);
+    EXPECT_NEAR(r.proposals[0][0].y_m, 0.25f, 1e-6f);
+    EXPECT_NEAR(r.proposals[0][0].z_m, 2.05f, 1e-6f);
+    EXPECT_FLOAT_EQ(r.proposals[0][0].confidence, 6.0f);
+    EXPECT_NEAR(r.proposals[0][1].x_m, 1.5f, 1e-6f);
+    EXPECT_FLOAT_EQ(r.proposals[0][1].confidence, 0.5f);
+  }
+}
+
 TEST(MeanShiftKernel, EveryIsaComputesTheDefinedSums) {
   std::mt19937_64 rng(91);
   std::uniform_real_distribution<float> coord(-1.5f, 1.5f), depth(0.5f, 4.5f), weight(0.0f, 3.0f);
