@@ -87,14 +87,16 @@ uint32_t cast_ojr_votes_reference(const CastInputs& in, const VoteSets& sets) {
 namespace {
 
 // The fast caster's floor guess: as the BPC guess (bpc_votes.cc), over each sampled pixel's live
-// votes (trees × K per joint); a joint whose sampled votes are fewer than twice the rank gets no guess.
+// votes (trees × K per joint), aiming at kOjrGuessQuarterNsubs / 4 · Nsub votes per joint; a joint
+// whose sampled votes are fewer than twice the rank gets no guess.
 void guess_ojr_floors(const CastInputs& in, const OjrVoteTable& table, const uint32_t* lane_len2, float* floor) {
   for (int j = 0; j < blob::kMaxJoints; ++j) floor[j] = -1.0f;
   const int trees = in.blob->tree_count();
   const int joints = in.blob->meta->joint_count;
   const int k_votes = in.blob->meta->votes_per_joint;
   const int32_t step = in.count / kFloorSamples > 1 ? in.count / kFloorSamples : 1;
-  const int32_t rank = (2 * in.cap + step - 1) / step;  // sampled votes at or above the guess
+  // sampled votes at or above the guess
+  const int32_t rank = (kOjrGuessQuarterNsubs * in.cap + 4 * step - 1) / (4 * step);
   memset(in.guess_hist, 0, sizeof(uint16_t) * blob::kMaxJoints * kGuessBuckets);
   int32_t sampled[blob::kMaxJoints] = {};
   int32_t taken = 0;
