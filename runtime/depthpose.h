@@ -136,11 +136,13 @@ struct EvaluatedPixel {
 };
 
 // Bytes init() needs for frames up to max_width × max_height (0 when the arguments are invalid),
-// including a split copy of every node, 10 bytes each (kernels::SplitTree: the SIMD forest kernels
-// are ~10 % faster on it than on the blob's nodes; shipped BPC: 2.0 MB, PCL's depth-20 trees: 31.5 MB).
+// including the optional copies: a split copy of every node, 10 bytes each (kernels::SplitTree: the
+// SIMD forest kernels are ~10 % faster on it than on the blob's nodes; shipped BPC: 2.0 MB, PCL's
+// depth-20 trees: 31.5 MB) and, for OJR, the live-vote copy (ojr_votes.h: 4 bytes per leaf record and
+// 9 per stored vote; shipped OJR: 5.5 MB), which the fast vote caster reads instead of every stored vote.
 size_t required_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height);
-// The least init() accepts: the same without the split copy (the kernels then read the blob's
-// nodes in place; results are identical).
+// The least init() accepts: the same without the optional copies (the kernels then read the blob's
+// nodes and votes in place; results are identical).
 size_t minimum_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height);
 
 class Pipeline {
@@ -152,7 +154,7 @@ class Pipeline {
   Pipeline(Pipeline&& other) noexcept;
   Pipeline& operator=(Pipeline&& other) noexcept;
 
-  // Carves state out of `arena` (64-byte aligned, ≥ minimum_arena_bytes; the split node copy is
+  // Carves state out of `arena` (64-byte aligned, ≥ minimum_arena_bytes; the optional copies are
   // made when it is ≥ required_arena_bytes). Copies the blob's RuntimeConfig into the arena
   // (set_config may change it later). Selects KernelIsa::kBest.
   // Returns kOk, kBadArgument, kArenaTooSmall (below minimum_arena_bytes) or kArenaMisaligned.
@@ -230,10 +232,15 @@ class Pipeline {
     struct Vote* starts = nullptr;       // mean shift: [kMaxStartsCap]
     float* modes = nullptr;              //   [kMaxStartsCap][4]
     float* soa = nullptr;                //   [4][kSoaRow]
+    uint64_t* cell_keys = nullptr;       //   [kCellSlots]
+    int32_t* cell_ids = nullptr;         //   [kCellSlots]
     // persistent (arena tail)
     uint64_t* split_offsets = nullptr;   // split copy of the nodes (kernels::SplitTree), or nullptr
     int16_t* split_thresholds = nullptr;
     uint16_t* joint_mass = nullptr;      // BPC joint-mass table (bpc_votes.h), or nullptr
+    uint32_t* ojr_live_offsets = nullptr;  // OJR live-vote copy (ojr_votes.h), or nullptr
+    blob::OjrVote* ojr_live_votes = nullptr;
+    uint8_t* ojr_live_lanes = nullptr;
     int32_t evaluated_count = 0;
     bool initialized = false;
   };

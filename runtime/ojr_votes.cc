@@ -11,6 +11,33 @@ namespace {
 inline uint32_t record_of(const CastInputs& in, int t, int32_t i) { return in.leaves[size_t(t) * in.leaf_stride + i]; }
 }  // namespace
 
+void ojr_lane_len2(const blob::LoadedBlob& b, const blob::RuntimeConfig& cfg, uint32_t* out) {
+  const int k_votes = b.meta->votes_per_joint;
+  const int lanes = b.meta->joint_count * k_votes;
+  for (int l = 0; l < kernels::kMaxOjrLanes; ++l) {
+    const uint32_t len = l < lanes ? cfg.joints[l / k_votes].vote_length_mm : 0;
+    out[l] = len == 0 ? 0xFFFFFFFFu : len * len;
+  }
+}
+
+void build_ojr_live_votes(const blob::LoadedBlob& b, const blob::RuntimeConfig& cfg, uint32_t* offsets,
+                          blob::OjrVote* votes, uint8_t* lanes) {
+  DP_DCHECK(use_ojr_live_votes(b));
+  uint32_t len2[kernels::kMaxOjrLanes];
+  ojr_lane_len2(b, cfg, len2);
+  const blob::OjrVote* stored = b.ojr_votes();
+  uint32_t n = 0;
+  for (uint32_t r = 0; r < b.meta->leaf_count; ++r) {
+    offsets[r] = n;
+    for (uint32_t e = b.leaf_first(r); e < b.leaf_offsets[r + 1]; ++e) {
+      if (!kernels::ojr_live(stored[e], len2[b.entry_tags[e]])) continue;
+      votes[n] = stored[e];
+      lanes[n++] = b.entry_tags[e];
+    }
+  }
+  offsets[b.meta->leaf_count] = n;
+}
+
 uint32_t cast_ojr_votes_reference(const CastInputs& in, const VoteSets& sets) {
   const blob::LoadedBlob& b = *in.blob;
   const blob::RuntimeConfig& cfg = *in.config;
@@ -60,15 +87,16 @@ uint32_t cast_ojr_votes_reference(const CastInputs& in, const VoteSets& sets) {
 namespace {
 
 // The fast caster's floor guess: as the BPC guess (bpc_votes.cc), over each sampled pixel's live
-// votes (trees × K per joint); a joint whose sampled votes are fewer than twice the rank gets no guess.
-void guess_ojr_floors(const CastInputs& in, const uint32_t* lane_len2, float* floor) {
-  const blob::LoadedBlob& b = *in.blob;
+// votes (trees × K per joint), aiming at kOjrGuessQuarterNsubs / 4 · Nsub votes per joint; a joint
+// whose sampled votes are fewer than twice the rank gets no guess.
+void guess_ojr_floors(const CastInputs& in, const OjrVoteTable& table, const uint32_t* lane_len2, float* floor) {
   for (int j = 0; j < blob::kMaxJoints; ++j) floor[j] = -1.0f;
   const int trees = in.blob->tree_count();
   const int joints = in.blob->meta->joint_count;
   const int k_votes = in.blob->meta->votes_per_joint;
   const int32_t step = in.count / kFloorSamples > 1 ? in.count / kFloorSamples : 1;
-  const int32_t rank = (2 * in.cap + step - 1) / step;  // sampled votes at or above the guess
+  // sampled votes at or above the guess
+  const int32_t rank = (kOjrGuessQuarterNsubs * in.cap + 4 * step - 1) / (4 * step);
   memset(in.guess_hist, 0, sizeof(uint16_t) * blob::kMaxJoints * kGuessBuckets);
   int32_t sampled[blob::kMaxJoints] = {};
   int32_t taken = 0;
@@ -79,17 +107,17 @@ void guess_ojr_floors(const CastInputs& in, const uint32_t* lane_len2, float* fl
     if (ahead < in.count)
       for (int t = 0; t < trees; ++t) {
         const uint32_t r = record_of(in, t, ahead);
-        __builtin_prefetch(b.leaf_offsets + r, 0, 3);
-        __builtin_prefetch(b.ojr_votes() + b.leaf_first(r), 0, 3);
-        __builtin_prefetch(b.entry_tags + b.leaf_first(r), 0, 3);
+        __builtin_prefetch(table.offsets + r, 0, 3);
+        __builtin_prefetch(table.votes + table.offsets[r], 0, 3);
+        __builtin_prefetch(table.lanes + table.offsets[r], 0, 3);
       }
     const float z = float(px.z_mm) * 0.001f;
     const float z2 = z * z;
     for (int t = 0; t < trees; ++t) {
       const uint32_t r = record_of(in, t, i);
-      for (uint32_t e = b.leaf_first(r); e < b.leaf_offsets[r + 1]; ++e) {
-        const int l = b.entry_tags[e];
-        const blob::OjrVote& ov = b.ojr_votes()[e];
+      for (uint32_t e = table.offsets[r]; e < table.offsets[r + 1]; ++e) {
+        const int l = table.lanes[e];
+        const blob::OjrVote& ov = table.votes[e];
         if (!kernels::ojr_live(ov, lane_len2[l])) continue;
         const int j = l / k_votes;
         ++in.guess_hist[j * kGuessBuckets + guess_bucket(float(ov.weight) * z2, kGuessLowestKeyOjr)];
@@ -116,19 +144,18 @@ uint32_t cast_ojr_votes_fast(const CastInputs& in, kernels::OjrScanFn scan, cons
   float floor_weight[blob::kMaxJoints];
   alignas(16) float lane_floor[kernels::kMaxOjrLanes];
   alignas(16) int32_t lane_candidates[kernels::kMaxOjrLanes] = {};  // live votes per lane (first scan)
-  // Squared vote length per lane (|offset|² ≤ 3·2^30 and len² < 2^32 both fit uint32); no limit = 2^32 − 1.
   uint32_t lane_len2[kernels::kMaxOjrLanes];
-  for (int l = 0; l < lanes; ++l) {
-    const uint32_t len = cfg.joints[l / k_votes].vote_length_mm;
-    lane_len2[l] = len == 0 ? 0xFFFFFFFFu : len * len;
-  }
+  ojr_lane_len2(*in.blob, cfg, lane_len2);
+  const OjrVoteTable table = in.ojr_live.offsets
+                                 ? in.ojr_live
+                                 : OjrVoteTable{in.blob->leaf_offsets, in.blob->ojr_votes(), in.blob->entry_tags};
   // Each joint's floor starts at a guess; a guess above the reference's top-Nsub is caught after the
   // scan and that joint is scanned again without one.
-  guess_ojr_floors(in, lane_len2, floor_weight);
+  guess_ojr_floors(in, table, lane_len2, floor_weight);
   for (int l = 0; l < lanes; ++l) lane_floor[l] = floor_weight[l / k_votes];
   CutWhenFull ctx{&sets, cap};
-  kernels::OjrScanArgs a{in.pixels, in.count, in.leaves, in.leaf_stride, in.blob->tree_count(), in.blob->leaf_offsets,
-                         in.blob->ojr_votes(), in.blob->entry_tags, lanes, k_votes, in.intrinsics.cx, in.intrinsics.cy,
+  kernels::OjrScanArgs a{in.pixels, in.count, in.leaves, in.leaf_stride, in.blob->tree_count(), table.offsets, table.votes,
+                         table.lanes, lanes, k_votes, in.intrinsics.cx, in.intrinsics.cy,
                          1.0f / in.intrinsics.fx, 1.0f / in.intrinsics.fy, lane_len2, lane_floor, in.user_filter,
                          in.user_stride, in.user_id, sets.votes, kVoteSlots, 2 * cap, sets.counts, lane_candidates,
                          &cut_when_full, &ctx};

@@ -13,6 +13,7 @@
 #include "runtime/forest.h"
 #include "runtime/kernels/dispatch.h"
 #include "runtime/mean_shift.h"
+#include "runtime/ojr_votes.h"
 #include "runtime/vote_selection.h"
 #include "runtime/votes.h"
 
@@ -49,24 +50,34 @@ struct Layout {
   Vote* starts;
   float* modes;
   float* soa;
+  uint64_t* cell_keys;
+  int32_t* cell_ids;
   uint32_t* select_keys;
   uint16_t* guess_hist;
   blob::RuntimeConfig* config;
   uint64_t* split_offsets;
   int16_t* split_thresholds;
   uint16_t* joint_mass;
+  uint32_t* ojr_live_offsets;
+  blob::OjrVote* ojr_live_votes;
+  uint8_t* ojr_live_lanes;
 };
 
 // The SIMD kernels read split nodes (kernels::SplitTree: offsets and thresholds in two arrays) with
 // the fewest ops per visit of the layouts measured (docs/runtime_speed.md, the layout study), for an
 // arena copy of 10 bytes per node (shipped BPC: 2.0 MB; PCL's depth-20 trees: 31.5 MB). Without
-// it (a minimum arena) they read the blob's 10-byte nodes in place.
+// it (a minimum arena) they read the blob's 10-byte nodes in place. The OJR live-vote copy
+// (ojr_votes.h) is the other optional copy: without it the fast caster scans the blob's votes.
 bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, bool split, Layout* l) {
   l->config = c.tail<blob::RuntimeConfig>(1);
   const size_t nodes = size_t(b.tree_count()) * blob::nodes_per_tree(b.depth());
   l->split_offsets = split ? c.tail<uint64_t>(nodes) : nullptr;
   l->split_thresholds = split ? c.tail<int16_t>(nodes) : nullptr;
   l->joint_mass = use_joint_mass(b) ? c.tail<uint16_t>(size_t(b.meta->leaf_count) * blob::kMaxJoints) : nullptr;
+  const bool live = split && use_ojr_live_votes(b);
+  l->ojr_live_offsets = live ? c.tail<uint32_t>(size_t(b.meta->leaf_count) + 1) : nullptr;
+  l->ojr_live_votes = live ? c.tail<blob::OjrVote>(b.meta->entry_count) : nullptr;
+  l->ojr_live_lanes = live ? c.tail<uint8_t>(b.meta->entry_count) : nullptr;
   l->probe_image = c.head<uint16_t>(kernels::padded_probe_elements(w, h));
   l->pixels = c.head<EvaluatedPixel>(size_t(max_pixels));
   l->leaves = c.head<uint32_t>(size_t(max_pixels) * size_t(b.tree_count()));
@@ -75,6 +86,8 @@ bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int3
   l->starts = c.head<Vote>(blob::kMaxStartsCap);
   l->modes = c.head<float>(size_t(blob::kMaxStartsCap) * 4);
   l->soa = c.head<float>(size_t(kSoaRow) * 4);
+  l->cell_keys = c.head<uint64_t>(kCellSlots);
+  l->cell_ids = c.head<int32_t>(kCellSlots);
   l->select_keys = c.head<uint32_t>(size_t(2 * kVoteSlots));
   l->guess_hist = c.head<uint16_t>(size_t(blob::kMaxJoints) * kGuessBuckets);
   return c.ok();
@@ -153,12 +166,18 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
   s.starts = l.starts;
   s.modes = l.modes;
   s.soa = l.soa;
+  s.cell_keys = l.cell_keys;
+  s.cell_ids = l.cell_ids;
   s.config = l.config;
   *s.config = *blob.config;
   s.split_offsets = l.split_offsets;
   s.split_thresholds = l.split_thresholds;
   s.joint_mass = l.joint_mass;
   if (s.joint_mass) build_joint_mass(blob, *s.config, s.joint_mass);
+  s.ojr_live_offsets = l.ojr_live_offsets;
+  s.ojr_live_votes = l.ojr_live_votes;
+  s.ojr_live_lanes = l.ojr_live_lanes;
+  if (s.ojr_live_offsets) build_ojr_live_votes(blob, *s.config, s.ojr_live_offsets, s.ojr_live_votes, s.ojr_live_lanes);
   if (s.split_offsets) copy_split_nodes(blob, s.split_offsets, s.split_thresholds);
   s.initialized = true;
   s_ = s;
@@ -186,6 +205,8 @@ Status Pipeline::set_config(const blob::RuntimeConfig& config) {
     return Status::kBadConfig;
   *s_.config = config;
   if (s_.joint_mass) build_joint_mass(s_.blob, config, s_.joint_mass);
+  if (s_.ojr_live_offsets)
+    build_ojr_live_votes(s_.blob, config, s_.ojr_live_offsets, s_.ojr_live_votes, s_.ojr_live_lanes);
   return Status::kOk;
 }
 
@@ -207,12 +228,13 @@ void Pipeline::votes_and_proposals(const CameraIntrinsics& intrinsics, const uin
   const CastInputs in{&s_.blob,      s_.config,    s_.pixels,         s_.evaluated_count,
                       s_.leaves,     s_.max_pixels, intrinsics,       user_filter,
                       user_stride,   user_id,       r->votes_per_joint_used, s_.joint_mass,
-                      s_.guess_hist};
+                      s_.guess_hist, OjrVoteTable{s_.ojr_live_offsets, s_.ojr_live_votes, s_.ojr_live_lanes}};
   const VoteScanKernels scan{k.bpc_scan, k.ojr_scan};
   r->flags |= cast_votes(in, k.bpc_scan ? &scan : nullptr, sets);
   const uint64_t t1 = cycle_count();
   r->stage_cycles[kStageVotes] = t1 - t0;
-  aggregate_proposals(*s_.config, s_.blob.meta->joint_count, sets, MeanShiftScratch{s_.starts, s_.modes, s_.soa},
+  aggregate_proposals(*s_.config, s_.blob.meta->joint_count, sets,
+                      MeanShiftScratch{s_.starts, s_.modes, s_.soa, s_.cell_keys, s_.cell_ids},
                       MeanShiftKernels{k.mean_shift_sums, k.mode_weights}, r);
   const uint64_t t2 = cycle_count();
   r->stage_cycles[kStageMeanShift] = t2 - t1;

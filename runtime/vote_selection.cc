@@ -67,9 +67,26 @@ float cut_votes(const VoteSets& sets, int j, int32_t cap) {
   DP_DCHECK(cap >= 1 && n > cap && n <= kVoteSlots);
   uint32_t* const bits = sets.select_keys;        // [kVoteSlots]
   uint32_t* const ties = bits + kVoteSlots;       // [kVoteSlots]
-  for (int32_t i = 0; i < n; ++i) bits[i] = weight_bits(buf[i].weight);
-  std::nth_element(bits, bits + (n - cap), bits + n);
-  const uint32_t boundary = bits[n - cap];  // the cap-th heaviest weight
+  // The cap-th heaviest weight by a radix step: a histogram of the top 11 weight bits (non-negative
+  // floats are below 2^31, so bits >> 20 < kVoteSlots = 2^11 buckets), the bucket where the count
+  // from the top reaches cap, then a selection among that bucket's weights alone.
+  static_assert(kVoteSlots == 1 << 11, "one histogram bucket per slot of `ties`");
+  uint32_t* const hist = ties;
+  for (int32_t q = 0; q < kVoteSlots; ++q) hist[q] = 0;
+  for (int32_t i = 0; i < n; ++i) {
+    DP_DCHECK(weight_bits(buf[i].weight) < 0x80000000u);  // weights are ≥ +0
+    ++hist[weight_bits(buf[i].weight) >> 20];
+  }
+  int32_t bucket = kVoteSlots - 1, above = 0;  // votes in buckets above `bucket`
+  for (; bucket > 0 && above + int32_t(hist[bucket]) < cap; --bucket) above += int32_t(hist[bucket]);
+  int32_t in_bucket = 0;
+  for (int32_t i = 0; i < n; ++i) {
+    const uint32_t w = weight_bits(buf[i].weight);
+    if (w >> 20 == uint32_t(bucket)) bits[in_bucket++] = w;
+  }
+  const int32_t rank = cap - above;  // 1..in_bucket: the boundary is the rank-th heaviest in the bucket
+  std::nth_element(bits, bits + (in_bucket - rank), bits + in_bucket);
+  const uint32_t boundary = bits[in_bucket - rank];  // the cap-th heaviest weight
   int32_t heavier = 0, tied = 0;
   for (int32_t i = 0; i < n; ++i) {
     const uint32_t w = weight_bits(buf[i].weight);

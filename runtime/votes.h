@@ -16,6 +16,15 @@
 
 namespace dp {
 
+// An OJR leaf table as the fast caster scans it: record r's votes are [offsets[r], offsets[r + 1]) of
+// `votes`, each with its lane j·K + k in `lanes` (increasing within a record). Either the blob's own
+// tables or the pipeline's live-vote copy (ojr_votes.h); offsets == nullptr means none.
+struct OjrVoteTable {
+  const uint32_t* offsets;
+  const blob::OjrVote* votes;
+  const uint8_t* lanes;
+};
+
 // What a caster reads. Pixels, their leaves (tree-major: tree t's leaf for pixel i at
 // leaves[t · leaf_stride + i], each < leaf_count) and the frame's intrinsics (fx, fy > 0, finite).
 struct CastInputs {
@@ -32,6 +41,7 @@ struct CastInputs {
   int32_t cap;                  // Nsub, 1..kMaxVotesCap
   const uint16_t* joint_mass;   // BPC: the joint-mass table (bpc_votes.h), or nullptr when too large
   uint16_t* guess_hist;         // scratch: [kMaxJoints][kGuessBuckets]
+  OjrVoteTable ojr_live;        // OJR fast caster: the live-vote copy for `config`, or offsets nullptr
 };
 
 // The vote-scan kernels a fast caster uses (runtime/kernels/vote_kernel.h).

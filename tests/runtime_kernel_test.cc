@@ -24,6 +24,9 @@
 #include "runtime/kernels/forest_kernel.h"
 #include "runtime/kernels/mean_shift_kernel.h"
 #include "runtime/kernels/vote_kernel.h"
+#include "runtime/mean_shift.h"
+#include "runtime/kernels/dispatch.h"
+#include "runtime/ojr_votes.h"
 #include "tests/node_layouts.h"
 #include "tests/shared_data.h"
 #if !DP_NO_BZIP2
@@ -720,6 +723,41 @@ std::vector<std::pair<std::string, kernels::MeanShiftSumsFn>> sums_kernels() {
 // The mean-shift sums of every ISA equal the header's definition (16 lanes, lane = i mod 16, the
 // fixed reduction tree) computed here in plain scalar code, bit for bit: near and far votes (kernel
 // arguments beyond 80 give 0), zero weights, vote counts that are not multiples of 16.
+// Mean shift climbs cell votes (mean_shift.h): votes sharing a one-bandwidth cell become one vote at
+// their weighted centroid with their summed weight. Three votes in one cell and one vote 1 m away:
+// two proposals, the heavier at the three votes' weighted centroid with their summed weight as its
+// confidence; every start near the first mode is skipped, so there are exactly two modes.
+TEST(MeanShiftCells, VotesInOneCellBecomeTheirWeightedCentroid) {
+  blob::RuntimeConfig cfg = blob::default_runtime_config(1);
+  cfg.joints[0].bandwidth_mm = 100;
+  std::vector<Vote> votes(kVoteSlots);
+  const float xs[4] = {0.31f, 0.32f, 0.33f, 1.5f}, ws[4] = {1.0f, 2.0f, 3.0f, 0.5f};
+  for (uint32_t i = 0; i < 4; ++i) votes[i] = Vote{xs[i], 0.25f, 2.05f, ws[i], i, 1};
+  int32_t counts[blob::kMaxJoints] = {4};
+  std::vector<Vote> starts(blob::kMaxStartsCap);
+  std::vector<float> modes(size_t(blob::kMaxStartsCap) * 4), soa(size_t(kSoaRow) * 4);
+  std::vector<uint64_t> keys(kCellSlots);
+  std::vector<int32_t> ids(kCellSlots);
+  for (KernelIsa isa : {KernelIsa::kScalar, KernelIsa::kBest}) {
+    FrameResult r{};
+    r.starts_per_joint_used = 24;
+    r.iterations_used = 12;
+    const kernels::KernelSet k =
+        kernels::kernel_set(isa == KernelIsa::kBest ? widest_kernel_isa() : isa, KernelIsa::kScalar);
+    aggregate_proposals(cfg, 1, VoteSets{votes.data(), counts, nullptr},
+                        MeanShiftScratch{starts.data(), modes.data(), soa.data(), keys.data(), ids.data()},
+                        MeanShiftKernels{k.mean_shift_sums, k.mode_weights}, &r);
+    ASSERT_EQ(r.proposal_count[0], 2) << kernel_isa_name(isa);
+    const float cx = (0.31f * 1.0f + 0.32f * 2.0f + 0.33f * 3.0f) / 6.0f;
+    EXPECT_NEAR(r.proposals[0][0].x_m, cx, 1e-6f);
+    EXPECT_NEAR(r.proposals[0][0].y_m, 0.25f, 1e-6f);
+    EXPECT_NEAR(r.proposals[0][0].z_m, 2.05f, 1e-6f);
+    EXPECT_FLOAT_EQ(r.proposals[0][0].confidence, 6.0f);
+    EXPECT_NEAR(r.proposals[0][1].x_m, 1.5f, 1e-6f);
+    EXPECT_FLOAT_EQ(r.proposals[0][1].confidence, 0.5f);
+  }
+}
+
 TEST(MeanShiftKernel, EveryIsaComputesTheDefinedSums) {
   std::mt19937_64 rng(91);
   std::uniform_real_distribution<float> coord(-1.5f, 1.5f), depth(0.5f, 4.5f), weight(0.0f, 3.0f);
@@ -915,6 +953,80 @@ TEST(VoteCastingExactness, BpcFloorGuessTooHighIsRescanned) {
 TEST(VoteCastingExactness, OjrFloorGuessTooHighIsRescanned) {
   Runner r(blob::write_blob(random_ojr_joints(9, 16, 2, 500)), 320, 240);
   expect_fast_casters_match_reference_with_far_samples(r, 4);
+}
+
+// The live-vote copy holds, per record and in the record's order, exactly the stored votes that are
+// candidates (weight ≠ 0, |offset|² ≤ the lane's vote length²) under the config it was built for.
+TEST(OjrLiveVotes, HoldExactlyTheCandidatesInRecordOrder) {
+  const std::vector<uint8_t> bytes = blob::write_blob(random_ojr_joints(12, 16, 3, 200));
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+  ASSERT_TRUE(use_ojr_live_votes(b));
+  std::vector<uint32_t> offsets(b.meta->leaf_count + 1);
+  std::vector<blob::OjrVote> votes(b.meta->entry_count);
+  std::vector<uint8_t> lanes(b.meta->entry_count);
+  build_ojr_live_votes(b, *b.config, offsets.data(), votes.data(), lanes.data());
+  const int k = b.meta->votes_per_joint;
+  uint32_t n = 0, dead = 0;
+  for (uint32_t r = 0; r < b.meta->leaf_count; ++r) {
+    ASSERT_EQ(offsets[r], n) << "record " << r;
+    for (uint32_t e = b.leaf_first(r); e < b.leaf_offsets[r + 1]; ++e) {
+      const blob::OjrVote& v = b.ojr_votes()[e];
+      const uint64_t len = b.config->joints[b.entry_tags[e] / k].vote_length_mm;
+      const uint64_t d2 = uint64_t(int64_t(v.dx_mm) * v.dx_mm + int64_t(v.dy_mm) * v.dy_mm + int64_t(v.dz_mm) * v.dz_mm);
+      if (v.weight == 0 || (len != 0 && d2 > len * len)) {
+        ++dead;
+        continue;
+      }
+      ASSERT_EQ(std::memcmp(&votes[n], &v, sizeof v), 0) << "record " << r << " vote " << e;
+      ASSERT_EQ(lanes[n++], b.entry_tags[e]) << "record " << r << " vote " << e;
+    }
+  }
+  EXPECT_EQ(offsets[b.meta->leaf_count], n);
+  EXPECT_GT(dead, 0u);  // the random blob has weightless and too-long votes: the copy is smaller
+  EXPECT_GT(n, 0u);
+}
+
+// Without the optional copies (a minimum arena) the fast OJR caster scans the blob's votes in place;
+// with them, the live-vote copy. Both equal the reference, and the copy is the arena difference.
+TEST(VoteCastingExactness, OjrInPlaceScanEqualsTheLiveCopy) {
+  Runner with_copy(blob::write_blob(random_ojr_joints(21, 16, 2, 300)), 320, 240);
+  const blob::LoadedBlob& b = with_copy.view;
+  const size_t minimum = minimum_arena_bytes(b, 320, 240);
+  const size_t live = (size_t(b.meta->leaf_count) + 1) * 4 + size_t(b.meta->entry_count) * 9;
+  const size_t split = size_t(b.tree_count()) * blob::nodes_per_tree(b.depth()) * 10;
+  EXPECT_GE(required_arena_bytes(b, 320, 240) - minimum, live + split);
+  EXPECT_LT(required_arena_bytes(b, 320, 240) - minimum, live + split + 5 * 64);  // the arrays and their alignment
+  std::unique_ptr<uint8_t, decltype(&std::free)> small(static_cast<uint8_t*>(std::aligned_alloc(64, (minimum + 63) / 64 * 64)),
+                                                       &std::free);
+  Pipeline in_place;
+  ASSERT_EQ(in_place.init(b, 320, 240, small.get(), minimum), Status::kOk);
+  for (uint64_t s = 0; s < 2; ++s) {
+    const SyntheticFrame f = noisy_frame(60 + s, 320, 240);
+    const Outcome ref = run(with_copy, KernelIsa::kScalar, f.view());
+    expect_identical(ref, run(with_copy, KernelIsa::kBest, f.view()), "live copy");
+    Outcome direct;
+    ASSERT_EQ(in_place.set_kernel(KernelIsa::kBest), Status::kOk);
+    ASSERT_EQ(in_place.process(f.view(), &direct.result), Status::kOk);
+    for (int t = 0; t < b.tree_count(); ++t)
+      for (int32_t i = 0; i < in_place.evaluated_pixel_count(); ++i) direct.leaves.push_back(in_place.leaf_of(i, t));
+    expect_identical(ref, direct, "in place");
+  }
+}
+
+// set_config rebuilds the live-vote copy: after the vote lengths change (limited ↔ unlimited, longer,
+// shorter), the fast casters still keep the reference's votes.
+TEST(VoteCastingExactness, OjrLiveCopyFollowsSetConfig) {
+  Runner r(blob::write_blob(random_ojr_joints(33, 16, 2, 400)), 320, 240);
+  blob::RuntimeConfig cfg = r.pipeline.config();
+  for (int round = 0; round < 2; ++round) {
+    for (int j = 0; j < 16; ++j) {
+      const uint16_t len = cfg.joints[j].vote_length_mm;
+      cfg.joints[j].vote_length_mm = uint16_t(len == 0 ? 400 + 50 * j : (j % 3 == 0 ? 0 : len / 2 + 100 * round));
+    }
+    ASSERT_EQ(r.pipeline.set_config(cfg), Status::kOk);
+    compare_frames(r, "ojr after set_config " + std::to_string(round));
+  }
 }
 
 // Stage 1 (foreground, eight pixels at a time) lists exactly the pixels of its definition: depth
