@@ -6,8 +6,7 @@
 namespace dp {
 
 void copy_split_nodes(const blob::LoadedBlob& blob, uint64_t* offsets, int16_t* thresholds_mm) {
-  const size_t nodes = size_t(blob.tree_count()) * blob::nodes_per_tree(blob.depth());
-  for (size_t i = 0; i < nodes; ++i) {
+  for (size_t i = 0; i < blob.total_nodes; ++i) {
     offsets[i] = kernels::split_offsets_of(blob.nodes[i]);
     thresholds_mm[i] = blob.nodes[i].threshold_mm;
   }
@@ -21,12 +20,12 @@ void evaluate_forest(kernels::ForestTreesKernelFn kernel, const blob::LoadedBlob
   kernels::ForestKernelArgs per_tree[blob::kMaxTrees];
   kernels::SplitTree split[blob::kMaxTrees];
   for (int t = 0; t < blob.tree_count(); ++t) {
-    const size_t first = size_t(t) * blob::nodes_per_tree(blob.depth());
+    const size_t first = blob.tree_first[t];
     if (split_offsets) split[t] = kernels::SplitTree{split_offsets + first, split_thresholds + first};
     per_tree[t] = kernels::ForestKernelArgs{probe_image, w + 2, w, h, focal, pixels, n, blob.tree_nodes(t),
-                                            nullptr, blob.tree_leaf_index(t), blob.depth(),
-                                            leaves + size_t(t) * leaf_stride, split_offsets ? &split[t] : nullptr,
-                                            nullptr};
+                                            nullptr, blob.tree_left_child(t), blob.tree_leaf_index(t), blob.depth(),
+                                            blob.tree_node_count(t), leaves + size_t(t) * leaf_stride,
+                                            split_offsets ? &split[t] : nullptr, nullptr};
   }
   kernel(per_tree, blob.tree_count());
 }

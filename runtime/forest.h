@@ -11,7 +11,7 @@
 namespace dp {
 
 // The split node copy the SIMD kernels read fastest (kernels::SplitTree), made once at init:
-// tree_count · nodes_per_tree(depth) entries in each array.
+// blob.total_nodes entries in each array, in the blob's node order (tree t from blob.tree_first[t]).
 void copy_split_nodes(const blob::LoadedBlob& blob, uint64_t* offsets, int16_t* thresholds_mm);
 
 // Leaves of `count` (≥ 1) pixels in every tree: tree t's leaf for pixel i at leaves[t · leaf_stride + i].

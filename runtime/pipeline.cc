@@ -63,7 +63,7 @@ struct Layout {
 // it (a minimum arena) they read the blob's 10-byte nodes in place.
 bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, bool split, Layout* l) {
   l->config = c.tail<blob::RuntimeConfig>(1);
-  const size_t nodes = size_t(b.tree_count()) * blob::nodes_per_tree(b.depth());
+  const size_t nodes = b.total_nodes;
   l->split_offsets = split ? c.tail<uint64_t>(nodes) : nullptr;
   l->split_thresholds = split ? c.tail<int16_t>(nodes) : nullptr;
   l->joint_mass = use_joint_mass(b) ? c.tail<uint16_t>(size_t(b.meta->leaf_count) * blob::kMaxJoints) : nullptr;

@@ -22,8 +22,7 @@ struct TreeCopies {
   int16_t* thresholds = nullptr;
   std::vector<kernels::SplitTree> split;
   explicit TreeCopies(const blob::LoadedBlob& blob) : b(blob) {
-    const size_t per_tree = blob::nodes_per_tree(b.depth());
-    const size_t nodes = size_t(b.tree_count()) * per_tree;
+    const size_t nodes = b.total_nodes;
     const size_t bytes = nodes * (sizeof(kernels::WideNode) + sizeof(kernels::PackedNode) + sizeof(uint64_t) + sizeof(int16_t));
     memory = platform::ArenaMemory(bytes);
     wide = reinterpret_cast<kernels::WideNode*>(memory.data());                // 16-byte aligned first
@@ -38,16 +37,17 @@ struct TreeCopies {
       thresholds[i] = n.threshold_mm;
     }
     for (int t = 0; t < b.tree_count(); ++t)
-      split.push_back(kernels::SplitTree{offsets + t * per_tree, thresholds + t * per_tree});
+      split.push_back(kernels::SplitTree{offsets + b.tree_first[t], thresholds + b.tree_first[t]});
   }
   kernels::ForestKernelArgs args(int t, kernels::NodeLayout layout, const uint16_t* probe, int32_t width,
                                  int32_t height, int32_t focal, const EvaluatedPixel* pixels, int32_t n,
                                  uint32_t* out) const {
-    const size_t first = size_t(t) * blob::nodes_per_tree(b.depth());
+    const size_t first = b.tree_first[t];
     using L = kernels::NodeLayout;
     return kernels::ForestKernelArgs{probe, width + 2, width, height, focal, pixels, n, b.tree_nodes(t),
-                                     layout == L::kPacked8 ? packed + first : nullptr, b.tree_leaf_index(t),
-                                     b.depth(), out, layout == L::kSplit ? &split[size_t(t)] : nullptr,
+                                     layout == L::kPacked8 ? packed + first : nullptr, b.tree_left_child(t),
+                                     b.tree_leaf_index(t), b.depth(), b.tree_node_count(t), out,
+                                     layout == L::kSplit ? &split[size_t(t)] : nullptr,
                                      layout == L::kWide16 ? wide + first : nullptr};
   }
 };

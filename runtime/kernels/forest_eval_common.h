@@ -14,8 +14,9 @@
 //   address       (v + 1)·stride + (u + 1) by a widening multiply-add, stride ≤ 4098.
 //   child         f > t  ⇔  t + p2 < p1 ⇔  t + e2 <u e1 for the biased elements e = p + kProbeBias
 //                 (forest_kernel.h): t ≥ −32768 keeps t + e2 ≥ 0, so the unsigned compare is exact and
-//                 its carry is the child bit. Node indices are 1-based in the kernels (root 1, children
-//                 of m at 2m and 2m + 1; node m is array element m − 1), so child = 2m + carry.
+//                 its carry is the child bit. Node indices are 1-based (root 1; node m is array element
+//                 m − 1, blob_format.h kNodes), so child = left_child[m − 1] + carry; a leaf node's left
+//                 child is itself and its pad threshold never sets the carry.
 // Speed (docs/runtime_speed.md): pixels are evaluated breadth-first, one tree level at a time over
 // a chunk of pixels, so the visits of a level are independent and overlap in the core; on the deep
 // levels (prefetch_from_level), a pixel's next node is prefetched as soon as the visit has chosen
@@ -39,11 +40,17 @@ constexpr int32_t kChunkPixels = 2048;
 // sweep) to the next: from the first level at which the nodes of all trees down to that level exceed
 // kCachedNodeBytes (a quarter of the Intel host's 2 MB L2, half of Zen 4's 1 MB). Above it a prefetch is an op
 // per visit for a line that is already cached: prefetching from level 6 instead measured 4–6 %
-// slower on the PCL trees (level 14 by this rule; levels 12–15 all measured alike).
+// slower on the PCL trees (level 14 by this rule; levels 12–15 all measured alike). The nodes down
+// to level L are at most min(2^(L+1) − 1, node_count) per tree (node_count: the tree's real count),
+// so a forest that fits the budget whole is never prefetched.
 constexpr size_t kCachedNodeBytes = size_t(512) << 10;
-inline int32_t prefetch_from_level(int32_t tree_count, int32_t node_bytes) {
+inline int32_t prefetch_from_level(int32_t tree_count, int32_t node_bytes, uint32_t node_count) {
   int32_t level = 0;
-  while (level < 30 && size_t(tree_count) * size_t(node_bytes) * ((size_t(2) << level) - 1) <= kCachedNodeBytes) ++level;
+  auto nodes_down_to = [&](int32_t l) {
+    const size_t full = (size_t(2) << l) - 1;
+    return full < node_count ? full : size_t(node_count);
+  };
+  while (level < 30 && size_t(tree_count) * size_t(node_bytes) * nodes_down_to(level) <= kCachedNodeBytes) ++level;
   return level;
 }
 
@@ -118,7 +125,8 @@ struct SplitNodes {  // what the pipeline evaluates: offsets (4·δ) and thresho
 };
 
 // One level of one tree over a chunk whose setups are filled for `padded` pixels: node[i] holds each
-// pixel's node index (1-based) and becomes its child's; when kPrefetchChildren, each child's node is prefetched.
+// pixel's node index (1-based) and becomes its child's; when kPrefetchChildren, each child's node and
+// left-child entry are prefetched.
 using LevelFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t padded);
 
 // All levels of one tree (of a forest of tree_count trees whose nodes take kNodeBytes) over a
@@ -126,7 +134,8 @@ using LevelFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uin
 template <LevelFn kLevel, LevelFn kLevelPrefetchingChildren, int32_t kNodeBytes>
 void evaluate_chunk_by_levels(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,
                               int32_t count, int32_t padded, int32_t tree_count) {
-  const int32_t prefetch_from = prefetch_from_level(tree_count, kNodeBytes);
+  // kNodeBytes and a left-child index per node.
+  const int32_t prefetch_from = prefetch_from_level(tree_count, kNodeBytes + int32_t(sizeof(uint32_t)), a.node_count);
   for (int32_t i = 0; i < padded; ++i) node[i] = 1;  // the root, 1-based
   for (int32_t level = 0; level < a.depth; ++level) {
     if (level + 1 >= prefetch_from && level + 1 < a.depth)
@@ -134,8 +143,7 @@ void evaluate_chunk_by_levels(const ForestKernelArgs& a, const ChunkSetup& setup
     else
       kLevel(a, setup, node, padded);
   }
-  const uint32_t first_leaf = 1u << a.depth;  // 1-based
-  for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - first_leaf];
+  for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - 1];
 }
 
 using ChunkFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,
@@ -173,6 +181,13 @@ inline void evaluate_trees_simd(const ForestKernelArgs* per_tree, int32_t tree_c
         kBlobChunk(per_tree[t], setup, node, base, count, padded, tree_count);
     }
   }
+}
+
+// The child's lines a visit prefetches: its node (in the layout read) and its left-child entry.
+template <class Nodes>
+inline void prefetch_child(const ForestKernelArgs& a, const Nodes& nodes, uint32_t child) {
+  nodes.prefetch(child);
+  __builtin_prefetch(a.left_child + (size_t(child) - 1), 0, 3);
 }
 
 // Every tree read by one chunk function (the layout study).
