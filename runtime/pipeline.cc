@@ -59,8 +59,9 @@ struct Layout {
 
 // The SIMD kernels read split nodes (kernels::SplitTree: offsets and thresholds in two arrays) with
 // the fewest ops per visit of the layouts measured (docs/runtime_speed.md, the layout study), for an
-// arena copy of 10 bytes per node (shipped BPC: 2.0 MB; PCL's depth-20 trees: 31.5 MB). Without
-// it (a minimum arena) they read the blob's 10-byte nodes in place.
+// arena copy of 10 bytes per stored node (blob_format.h kNodes: the blob's real nodes, leaf nodes
+// included; shipped BPC: 1.5 MB). Without it (a minimum arena) they read the blob's 10-byte nodes in
+// place. Either way they read the left-child indices from the blob.
 bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, bool split, Layout* l) {
   l->config = c.tail<blob::RuntimeConfig>(1);
   const size_t nodes = b.total_nodes;

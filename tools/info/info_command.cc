@@ -23,6 +23,7 @@ static const char* kind_name(uint32_t k) {
     case 5: return "leaf_offsets";
     case 6: return "leaf_entries";
     case 7: return "entry_tags";
+    case 8: return "left_child";
   }
   return "?";
 }
