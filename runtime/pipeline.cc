@@ -52,21 +52,19 @@ struct Layout {
   uint32_t* select_keys;
   uint16_t* guess_hist;
   blob::RuntimeConfig* config;
-  uint64_t* split_offsets;
-  int16_t* split_thresholds;
+  kernels::SplitNode* split_nodes;
   uint16_t* joint_mass;
 };
 
-// The SIMD kernels read split nodes (kernels::SplitTree: offsets and thresholds in two arrays) with
-// the fewest ops per visit of the layouts measured (docs/runtime_speed.md, the layout study), for an
-// arena copy of 10 bytes per stored node (blob_format.h kNodes: the blob's real nodes, leaf nodes
-// included; shipped BPC: 1.5 MB). Without it (a minimum arena) they read the blob's 10-byte nodes in
-// place. Either way they read the left-child indices from the blob.
+// The SIMD kernels read split nodes (kernels::SplitNode: offsets, left child and threshold in one
+// 16-byte node, one cache line per visit) with the fewest ops per visit of the layouts measured
+// (docs/runtime_speed.md, the layout study), for an arena copy of 16 bytes per stored node
+// (blob_format.h kNodes: the blob's real nodes, leaf nodes included; shipped BPC: 2.5 MB). Without it
+// (a minimum arena) they read the blob's 10-byte nodes and its left children in place.
 bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, bool split, Layout* l) {
   l->config = c.tail<blob::RuntimeConfig>(1);
   const size_t nodes = b.total_nodes;
-  l->split_offsets = split ? c.tail<uint64_t>(nodes) : nullptr;
-  l->split_thresholds = split ? c.tail<int16_t>(nodes) : nullptr;
+  l->split_nodes = split ? c.tail<kernels::SplitNode>(nodes) : nullptr;
   l->joint_mass = use_joint_mass(b) ? c.tail<uint16_t>(size_t(b.meta->leaf_count) * blob::kMaxJoints) : nullptr;
   l->probe_image = c.head<uint16_t>(kernels::padded_probe_elements(w, h));
   l->pixels = c.head<EvaluatedPixel>(size_t(max_pixels));
@@ -156,11 +154,10 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
   s.soa = l.soa;
   s.config = l.config;
   *s.config = *blob.config;
-  s.split_offsets = l.split_offsets;
-  s.split_thresholds = l.split_thresholds;
+  s.split_nodes = l.split_nodes;
   s.joint_mass = l.joint_mass;
   if (s.joint_mass) build_joint_mass(blob, *s.config, s.joint_mass);
-  if (s.split_offsets) copy_split_nodes(blob, s.split_offsets, s.split_thresholds);
+  if (s.split_nodes) copy_split_nodes(blob, s.split_nodes);
   s.initialized = true;
   s_ = s;
   set_kernel(KernelIsa::kBest);
@@ -260,7 +257,7 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   }
 
   // Stage 2: the forest.
-  evaluate_forest(k.forest, s_.blob, s_.split_offsets, s_.split_thresholds, s_.probe_image, f.width, f.height,
+  evaluate_forest(k.forest, s_.blob, s_.split_nodes, s_.probe_image, f.width, f.height,
                   0.5f * (f.intrinsics.fx + f.intrinsics.fy), s_.pixels, n, s_.leaves, s_.max_pixels);
   const uint64_t t2 = cycle_count();
   r->stage_cycles[kStageForest] = t2 - t1;

@@ -67,36 +67,44 @@ inline int32_t scale_q13_of(int32_t focal_factor, int32_t z_mm) {  // = dp::scal
   return s < 32767 ? s : 32767;
 }
 
-// Where a kernel reads node n (policies; the level loops are templates over them): its four offsets
-// as 4 int16 lanes of 64 bits (`bits`: δ, or 4·δ when kOffsetsTimesFour), its threshold (`threshold`;
+// Where a kernel reads node m (policies; the level loops are templates over them): its four offsets
+// as 4 int16 lanes of 64 bits (`bits`: δ, or 4·δ when kOffsetsTimesFour), its left child
+// (`left_child`: the blob's kLeftChild, or the split node's copy), its threshold (`threshold`;
 // when kThresholdInLanes, the low nibbles of the lanes carry it, kernels::pack_node's layout, `bits`
 // holds δ·16 above them, and a kernel may decode the threshold in lanes instead), and the prefetch
-// of its line(s).
+// of its line(s) (the left child's included).
 // An array of node structs with fields du1, dv1, du2, dv2, threshold_mm (offsets first: the 8-byte
 // load is unaligned for the blob's 10-byte nodes), taken from ForestKernelArgs::*kNodes.
 template <class Node, const Node* ForestKernelArgs::*kNodes>
 struct ArrayNodes {
   static constexpr bool kThresholdInLanes = false;
   static constexpr bool kOffsetsTimesFour = false;
-  static constexpr int32_t kBytes = sizeof(Node);
+  static constexpr int32_t kBytes = sizeof(Node) + sizeof(uint32_t);  // and the left child
   const Node* nodes;
-  explicit ArrayNodes(const ForestKernelArgs& a) : nodes(a.*kNodes) {}
+  explicit ArrayNodes(const ForestKernelArgs& a) : nodes(a.*kNodes), left(a.left_child) {}
   long long bits(uint32_t m) const {
     long long b;
     memcpy(&b, nodes + (size_t(m) - 1), sizeof b);
     return b;
   }
   int32_t threshold(uint32_t m) const { return nodes[size_t(m) - 1].threshold_mm; }
-  void prefetch(uint32_t m) const { __builtin_prefetch(nodes + (size_t(m) - 1), 0, 3); }
+  uint32_t left_child(uint32_t m) const { return left[size_t(m) - 1]; }
+  void prefetch(uint32_t m) const {
+    __builtin_prefetch(nodes + (size_t(m) - 1), 0, 3);
+    __builtin_prefetch(left + (size_t(m) - 1), 0, 3);
+  }
+  const uint32_t* left;
 };
 using BlobNodes = ArrayNodes<blob::TreeNode, &ForestKernelArgs::nodes>;  // the blob's 10-byte nodes
 using WideNodes = ArrayNodes<WideNode, &ForestKernelArgs::study_nodes>;  // layout study: 16-byte nodes
 struct PackedNodes {  // layout study: 8-byte nodes
   static constexpr bool kThresholdInLanes = true;
   static constexpr bool kOffsetsTimesFour = false;
-  static constexpr int32_t kBytes = sizeof(PackedNode);
+  static constexpr int32_t kBytes = sizeof(PackedNode) + sizeof(uint32_t);  // and the left child
   const PackedNode* nodes;
-  explicit PackedNodes(const ForestKernelArgs& a) : nodes(a.packed_nodes) {}
+  const uint32_t* left;
+  explicit PackedNodes(const ForestKernelArgs& a) : nodes(a.packed_nodes), left(a.left_child) {}
+  uint32_t left_child(uint32_t m) const { return left[size_t(m) - 1]; }
   long long bits(uint32_t m) const { return static_cast<long long>(nodes[size_t(m) - 1].bits); }
   // The lanes' low nibbles joined (kernels::pack_node); the AVX-512 kernel decodes them in lanes instead.
   int32_t threshold(uint32_t m) const {
@@ -107,21 +115,21 @@ struct PackedNodes {  // layout study: 8-byte nodes
     return int16_t(uint16_t((b & 15u) | ((b >> 12) & 0xF0u) | ((b >> 24) & 0xF00u) | ((b >> 36) & 0xF000u)));
 #endif
   }
-  void prefetch(uint32_t m) const { __builtin_prefetch(nodes + (size_t(m) - 1), 0, 3); }
+  void prefetch(uint32_t m) const {
+    __builtin_prefetch(nodes + (size_t(m) - 1), 0, 3);
+    __builtin_prefetch(left + (size_t(m) - 1), 0, 3);
+  }
 };
-struct SplitNodes {  // what the pipeline evaluates: offsets (4·δ) and thresholds in two arrays
+struct SplitNodes {  // what the pipeline evaluates: 16-byte nodes, offsets (4·δ), left child, threshold
   static constexpr bool kThresholdInLanes = false;
   static constexpr bool kOffsetsTimesFour = true;
-  static constexpr int32_t kBytes = sizeof(uint64_t) + sizeof(int16_t);
-  const uint64_t* offsets;
-  const int16_t* thresholds;
-  explicit SplitNodes(const ForestKernelArgs& a) : offsets(a.split->offsets), thresholds(a.split->thresholds_mm) {}
-  long long bits(uint32_t m) const { return static_cast<long long>(offsets[size_t(m) - 1]); }
-  int32_t threshold(uint32_t m) const { return thresholds[size_t(m) - 1]; }
-  void prefetch(uint32_t m) const {
-    __builtin_prefetch(offsets + (size_t(m) - 1), 0, 3);
-    __builtin_prefetch(thresholds + (size_t(m) - 1), 0, 3);
-  }
+  static constexpr int32_t kBytes = sizeof(SplitNode);
+  const SplitNode* nodes;
+  explicit SplitNodes(const ForestKernelArgs& a) : nodes(a.split->nodes) {}
+  long long bits(uint32_t m) const { return static_cast<long long>(nodes[size_t(m) - 1].offsets); }
+  int32_t threshold(uint32_t m) const { return nodes[size_t(m) - 1].threshold_mm; }
+  uint32_t left_child(uint32_t m) const { return nodes[size_t(m) - 1].left_child; }
+  void prefetch(uint32_t m) const { __builtin_prefetch(nodes + (size_t(m) - 1), 0, 3); }
 };
 
 // One level of one tree over a chunk whose setups are filled for `padded` pixels: node[i] holds each
@@ -134,8 +142,7 @@ using LevelFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uin
 template <LevelFn kLevel, LevelFn kLevelPrefetchingChildren, int32_t kNodeBytes>
 void evaluate_chunk_by_levels(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,
                               int32_t count, int32_t padded, int32_t tree_count) {
-  // kNodeBytes and a left-child index per node.
-  const int32_t prefetch_from = prefetch_from_level(tree_count, kNodeBytes + int32_t(sizeof(uint32_t)), a.node_count);
+  const int32_t prefetch_from = prefetch_from_level(tree_count, kNodeBytes, a.node_count);
   for (int32_t i = 0; i < padded; ++i) node[i] = 1;  // the root, 1-based
   for (int32_t level = 0; level < a.depth; ++level) {
     if (level + 1 >= prefetch_from && level + 1 < a.depth)
@@ -181,13 +188,6 @@ inline void evaluate_trees_simd(const ForestKernelArgs* per_tree, int32_t tree_c
         kBlobChunk(per_tree[t], setup, node, base, count, padded, tree_count);
     }
   }
-}
-
-// The child's lines a visit prefetches: its node (in the layout read) and its left-child entry.
-template <class Nodes>
-inline void prefetch_child(const ForestKernelArgs& a, const Nodes& nodes, uint32_t child) {
-  nodes.prefetch(child);
-  __builtin_prefetch(a.left_child + (size_t(child) - 1), 0, 3);
 }
 
 // Every tree read by one chunk function (the layout study).

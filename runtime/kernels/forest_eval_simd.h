@@ -23,11 +23,11 @@ inline void finish_visit(const ForestKernelArgs& a, const Nodes& nodes, uint32_t
   asm("movl %k1, %k0\n\tshrq $32, %1" : "=r"(probe1), "+r"(probe2));
   const uint32_t lhs = uint32_t(threshold) + a.probe_image[probe2], rhs = a.probe_image[probe1];
   // The left child's load depends on m only, so it overlaps the probe loads rather than lengthening the chain.
-  Index child = a.left_child[m - 1];
+  Index child = nodes.left_child(uint32_t(m));
   // GCC makes the bit with setb and adds it (two ops and a zeroing); adc does both in one.
   asm("cmpl %2, %1\n\tadcl $0, %k0" : "+r"(child) : "r"(lhs), "r"(rhs) : "cc");
   node[i] = uint32_t(child);
-  if constexpr (kPrefetchChildren) prefetch_child(a, nodes, uint32_t(child));
+  if constexpr (kPrefetchChildren) nodes.prefetch(uint32_t(child));
 }
 
 }  // namespace

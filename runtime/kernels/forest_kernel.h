@@ -77,20 +77,29 @@ inline PackedNode pack_node(const blob::TreeNode& n) {
 // code. The pipeline copies the blob's nodes into kSplit at init (or, in a minimum arena, the kernels
 // read the blob's kBlob10 nodes in place); kPacked8 and kWide16 are kept for the study.
 enum class NodeLayout : int32_t { kBlob10, kPacked8, kWide16, kSplit };
-// kSplit: one tree's offsets and thresholds in two arrays, node m at [m − 1] (the blob's breadth-first
-// order): offsets[m − 1] holds
-// 4·du1, 4·dv1, 4·du2, 4·dv2 as 4 little-endian int16 (what one 8-byte load puts in a vector's lanes,
-// already scaled for the kernels' pmulhrsw: |4δ| ≤ 4·blob::kMaxProbeOffsetPxm = 16384 fits), and the
-// threshold is one scalar load. Fewest ops per visit of the layouts measured.
+// kSplit: one tree's nodes as 16-byte SplitNodes, node m at [m − 1] (the blob's breadth-first order):
+// offsets holds 4·du1, 4·dv1, 4·du2, 4·dv2 as 4 little-endian int16 (what one 8-byte load puts in a
+// vector's lanes, already scaled for the kernels' pmulhrsw: |4δ| ≤ 4·blob::kMaxProbeOffsetPxm = 16384
+// fits), then the node's left child (blob kLeftChild) and threshold, each one scalar load from the
+// same line: a visit touches one cache line (the blob's nodes and left children are two).
+struct alignas(16) SplitNode {
+  uint64_t offsets;
+  uint32_t left_child;
+  int16_t threshold_mm;
+  int16_t reserved;
+};
+static_assert(sizeof(SplitNode) == 16, "SplitNode is 16 bytes");
 struct SplitTree {
-  const uint64_t* offsets;
-  const int16_t* thresholds_mm;
+  const SplitNode* nodes;
 };
 namespace {
 inline uint64_t split_offsets_of(const blob::TreeNode& n) {
   static_assert(4 * blob::kMaxProbeOffsetPxm <= 32767, "4δ fits int16");
   return uint64_t(uint16_t(4 * n.du1)) | uint64_t(uint16_t(4 * n.dv1)) << 16 | uint64_t(uint16_t(4 * n.du2)) << 32 |
          uint64_t(uint16_t(4 * n.dv2)) << 48;
+}
+inline SplitNode split_node_of(const blob::TreeNode& n, uint32_t left_child) {
+  return SplitNode{split_offsets_of(n), left_child, n.threshold_mm, 0};
 }
 }  // namespace
 struct WideNode {  // kWide16: the blob node, aligned and padded to 16 bytes

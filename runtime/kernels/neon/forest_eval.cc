@@ -16,9 +16,9 @@ template <bool kPrefetchChildren, class Nodes>
 inline void finish_visit(const ForestKernelArgs& a, const Nodes& nodes, uint32_t* node, int32_t i, uint32_t m,
                          uint32_t probe1, uint32_t probe2) {
   const uint32_t lhs = uint32_t(nodes.threshold(m)) + a.probe_image[probe2], rhs = a.probe_image[probe1];
-  const uint32_t child = a.left_child[m - 1] + (lhs < rhs ? 1u : 0u);
+  const uint32_t child = nodes.left_child(m) + (lhs < rhs ? 1u : 0u);
   node[i] = child;
-  if constexpr (kPrefetchChildren) prefetch_child(a, nodes, child);
+  if constexpr (kPrefetchChildren) nodes.prefetch(child);
 }
 
 template <bool kPrefetchChildren, class Nodes>
