@@ -79,26 +79,38 @@ blob::BlobContents single_vote_ojr(int joint_count, int16_t dx, int16_t dy, int1
   return c;
 }
 
-blob::BlobContents random_bpc_forest(uint64_t seed, int trees, int depth, int part_count, int max_offset,
-                                     int thresh_range) {
-  std::mt19937_64 rng(seed);
-  auto uni = [&](int lo, int hi) { return int(std::uniform_int_distribution<int>(lo, hi)(rng)); };
+// The empty BPC forest the random fixtures fill: one joint, part_count numbered parts.
+static blob::BlobContents random_forest_frame(int depth, int part_count) {
   blob::BlobContents c;
   c.method = blob::Method::kBpc;
   c.depth = depth;
   c.part_names = numbered("part", part_count);
   c.joint_names = numbered("joint", 1);
+  return c;
+}
+
+// A random split node: offsets within ±max_offset (half of them unary), threshold within ±thresh_range.
+template <class Uniform>
+blob::TreeNode random_split_node(Uniform& uni, int max_offset, int thresh_range) {
+  blob::TreeNode n;
+  n.du1 = int16_t(uni(-max_offset, max_offset));
+  n.dv1 = int16_t(uni(-max_offset, max_offset));
+  const bool unary = uni(0, 1) == 0;
+  n.du2 = unary ? 0 : int16_t(uni(-max_offset, max_offset));
+  n.dv2 = unary ? 0 : int16_t(uni(-max_offset, max_offset));
+  n.threshold_mm = int16_t(uni(-thresh_range, thresh_range));
+  return n;
+}
+
+blob::BlobContents random_bpc_forest(uint64_t seed, int trees, int depth, int part_count, int max_offset,
+                                     int thresh_range) {
+  std::mt19937_64 rng(seed);
+  auto uni = [&](int lo, int hi) { return int(std::uniform_int_distribution<int>(lo, hi)(rng)); };
+  blob::BlobContents c = random_forest_frame(depth, part_count);
   const uint32_t leaves = uint32_t(std::min<size_t>(4096, blob::leaves_per_tree(depth)));
   for (int t = 0; t < trees; ++t) {
     std::vector<blob::TreeNode> nodes(blob::nodes_per_heap(depth));
-    for (auto& n : nodes) {
-      n.du1 = int16_t(uni(-max_offset, max_offset));
-      n.dv1 = int16_t(uni(-max_offset, max_offset));
-      const bool unary = uni(0, 1) == 0;
-      n.du2 = unary ? 0 : int16_t(uni(-max_offset, max_offset));
-      n.dv2 = unary ? 0 : int16_t(uni(-max_offset, max_offset));
-      n.threshold_mm = int16_t(uni(-thresh_range, thresh_range));
-    }
+    for (auto& n : nodes) n = random_split_node(uni, max_offset, thresh_range);
     std::vector<uint32_t> index(blob::leaves_per_tree(depth));
     for (auto& i : index) i = uint32_t(uni(0, int(leaves) - 1));
     blob::append_heap_tree(&c, nodes, index);
@@ -118,11 +130,7 @@ blob::BlobContents random_sparse_bpc_forest(uint64_t seed, int trees, int depth,
                                             int thresh_range, int split_per_mille, uint32_t max_nodes_per_tree) {
   std::mt19937_64 rng(seed);
   auto uni = [&](int lo, int hi) { return int(std::uniform_int_distribution<int>(lo, hi)(rng)); };
-  blob::BlobContents c;
-  c.method = blob::Method::kBpc;
-  c.depth = depth;
-  c.part_names = numbered("part", part_count);
-  c.joint_names = numbered("joint", 1);
+  blob::BlobContents c = random_forest_frame(depth, part_count);
   uint32_t records = 0;
   for (int t = 0; t < trees; ++t) {
     std::vector<blob::TreeNode> nodes;
@@ -141,14 +149,7 @@ blob::BlobContents random_sparse_bpc_forest(uint64_t seed, int trees, int depth,
         left.push_back(uint32_t(q + 1));
         continue;
       }
-      blob::TreeNode n;
-      n.du1 = int16_t(uni(-max_offset, max_offset));
-      n.dv1 = int16_t(uni(-max_offset, max_offset));
-      const bool unary = uni(0, 1) == 0;
-      n.du2 = unary ? 0 : int16_t(uni(-max_offset, max_offset));
-      n.dv2 = unary ? 0 : int16_t(uni(-max_offset, max_offset));
-      n.threshold_mm = int16_t(uni(-thresh_range, thresh_range));
-      nodes.push_back(n);
+      nodes.push_back(random_split_node(uni, max_offset, thresh_range));
       index.push_back(0);
       left.push_back(2 * ++splits);
       levels.push_back(uint8_t(level + 1));
