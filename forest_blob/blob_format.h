@@ -1,4 +1,4 @@
-// forest_blob v2 — the on-disk (and in-memory) model of depthpose. This header is the single
+// forest_blob v3 — the on-disk (and in-memory) model of depthpose. This header is the single
 // definition of the format; docs/blob_format.md mirrors it with a revision history.
 //
 // Layout (all integers little endian, all floats IEEE-754 binary32 little endian):
@@ -12,16 +12,26 @@
 //                   computed with the header_crc32 field itself set to zero.
 //   payload_crc32 = CRC-32 of bytes [header_bytes, total_bytes).
 //
-// Sections (each kind exactly once, kinds 1..7):
-//   kMeta      ForestMeta: method, tree count, depth, part/joint counts and names, reference focal
-//              length, leaf table shape, the maximum frame and arena size computed by the converter.
+// Sections (each kind exactly once, kinds 1..8):
+//   kMeta      ForestMeta: method, tree count, depth, per-tree node counts, part/joint counts and
+//              names, reference focal length, leaf table shape, the maximum frame and arena size
+//              computed by the converter.
 //   kConfig    RuntimeConfig: per-joint aggregation parameters and the per-frame budget.
-//   kNodes     tree_count × (2^depth − 1) TreeNode, tree after tree; node n of a tree has children
-//              2n+1 (left) and 2n+2 (right) — complete trees in implicit heap order. A subtree the
-//              training data never reached is padded (threshold kPadThreshold: always left) so every
-//              traversal is exactly `depth` steps.
-//   kLeafIndex tree_count × 2^depth uint32: for heap slot s = node − (2^depth − 1) reached by a
-//              traversal, the index of its record in kLeaves (shared by all trees).
+//   kNodes     Σ node_count[t] TreeNode, tree after tree (tree t's nodes follow tree t − 1's). Only the
+//              nodes a tree has are stored, in breadth-first order: node m (1-based within its tree)
+//              is element m − 1; node 1 is the root. A node is either
+//                a split node: kLeftChild[m] = its left child's index (> m; right child = left + 1),
+//                  or a leaf node: kLeftChild[m] = m, threshold kPadThreshold (always left, so a
+//                  traversal that reaches it stays on it) and zero offsets.
+//              Every traversal is exactly `depth` steps, child = left_child[m] + [feature > threshold],
+//              and ends on a leaf node. Breadth-first is canonical: the k-th split node (in index
+//              order) has children 2k and 2k + 1, every node but the root is some split node's child,
+//              and no split node lies at level ≥ depth (root level 0). So the tree has no cycle but the
+//              leaves' self-loops and a walk of `depth` steps ends on a leaf.
+//   kLeafIndex Σ node_count[t] uint32, parallel to kNodes: a leaf node's record in kLeaves (shared by
+//              all trees, < leaf_count); 0 for a split node.
+//   kLeftChild Σ node_count[t] uint32, parallel to kNodes: the left-child index above (1-based,
+//              within the node's tree).
 //   kLeafOffsets (leaf_count + 1) uint32: leaf record r owns entries [offsets[r], offsets[r + 1]);
 //              offsets[0] = 0, non-decreasing, offsets[leaf_count] = entry_count.
 //   kLeafEntries entry_count entries, leaf after leaf (compact leaves: only what a leaf holds):
@@ -43,7 +53,8 @@ namespace dp::blob {
 
 constexpr uint32_t kMagic = 0x42465044u;      // "DPFB" read as little-endian bytes 'D''P''F''B'
 constexpr uint32_t kEndianTag = 0x01020304u;  // reads 0x04030201 on a big-endian host
-constexpr uint16_t kVersionMajor = 2;         // readers refuse any other major version (v1: dense leaves)
+constexpr uint16_t kVersionMajor = 3;         // readers refuse any other major version (v1: dense leaves,
+                                              // v2: complete heap-order trees)
 constexpr uint16_t kVersionMinor = 0;         // readers accept older and newer minors of their major
 constexpr uint32_t kSectionAlignment = 64;
 
@@ -70,8 +81,9 @@ enum class SectionKind : uint32_t {
   kLeafOffsets = 5,
   kLeafEntries = 6,
   kEntryTags = 7,
+  kLeftChild = 8,
 };
-constexpr uint32_t kSectionKinds = 7;  // kinds 1..kSectionKinds, each exactly once
+constexpr uint32_t kSectionKinds = 8;  // kinds 1..kSectionKinds, each exactly once
 
 struct BlobHeader {
   uint32_t magic;            // kMagic
@@ -83,7 +95,7 @@ struct BlobHeader {
   uint32_t section_count;    // 1..kMaxSections
   uint32_t header_crc32;
   uint32_t payload_crc32;
-  uint32_t flags;            // 0 in v2.0
+  uint32_t flags;            // 0 in v3.0
   uint8_t reserved[24];      // zero
 };
 static_assert(sizeof(BlobHeader) == 64, "BlobHeader is 64 bytes on disk");
@@ -115,9 +127,13 @@ struct ForestMeta {
   uint32_t reserved2;        // zero
   char part_names[kMaxParts][kNameBytes];
   char joint_names[kMaxJoints][kNameBytes];
+  // Nodes of tree t (1..max_nodes_per_tree(depth)) for t < tree_count; zero beyond. v1 and v2 metas
+  // end before this field (kLegacyMetaBytes).
+  uint32_t node_count[kMaxTrees];
 };
-static_assert(sizeof(ForestMeta) == 48 + kMaxParts * kNameBytes + kMaxJoints * kNameBytes,
+static_assert(sizeof(ForestMeta) == 48 + kMaxParts * kNameBytes + kMaxJoints * kNameBytes + 4 * kMaxTrees,
               "ForestMeta layout");
+constexpr size_t kLegacyMetaBytes = offsetof(ForestMeta, node_count);  // a v1/v2 ForestMeta
 
 struct TreeNode {
   int16_t du1, dv1, du2, dv2;  // probe offsets, pixel·metres at reference_focal_px
@@ -187,7 +203,11 @@ inline constexpr size_t leaf_entry_bytes(const ForestMeta& m) {
   return m.method == uint8_t(Method::kBpc) ? sizeof(uint16_t) : sizeof(OjrVote);
 }
 
-inline constexpr size_t nodes_per_tree(int depth) { return (size_t(1) << depth) - 1; }
+// A tree of `depth` split levels has at most 2^depth leaf nodes and 2^(depth+1) − 1 nodes in all.
 inline constexpr size_t leaves_per_tree(int depth) { return size_t(1) << depth; }
+inline constexpr size_t max_nodes_per_tree(int depth) { return (size_t(2) << depth) - 1; }
+// v1/v2 trees (and PCL's) are complete and in implicit heap order: nodes_per_heap(depth) split nodes
+// (children of n at 2n+1, 2n+2), then leaves_per_tree(depth) leaf slots. Tools read them to upgrade.
+inline constexpr size_t nodes_per_heap(int depth) { return (size_t(1) << depth) - 1; }
 
 }  // namespace dp::blob

@@ -14,8 +14,9 @@ const char* blob_status_message(BlobStatus s) {
     case BlobStatus::kWrongEndianness: return "blob was written big-endian; this build reads little-endian only";
     case BlobStatus::kBadEndianTag: return "corrupt endianness tag";
     case BlobStatus::kVersionTooOld:
-      return "blob format major version too old: version 1 (dense leaves) is no longer read, this build reads "
-             "version 2 (compact leaves); rewrite it with `depthpose convert --upgrade-blob OLD.blob --out NEW.blob`";
+      return "blob format major version too old: versions 1 (dense leaves) and 2 (complete heap-order trees) are no "
+             "longer read, this build reads version 3 (sparse nodes, compact leaves); rewrite it with "
+             "`depthpose convert --upgrade-blob OLD.blob --out NEW.blob`";
     case BlobStatus::kVersionTooNew: return "blob format major version too new for this build";
     case BlobStatus::kBadHeaderSize: return "header size disagrees with the section count";
     case BlobStatus::kTruncated: return "blob truncated (fewer bytes than its header declares)";
@@ -51,6 +52,13 @@ const char* blob_status_message(BlobStatus s) {
     case BlobStatus::kEmpty: return "blob is empty (0 bytes)";
     case BlobStatus::kBadLeafOffsets: return "leaf offsets do not start at 0, decrease, or do not end at the entry count";
     case BlobStatus::kBadEntryTag: return "a leaf entry's part or lane is out of range or not strictly increasing";
+    case BlobStatus::kBadNodeCount: return "a tree's node count is 0 or above what its depth allows";
+    case BlobStatus::kBadChildIndex: return "a node's child index points outside its tree";
+    case BlobStatus::kChildBeforeParent: return "a split node's child does not come after it (a cycle)";
+    case BlobStatus::kNotBreadthFirst: return "a tree's nodes are not in breadth-first order";
+    case BlobStatus::kTreeTooDeep: return "a split node lies at or below the tree depth (a walk would not end on a leaf)";
+    case BlobStatus::kUnreachedNode: return "a tree node is not reached from the root";
+    case BlobStatus::kBadLeafNode: return "a leaf node lacks the pad threshold or has nonzero probe offsets";
   }
   return "unknown status";
 }
@@ -111,9 +119,49 @@ BlobStatus validate_meta(const ForestMeta& m, BlobProblem* p) {
   if (!in_range(p, "meta.max_abs_offset_pxm", -1, m.max_abs_offset_pxm, 0, kMaxProbeOffsetPxm))
     return BlobStatus::kOffsetTooLarge;
   if (m.reserved0 != 0 || m.reserved1 != 0 || m.reserved2 != 0) return BlobStatus::kReservedNotZero;
+  for (int t = 0; t < kMaxTrees; ++t)
+    if (!in_range(p, "meta.node_count[t]", -1, m.node_count[t], t < m.tree_count ? 1 : 0,
+                  t < m.tree_count ? int64_t(max_nodes_per_tree(m.depth)) : 0))
+      return BlobStatus::kBadNodeCount;
   if (!names_ok(m.part_names, m.part_count, kMaxParts) || !names_ok(m.joint_names, m.joint_count, kMaxJoints))
     return BlobStatus::kBadName;
   return BlobStatus::kOk;
+}
+
+// One tree's nodes (blob_format.h kNodes): every split node's children inside the tree and after it,
+// in breadth-first order, above level `depth`; every node reached; every leaf node a pad node whose
+// record is < leaf_count. One forward sweep: in breadth-first order the level boundaries are known
+// from the children already seen, so no per-node state is kept.
+BlobStatus validate_tree(const TreeNode* nodes, const uint32_t* left_child, const uint32_t* leaf_index, uint32_t count,
+                         int depth, uint32_t leaf_count, int offset_limit) {
+  uint32_t next_child = 2;    // the next split node's left child (breadth-first: 2k for the k-th)
+  uint32_t level_last = 1;    // last node of the current level
+  int level = 0;
+  for (uint32_t m = 1; m <= count; ++m) {
+    if (m > level_last) {     // the next level: the children of this level's split nodes
+      ++level;
+      level_last = next_child - 1;
+      if (m > level_last) return BlobStatus::kUnreachedNode;
+    }
+    const TreeNode& n = nodes[m - 1];
+    const uint32_t left = left_child[m - 1];
+    if (abs16(n.du1) > offset_limit || abs16(n.dv1) > offset_limit || abs16(n.du2) > offset_limit ||
+        abs16(n.dv2) > offset_limit)
+      return BlobStatus::kOffsetTooLarge;
+    if (left == m) {          // a leaf node
+      if (n.threshold_mm != kPadThreshold || n.du1 != 0 || n.dv1 != 0 || n.du2 != 0 || n.dv2 != 0)
+        return BlobStatus::kBadLeafNode;
+      if (leaf_index[m - 1] >= leaf_count) return BlobStatus::kBadLeafIndex;
+      continue;
+    }
+    if (left == 0 || left >= count) return BlobStatus::kBadChildIndex;  // left + 1 ≤ count
+    if (left < m) return BlobStatus::kChildBeforeParent;
+    if (left != next_child) return BlobStatus::kNotBreadthFirst;
+    if (level >= depth) return BlobStatus::kTreeTooDeep;
+    if (leaf_index[m - 1] != 0) return BlobStatus::kBadLeafIndex;
+    next_child += 2;          // ≤ count + 1 by the range check: no overflow
+  }
+  return next_child - 1 == count ? BlobStatus::kOk : BlobStatus::kUnreachedNode;
 }
 
 }  // namespace
@@ -218,30 +266,34 @@ BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out, BlobProblem
   const RuntimeConfig* config = reinterpret_cast<const RuntimeConfig*>(bytes + config_s.offset);
   if (BlobStatus s = validate_config(*meta, *config, problem); s != BlobStatus::kOk) return s;
 
-  const size_t node_count = size_t(meta->tree_count) * nodes_per_tree(meta->depth);
-  const size_t slot_count = size_t(meta->tree_count) * leaves_per_tree(meta->depth);
+  uint32_t tree_first[kMaxTrees] = {};
+  size_t node_count = 0;  // ≤ kMaxTrees · max_nodes_per_tree(kMaxDepth) < 2^24 by the meta
+  for (int t = 0; t < meta->tree_count; ++t) {
+    tree_first[t] = uint32_t(node_count);
+    node_count += meta->node_count[t];
+  }
   const SectionEntry& nodes_s = *by_kind[int(SectionKind::kNodes)];
   const SectionEntry& index_s = *by_kind[int(SectionKind::kLeafIndex)];
+  const SectionEntry& left_s = *by_kind[int(SectionKind::kLeftChild)];
   const SectionEntry& offsets_s = *by_kind[int(SectionKind::kLeafOffsets)];
   const SectionEntry& entries_s = *by_kind[int(SectionKind::kLeafEntries)];
   const SectionEntry& tags_s = *by_kind[int(SectionKind::kEntryTags)];
   if (nodes_s.size != node_count * sizeof(TreeNode)) return BlobStatus::kBadSectionSize;
-  if (index_s.size != slot_count * sizeof(uint32_t)) return BlobStatus::kBadSectionSize;
+  if (index_s.size != node_count * sizeof(uint32_t) || left_s.size != node_count * sizeof(uint32_t))
+    return BlobStatus::kBadSectionSize;
   if (offsets_s.size != (size_t(meta->leaf_count) + 1) * sizeof(uint32_t) ||
       entries_s.size != size_t(meta->entry_count) * leaf_entry_bytes(*meta) ||
       tags_s.size != size_t(meta->entry_count))
     return BlobStatus::kBadSectionSize;
 
   const TreeNode* nodes = reinterpret_cast<const TreeNode*>(bytes + nodes_s.offset);
-  const int limit = int(meta->max_abs_offset_pxm);
-  for (size_t i = 0; i < node_count; ++i) {
-    const TreeNode& n = nodes[i];
-    if (abs16(n.du1) > limit || abs16(n.dv1) > limit || abs16(n.du2) > limit || abs16(n.dv2) > limit)
-      return BlobStatus::kOffsetTooLarge;
-  }
   const uint32_t* leaf_index = reinterpret_cast<const uint32_t*>(bytes + index_s.offset);
-  for (size_t i = 0; i < slot_count; ++i)
-    if (leaf_index[i] >= meta->leaf_count) return BlobStatus::kBadLeafIndex;
+  const uint32_t* left_child = reinterpret_cast<const uint32_t*>(bytes + left_s.offset);
+  for (int t = 0; t < meta->tree_count; ++t) {
+    const BlobStatus s = validate_tree(nodes + tree_first[t], left_child + tree_first[t], leaf_index + tree_first[t],
+                                       meta->node_count[t], meta->depth, meta->leaf_count, int(meta->max_abs_offset_pxm));
+    if (s != BlobStatus::kOk) return s;
+  }
 
   // Compact leaves: each record's entry range inside the table, its tags strictly increasing below
   // the record's capacity (so no record exceeds max_entries_per_leaf), every entry nonzero.
@@ -279,6 +331,9 @@ BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out, BlobProblem
   out->config = config;
   out->nodes = nodes;
   out->leaf_index = leaf_index;
+  out->left_child = left_child;
+  for (int t = 0; t < kMaxTrees; ++t) out->tree_first[t] = tree_first[t];
+  out->total_nodes = node_count;
   out->leaf_offsets = offsets;
   out->leaf_entries = entries;
   out->entry_tags = tags;

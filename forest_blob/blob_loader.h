@@ -19,7 +19,7 @@ enum class BlobStatus : int32_t {
   kBadMagic,
   kWrongEndianness,     // endian tag byte-swapped: written on a big-endian host
   kBadEndianTag,        // neither order of the tag
-  kVersionTooOld,       // major version below ours (v1: dense leaves; `depthpose convert --upgrade-blob`)
+  kVersionTooOld,       // major version below ours (v1, v2; `depthpose convert --upgrade-blob`)
   kVersionTooNew,       // major version above ours
   kBadHeaderSize,
   kTruncated,           // total_bytes larger than the bytes given
@@ -55,6 +55,13 @@ enum class BlobStatus : int32_t {
   kEmpty,               // zero bytes given
   kBadLeafOffsets,      // leaf offsets not starting at 0, decreasing, or not ending at entry_count
   kBadEntryTag,         // an entry's part/lane out of range or not strictly increasing in its record
+  kBadNodeCount,        // a tree's node count 0 or above max_nodes_per_tree(depth), or a count past tree_count not 0
+  kBadChildIndex,       // a left child index ≥ the tree's node count (its right child would lie outside)
+  kChildBeforeParent,   // a split node's left child index not above its own (a cycle)
+  kNotBreadthFirst,     // the k-th split node's children are not nodes 2k, 2k + 1
+  kTreeTooDeep,         // a split node at level ≥ depth: a walk of `depth` steps would not end on a leaf
+  kUnreachedNode,       // a node that is no split node's child (the tree is shorter than its node count)
+  kBadLeafNode,         // a leaf node (left child = itself) without the pad threshold or with nonzero offsets
 };
 
 // One line naming the problem, for messages ("payload checksum mismatch").
@@ -77,8 +84,13 @@ struct LoadedBlob {
   const BlobHeader* header = nullptr;
   const ForestMeta* meta = nullptr;
   const RuntimeConfig* config = nullptr;
-  const TreeNode* nodes = nullptr;       // tree t starts at nodes + t · nodes_per_tree(depth)
-  const uint32_t* leaf_index = nullptr;  // tree t starts at leaf_index + t · leaves_per_tree(depth)
+  // Tree t's nodes (blob_format.h kNodes), its leaf-record and left-child indices, node m at [m − 1]
+  // of tree_nodes(t), tree_leaf_index(t), tree_left_child(t); tree_node_count(t) of each.
+  const TreeNode* nodes = nullptr;
+  const uint32_t* leaf_index = nullptr;
+  const uint32_t* left_child = nullptr;
+  uint32_t tree_first[kMaxTrees] = {};   // tree t's first node in the three arrays
+  size_t total_nodes = 0;                // Σ node_count
   const uint32_t* leaf_offsets = nullptr;  // leaf_count + 1, validated (blob_format.h kLeafOffsets)
   const uint8_t* leaf_entries = nullptr;   // entry_count · leaf_entry_bytes(*meta)
   const uint8_t* entry_tags = nullptr;     // entry_count: part (BPC) or lane j·K + k (OJR)
@@ -86,8 +98,10 @@ struct LoadedBlob {
   Method method() const { return static_cast<Method>(meta->method); }
   int tree_count() const { return meta->tree_count; }
   int depth() const { return meta->depth; }
-  const TreeNode* tree_nodes(int t) const { return nodes + size_t(t) * nodes_per_tree(meta->depth); }
-  const uint32_t* tree_leaf_index(int t) const { return leaf_index + size_t(t) * leaves_per_tree(meta->depth); }
+  uint32_t tree_node_count(int t) const { return meta->node_count[t]; }
+  const TreeNode* tree_nodes(int t) const { return nodes + tree_first[t]; }
+  const uint32_t* tree_leaf_index(int t) const { return leaf_index + tree_first[t]; }
+  const uint32_t* tree_left_child(int t) const { return left_child + tree_first[t]; }
   // Record `leaf` (< leaf_count) owns entries [leaf_first(leaf), leaf_first(leaf) + leaf_size(leaf)),
   // leaf_size ≤ max_entries_per_leaf(*meta) ≤ 64 (validated at load).
   uint32_t leaf_first(uint32_t leaf) const { return leaf_offsets[leaf]; }

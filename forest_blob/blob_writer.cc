@@ -51,7 +51,8 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
   const int trees = int(in.tree_nodes.size());
   if (trees < 1 || trees > kMaxTrees) fail("blob needs 1.." + std::to_string(kMaxTrees) + " trees, got " + std::to_string(trees));
   if (in.depth < 1 || in.depth > kMaxDepth) fail("tree depth " + std::to_string(in.depth) + " outside 1..20");
-  if (int(in.tree_leaf_index.size()) != trees) fail("leaf index tables do not match the tree count");
+  if (int(in.tree_leaf_index.size()) != trees || int(in.tree_left_child.size()) != trees)
+    fail("leaf index or child tables do not match the tree count");
   if (in.part_names.size() > size_t(kMaxParts)) fail("too many parts");
   if (in.joint_names.size() > size_t(kMaxJoints)) fail("too many joints");
 
@@ -97,23 +98,29 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
   meta.max_width = in.max_width;
   meta.max_height = in.max_height;
   uint32_t max_off = 0;
-  for (const auto& t : in.tree_nodes) {
-    if (t.size() != nodes_per_tree(in.depth)) fail("a tree has the wrong node count for its depth");
-    for (const TreeNode& n : t)
-      for (int16_t d : {n.du1, n.dv1, n.du2, n.dv2}) max_off = std::max<uint32_t>(max_off, uint32_t(std::abs(int(d))));
+  size_t total_nodes = 0;
+  for (int t = 0; t < trees; ++t) {
+    const size_t n = in.tree_nodes[size_t(t)].size();
+    if (n < 1 || n > max_nodes_per_tree(in.depth)) fail("tree " + std::to_string(t) + " has " + std::to_string(n) +
+                                                         " nodes; depth " + std::to_string(in.depth) + " allows 1.." +
+                                                         std::to_string(max_nodes_per_tree(in.depth)));
+    if (in.tree_leaf_index[size_t(t)].size() != n || in.tree_left_child[size_t(t)].size() != n)
+      fail("tree " + std::to_string(t) + ": leaf index or child table length differs from its node count");
+    meta.node_count[t] = uint32_t(n);
+    total_nodes += n;
+    for (const TreeNode& nd : in.tree_nodes[size_t(t)])
+      for (int16_t d : {nd.du1, nd.dv1, nd.du2, nd.dv2}) max_off = std::max<uint32_t>(max_off, uint32_t(std::abs(int(d))));
   }
-  for (const auto& t : in.tree_leaf_index)
-    if (t.size() != leaves_per_tree(in.depth)) fail("a tree has the wrong leaf-index count for its depth");
   meta.max_abs_offset_pxm = max_off;
 
-  // Sections in fixed order: meta, config, nodes, leaf index, leaf offsets, leaf entries, entry tags.
+  // Sections in kind order: meta, config, nodes, leaf index, leaf offsets, leaf entries, entry tags, left child.
   const uint32_t section_count = kSectionKinds;
   const size_t header_bytes = sizeof(BlobHeader) + section_count * sizeof(SectionEntry);
   SectionEntry entries[kSectionKinds]{};
   const size_t sizes[kSectionKinds] = {sizeof(ForestMeta), sizeof(RuntimeConfig),
-                                       size_t(trees) * nodes_per_tree(in.depth) * sizeof(TreeNode),
-                                       size_t(trees) * leaves_per_tree(in.depth) * sizeof(uint32_t),
-                                       leaf_offsets.size() * sizeof(uint32_t), entry_bytes.size(), tags.size()};
+                                       total_nodes * sizeof(TreeNode), total_nodes * sizeof(uint32_t),
+                                       leaf_offsets.size() * sizeof(uint32_t), entry_bytes.size(), tags.size(),
+                                       total_nodes * sizeof(uint32_t)};
   size_t at = align_up(header_bytes);
   for (uint32_t i = 0; i < section_count; ++i) {
     entries[i].kind = i + 1;
@@ -121,7 +128,7 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
     entries[i].size = sizes[i];
     at = align_up(at + sizes[i]);
   }
-  const size_t total = entries[kSectionKinds - 1].offset + entries[kSectionKinds - 1].size;
+  const size_t total = entries[kSectionKinds - 1].offset + entries[kSectionKinds - 1].size;  // the last section's end
   std::vector<uint8_t> out(total, 0);
 
   RuntimeConfig config = in.config;
@@ -134,6 +141,11 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
   }
   p = out.data() + entries[3].offset;
   for (const auto& t : in.tree_leaf_index) {
+    std::memcpy(p, t.data(), t.size() * sizeof(uint32_t));
+    p += t.size() * sizeof(uint32_t);
+  }
+  p = out.data() + entries[7].offset;
+  for (const auto& t : in.tree_left_child) {
     std::memcpy(p, t.data(), t.size() * sizeof(uint32_t));
     p += t.size() * sizeof(uint32_t);
   }
@@ -168,6 +180,58 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
   return out;
 }
 
+void append_heap_tree(BlobContents* c, const std::vector<TreeNode>& heap_nodes, const std::vector<uint32_t>& slot_leaf_index) {
+  const int depth = c->depth;
+  if (depth < 1 || depth > kMaxDepth) fail("tree depth " + std::to_string(depth) + " outside 1..20");
+  const size_t first_slot = nodes_per_heap(depth);
+  if (heap_nodes.size() != first_slot || slot_leaf_index.size() != leaves_per_tree(depth))
+    fail("a heap-order tree of depth " + std::to_string(depth) + " needs " + std::to_string(first_slot) + " nodes and " +
+         std::to_string(leaves_per_tree(depth)) + " leaf slots");
+  std::vector<TreeNode> nodes;
+  std::vector<uint32_t> leaf_index, left_child;
+  // Breadth-first over the heap: a queue of heap positions (≥ first_slot: a leaf slot) in the order
+  // their sparse indices are given, so the k-th split node's children get indices 2k, 2k + 1.
+  std::vector<uint64_t> queue{0};
+  for (size_t q = 0; q < queue.size(); ++q) {
+    const uint64_t h = queue[q];
+    const uint32_t m = uint32_t(q + 1);
+    if (h < first_slot && heap_nodes[h].threshold_mm != kPadThreshold) {
+      nodes.push_back(heap_nodes[h]);
+      leaf_index.push_back(0);
+      left_child.push_back(uint32_t(queue.size() + 1));
+      queue.push_back(2 * h + 1);
+      queue.push_back(2 * h + 2);
+      continue;
+    }
+    uint64_t slot = h;  // always left from a pad node: its leftmost slot
+    while (slot < first_slot) slot = 2 * slot + 1;
+    nodes.push_back(TreeNode{0, 0, 0, 0, kPadThreshold});
+    leaf_index.push_back(slot_leaf_index[slot - first_slot]);
+    left_child.push_back(m);
+  }
+  c->tree_nodes.push_back(std::move(nodes));
+  c->tree_leaf_index.push_back(std::move(leaf_index));
+  c->tree_left_child.push_back(std::move(left_child));
+}
+
+void add_dense_leaves(const ForestMeta& m, const uint32_t* offsets, const uint8_t* entries, const uint8_t* tags,
+                      BlobContents* c) {
+  const bool bpc = m.method == uint8_t(Method::kBpc);
+  const size_t per_leaf = size_t(max_entries_per_leaf(m));
+  if (bpc)
+    c->bpc_leaves.assign(size_t(m.leaf_count) * per_leaf, 0);
+  else
+    c->ojr_leaves.assign(size_t(m.leaf_count) * per_leaf, OjrVote{0, 0, 0, 0});
+  for (uint32_t l = 0; l < m.leaf_count; ++l)
+    for (uint32_t e = offsets[l]; e < offsets[l + 1]; ++e) {
+      const size_t at = size_t(l) * per_leaf + tags[e];
+      if (bpc)
+        std::memcpy(&c->bpc_leaves[at], entries + size_t(e) * sizeof(uint16_t), sizeof(uint16_t));
+      else
+        std::memcpy(&c->ojr_leaves[at], entries + size_t(e) * sizeof(OjrVote), sizeof(OjrVote));
+    }
+}
+
 BlobContents dense_contents(const LoadedBlob& b) {
   const ForestMeta& m = *b.meta;
   BlobContents c;
@@ -178,22 +242,12 @@ BlobContents dense_contents(const LoadedBlob& b) {
   for (int i = 0; i < m.joint_count; ++i) c.joint_names.emplace_back(m.joint_names[i], strnlen(m.joint_names[i], kNameBytes));
   c.votes_per_joint = c.method == Method::kOjr ? m.votes_per_joint : 0;
   for (int t = 0; t < b.tree_count(); ++t) {
-    c.tree_nodes.emplace_back(b.tree_nodes(t), b.tree_nodes(t) + nodes_per_tree(m.depth));
-    c.tree_leaf_index.emplace_back(b.tree_leaf_index(t), b.tree_leaf_index(t) + leaves_per_tree(m.depth));
+    const uint32_t n = b.tree_node_count(t);
+    c.tree_nodes.emplace_back(b.tree_nodes(t), b.tree_nodes(t) + n);
+    c.tree_leaf_index.emplace_back(b.tree_leaf_index(t), b.tree_leaf_index(t) + n);
+    c.tree_left_child.emplace_back(b.tree_left_child(t), b.tree_left_child(t) + n);
   }
-  const size_t per_leaf = size_t(max_entries_per_leaf(m));
-  if (c.method == Method::kBpc)
-    c.bpc_leaves.assign(size_t(m.leaf_count) * per_leaf, 0);
-  else
-    c.ojr_leaves.assign(size_t(m.leaf_count) * per_leaf, OjrVote{0, 0, 0, 0});
-  for (uint32_t l = 0; l < m.leaf_count; ++l)
-    for (uint32_t e = b.leaf_first(l); e < b.leaf_offsets[l + 1]; ++e) {
-      const size_t at = size_t(l) * per_leaf + b.entry_tags[e];
-      if (c.method == Method::kBpc)
-        c.bpc_leaves[at] = b.bpc_probabilities()[e];
-      else
-        c.ojr_leaves[at] = b.ojr_votes()[e];
-    }
+  add_dense_leaves(m, b.leaf_offsets, b.leaf_entries, b.entry_tags, &c);
   c.config = *b.config;
   c.max_width = m.max_width;
   c.max_height = m.max_height;

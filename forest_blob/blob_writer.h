@@ -21,9 +21,12 @@ struct BlobContents {
   std::vector<std::string> part_names;   // ≤ kMaxParts, each < kNameBytes
   std::vector<std::string> joint_names;  // ≤ kMaxJoints
   int votes_per_joint = 0;               // OJR K
-  // Per tree: nodes_per_tree(depth) nodes, leaves_per_tree(depth) leaf indices.
+  // Per tree, sparse (blob_format.h kNodes, kLeafIndex, kLeftChild): the nodes in breadth-first order,
+  // each node's leaf record (0 for a split node) and left child (itself for a leaf node); node m at
+  // [m − 1]. append_heap_tree builds them from a complete heap-order tree.
   std::vector<std::vector<TreeNode>> tree_nodes;
   std::vector<std::vector<uint32_t>> tree_leaf_index;
+  std::vector<std::vector<uint32_t>> tree_left_child;
   // Leaf table, dense: BPC: leaf_count × part_count Q15 probabilities; OJR: leaf_count × joints × K
   // votes (weight 0 = no vote).
   std::vector<uint16_t> bpc_leaves;
@@ -32,12 +35,25 @@ struct BlobContents {
   uint32_t max_width = 640, max_height = 480;  // arena_bytes is computed for this frame size
 };
 
+// Appends a tree given complete, in implicit heap order (v2's layout: nodes_per_heap(depth) nodes,
+// children of n at 2n+1, 2n+2; leaves_per_tree(depth) leaf slots, slot s = leaf of heap node
+// 2^depth − 1 + s) to c's trees in sparse form, without loss: a node with threshold kPadThreshold
+// always goes left, so it becomes a leaf node holding the record of the leftmost slot below it, and
+// its subtree is dropped. Every pixel reaches the same record as in the heap tree.
+void append_heap_tree(BlobContents* c, const std::vector<TreeNode>& heap_nodes, const std::vector<uint32_t>& slot_leaf_index);
+
 // Serializes, computing header, CRCs, max_abs_offset_pxm and arena_bytes.
 std::vector<uint8_t> write_blob(const BlobContents& contents);
 
 // The dense contents of a loaded blob (missing parts / votes as zeros): write_blob(dense_contents(b))
 // reproduces b's bytes.
 BlobContents dense_contents(const LoadedBlob& b);
+
+// Sets c's dense leaf table (bpc_leaves or ojr_leaves, by m.method) from compact leaves: m.leaf_count
+// records, offsets/entries/tags as blob_format.h kLeafOffsets/kLeafEntries/kEntryTags. The caller
+// has checked offsets (non-decreasing, ending at m.entry_count) and tags (< max_entries_per_leaf(m)).
+void add_dense_leaves(const ForestMeta& m, const uint32_t* offsets, const uint8_t* entries, const uint8_t* tags,
+                      BlobContents* c);
 
 // A RuntimeConfig with the documented defaults (docs/blob_format.md) for `joint_count` joints.
 RuntimeConfig default_runtime_config(int joint_count);

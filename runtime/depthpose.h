@@ -25,6 +25,10 @@
 
 namespace dp {
 
+namespace kernels {
+struct SplitNode;  // runtime/kernels/forest_kernel.h
+}  // namespace kernels
+
 enum class Status : int32_t {
   kOk = 0,
   kBadArgument,        // null pointer, non-positive size, stride < width, bad intrinsics
@@ -136,10 +140,10 @@ struct EvaluatedPixel {
 };
 
 // Bytes init() needs for frames up to max_width × max_height (0 when the arguments are invalid),
-// including the optional copies: a split copy of every node, 10 bytes each (kernels::SplitTree: the
-// SIMD forest kernels are ~10 % faster on it than on the blob's nodes; shipped BPC: 2.0 MB, PCL's
-// depth-20 trees: 31.5 MB) and, for OJR, the live-vote copy (ojr_votes.h: 4 bytes per leaf record and
-// 9 per stored vote; shipped OJR: 5.5 MB), which the fast vote caster reads instead of every stored vote.
+// including the optional copies: a split copy of every stored node, 16 bytes each (kernels::SplitNode:
+// the SIMD forest kernels read one line per visit from it; shipped BPC: 2.5 MB) and, for OJR, the
+// live-vote copy (ojr_votes.h: 4 bytes per leaf record and 9 per stored vote; shipped OJR: 5.5 MB),
+// which the fast vote caster reads instead of every stored vote.
 size_t required_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height);
 // The least init() accepts: the same without the optional copies (the kernels then read the blob's
 // nodes and votes in place; results are identical).
@@ -209,7 +213,7 @@ class Pipeline {
   void part_distribution(int32_t pixel_index, uint16_t* probability_q15) const;
 
   size_t arena_used_bytes() const { return s_.arena_used; }
-  bool uses_split_nodes() const { return s_.split_offsets != nullptr; }
+  bool uses_split_nodes() const { return s_.split_nodes != nullptr; }
   const blob::LoadedBlob& blob() const { return s_.blob; }
 
  private:
@@ -235,8 +239,7 @@ class Pipeline {
     uint64_t* cell_keys = nullptr;       //   [kCellSlots]
     int32_t* cell_ids = nullptr;         //   [kCellSlots]
     // persistent (arena tail)
-    uint64_t* split_offsets = nullptr;   // split copy of the nodes (kernels::SplitTree), or nullptr
-    int16_t* split_thresholds = nullptr;
+    kernels::SplitNode* split_nodes = nullptr;  // split copy of the nodes (kernels::SplitNode), or nullptr
     uint16_t* joint_mass = nullptr;      // BPC joint-mass table (bpc_votes.h), or nullptr
     uint32_t* ojr_live_offsets = nullptr;  // OJR live-vote copy (ojr_votes.h), or nullptr
     blob::OjrVote* ojr_live_votes = nullptr;

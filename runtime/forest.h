@@ -10,16 +10,16 @@
 
 namespace dp {
 
-// The split node copy the SIMD kernels read fastest (kernels::SplitTree), made once at init:
-// tree_count · nodes_per_tree(depth) entries in each array.
-void copy_split_nodes(const blob::LoadedBlob& blob, uint64_t* offsets, int16_t* thresholds_mm);
+// The split node copy the SIMD kernels read fastest (kernels::SplitNode), made once at init:
+// blob.total_nodes nodes, in the blob's node order (tree t from blob.tree_first[t]).
+void copy_split_nodes(const blob::LoadedBlob& blob, kernels::SplitNode* nodes);
 
 // Leaves of `count` (≥ 1) pixels in every tree: tree t's leaf for pixel i at leaves[t · leaf_stride + i].
-// probe_image: the frame's padded probe image (stage 1); split_offsets/split_thresholds: the init
-// copy or nullptr (the kernels then read the blob's nodes). focal_px: the frame's focal length
+// probe_image: the frame's padded probe image (stage 1); split_nodes: the init copy or nullptr (the
+// kernels then read the blob's nodes). focal_px: the frame's focal length
 // (finite, > 0), scaled to the blob's reference focal length by focal_factor_mm.
-void evaluate_forest(kernels::ForestTreesKernelFn kernel, const blob::LoadedBlob& blob, const uint64_t* split_offsets,
-                     const int16_t* split_thresholds, const uint16_t* probe_image, int32_t width, int32_t height,
+void evaluate_forest(kernels::ForestTreesKernelFn kernel, const blob::LoadedBlob& blob,
+                     const kernels::SplitNode* split_nodes, const uint16_t* probe_image, int32_t width, int32_t height,
                      float focal_px, const EvaluatedPixel* pixels, int32_t count, uint32_t* leaves,
                      int32_t leaf_stride);
 

@@ -55,24 +55,24 @@ struct Layout {
   uint32_t* select_keys;
   uint16_t* guess_hist;
   blob::RuntimeConfig* config;
-  uint64_t* split_offsets;
-  int16_t* split_thresholds;
+  kernels::SplitNode* split_nodes;
   uint16_t* joint_mass;
   uint32_t* ojr_live_offsets;
   blob::OjrVote* ojr_live_votes;
   uint8_t* ojr_live_lanes;
 };
 
-// The SIMD kernels read split nodes (kernels::SplitTree: offsets and thresholds in two arrays) with
-// the fewest ops per visit of the layouts measured (docs/runtime_speed.md, the layout study), for an
-// arena copy of 10 bytes per node (shipped BPC: 2.0 MB; PCL's depth-20 trees: 31.5 MB). Without
-// it (a minimum arena) they read the blob's 10-byte nodes in place. The OJR live-vote copy
-// (ojr_votes.h) is the other optional copy: without it the fast caster scans the blob's votes.
+// The SIMD kernels read split nodes (kernels::SplitNode: offsets, left child and threshold in one
+// 16-byte node, one cache line per visit) with the fewest ops per visit of the layouts measured
+// (docs/runtime_speed.md, the layout study), for an arena copy of 16 bytes per stored node
+// (blob_format.h kNodes: the blob's real nodes, leaf nodes included; shipped BPC: 2.5 MB). Without it
+// (a minimum arena) they read the blob's 10-byte nodes and its left children in place. The OJR
+// live-vote copy (ojr_votes.h) is the other optional copy: without it the fast caster scans the
+// blob's votes.
 bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, bool split, Layout* l) {
   l->config = c.tail<blob::RuntimeConfig>(1);
-  const size_t nodes = size_t(b.tree_count()) * blob::nodes_per_tree(b.depth());
-  l->split_offsets = split ? c.tail<uint64_t>(nodes) : nullptr;
-  l->split_thresholds = split ? c.tail<int16_t>(nodes) : nullptr;
+  const size_t nodes = b.total_nodes;
+  l->split_nodes = split ? c.tail<kernels::SplitNode>(nodes) : nullptr;
   l->joint_mass = use_joint_mass(b) ? c.tail<uint16_t>(size_t(b.meta->leaf_count) * blob::kMaxJoints) : nullptr;
   const bool live = split && use_ojr_live_votes(b);
   l->ojr_live_offsets = live ? c.tail<uint32_t>(size_t(b.meta->leaf_count) + 1) : nullptr;
@@ -170,15 +170,14 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
   s.cell_ids = l.cell_ids;
   s.config = l.config;
   *s.config = *blob.config;
-  s.split_offsets = l.split_offsets;
-  s.split_thresholds = l.split_thresholds;
+  s.split_nodes = l.split_nodes;
   s.joint_mass = l.joint_mass;
   if (s.joint_mass) build_joint_mass(blob, *s.config, s.joint_mass);
   s.ojr_live_offsets = l.ojr_live_offsets;
   s.ojr_live_votes = l.ojr_live_votes;
   s.ojr_live_lanes = l.ojr_live_lanes;
   if (s.ojr_live_offsets) build_ojr_live_votes(blob, *s.config, s.ojr_live_offsets, s.ojr_live_votes, s.ojr_live_lanes);
-  if (s.split_offsets) copy_split_nodes(blob, s.split_offsets, s.split_thresholds);
+  if (s.split_nodes) copy_split_nodes(blob, s.split_nodes);
   s.initialized = true;
   s_ = s;
   set_kernel(KernelIsa::kBest);
@@ -281,7 +280,7 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   }
 
   // Stage 2: the forest.
-  evaluate_forest(k.forest, s_.blob, s_.split_offsets, s_.split_thresholds, s_.probe_image, f.width, f.height,
+  evaluate_forest(k.forest, s_.blob, s_.split_nodes, s_.probe_image, f.width, f.height,
                   0.5f * (f.intrinsics.fx + f.intrinsics.fy), s_.pixels, n, s_.leaves, s_.max_pixels);
   const uint64_t t2 = cycle_count();
   r->stage_cycles[kStageForest] = t2 - t1;

@@ -130,7 +130,10 @@ TEST(ConvertForest, BpcLeavesMatchTheTrainedForestExactly) {
   int deepest = 0;
   for (const auto& t : f.trees) deepest = std::max(deepest, t.max_leaf_level());
   EXPECT_EQ(b.depth(), deepest);
-  EXPECT_GT(rep.padded_nodes, 0u);
+  size_t nodes = 0;
+  for (const auto& t : f.trees) nodes += t.nodes.size();
+  EXPECT_EQ(b.total_nodes, nodes) << "the blob stores the trained nodes, nothing padded";
+  EXPECT_GT(rep.leaf_nodes, 0u);
   // Leaves: every pixel of every sample frame, both runtime kernels, at two focal lengths.
   const auto frames = tools::sample_frames(160, 120, 6);
   for (float focal : {262.5f * 160 / 320, 300.0f}) {
@@ -160,19 +163,24 @@ TEST(ConvertForest, BpcLeavesMatchTheTrainedForestExactly) {
   EXPECT_EQ(b.config->joints[15].part_mask, 1u << 30);     // foot_r
 }
 
-TEST(ConvertForest, PaddingSendsEarlyLeavesToTheirRecord) {
+TEST(ConvertForest, TrainedNodesBecomeBreadthFirstSparseNodes) {
   const train::TrainedForest f = random_trained_forest(2, "bpc", 1, 7, 0.5);
   const blob::BlobContents c = tools::convert_forest(f, {}, "test", nullptr);
-  const int depth = c.depth;
-  for (const train::TrainedNode& n : f.trees[0].nodes) {
-    if (!n.is_leaf()) {
-      EXPECT_EQ(c.tree_nodes[0][n.heap_index].threshold_mm, int16_t(n.threshold_mm));
+  const auto& trained = f.trees[0].nodes;
+  ASSERT_EQ(c.tree_nodes[0].size(), trained.size()) << "pad-free: one blob node per trained node";
+  for (size_t i = 0; i < trained.size(); ++i) {
+    const train::TrainedNode& n = trained[i];
+    const uint32_t m = uint32_t(i + 1), left = c.tree_left_child[0][i];
+    if (n.is_leaf()) {
+      EXPECT_EQ(left, m) << "a leaf node points to itself";
+      EXPECT_EQ(c.tree_nodes[0][i].threshold_mm, blob::kPadThreshold);
+      EXPECT_EQ(c.tree_leaf_index[0][i], uint32_t(n.leaf));
       continue;
     }
-    EXPECT_EQ(c.tree_leaf_index[0][train::padded_leaf_slot(n.heap_index, depth)], uint32_t(n.leaf));
-    // Padded descendants go left always.
-    for (uint32_t h = 2 * n.heap_index + 1; h < blob::nodes_per_tree(depth); h = 2 * h + 1)
-      EXPECT_EQ(c.tree_nodes[0][h].threshold_mm, blob::kPadThreshold);
+    EXPECT_EQ(c.tree_nodes[0][i].threshold_mm, int16_t(n.threshold_mm));
+    ASSERT_LT(left, trained.size());
+    EXPECT_EQ(trained[left - 1].heap_index, 2 * n.heap_index + 1) << "left child of heap node " << n.heap_index;
+    EXPECT_EQ(trained[left].heap_index, 2 * n.heap_index + 2);
   }
 }
 
@@ -256,7 +264,8 @@ TEST(ConvertPcl, ReadsTheTreeFormatAndWritesABlob) {
   EXPECT_EQ(b.tree_count(), 2);
   // Labels used: 3, 10, 19, 24 → records 0..3, one-hot on their part.
   EXPECT_EQ(b.meta->leaf_count, 4u);
-  EXPECT_EQ(b.tree_leaf_index(1)[3], 3u);
+  ASSERT_EQ(b.tree_node_count(1), 7u);               // 3 split nodes, then the 4 leaf slots as nodes 4..7
+  EXPECT_EQ(b.tree_leaf_index(1)[6], 3u);            // slot 3 (label 24) = node 7
   for (uint32_t record : {0u, 3u}) {
     ASSERT_EQ(b.leaf_size(record), 1u) << "a one-hot record stores one entry";
     EXPECT_EQ(b.bpc_probabilities()[b.leaf_first(record)], 32768);

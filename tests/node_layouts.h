@@ -18,36 +18,33 @@ struct TreeCopies {
   platform::ArenaMemory memory;
   kernels::PackedNode* packed = nullptr;
   kernels::WideNode* wide = nullptr;
-  uint64_t* offsets = nullptr;
-  int16_t* thresholds = nullptr;
+  kernels::SplitNode* split_nodes = nullptr;
   std::vector<kernels::SplitTree> split;
   explicit TreeCopies(const blob::LoadedBlob& blob) : b(blob) {
-    const size_t per_tree = blob::nodes_per_tree(b.depth());
-    const size_t nodes = size_t(b.tree_count()) * per_tree;
-    const size_t bytes = nodes * (sizeof(kernels::WideNode) + sizeof(kernels::PackedNode) + sizeof(uint64_t) + sizeof(int16_t));
+    const size_t nodes = b.total_nodes;
+    const size_t bytes = nodes * (sizeof(kernels::WideNode) + sizeof(kernels::SplitNode) + sizeof(kernels::PackedNode));
     memory = platform::ArenaMemory(bytes);
     wide = reinterpret_cast<kernels::WideNode*>(memory.data());                // 16-byte aligned first
-    packed = reinterpret_cast<kernels::PackedNode*>(wide + nodes);
-    offsets = reinterpret_cast<uint64_t*>(packed + nodes);
-    thresholds = reinterpret_cast<int16_t*>(offsets + nodes);
+    split_nodes = reinterpret_cast<kernels::SplitNode*>(wide + nodes);
+    packed = reinterpret_cast<kernels::PackedNode*>(split_nodes + nodes);
     for (size_t i = 0; i < nodes; ++i) {
       const blob::TreeNode& n = b.nodes[i];
       packed[i] = kernels::pack_node(n);
       wide[i] = kernels::WideNode{n.du1, n.dv1, n.du2, n.dv2, n.threshold_mm, {7, 7, 7}};
-      offsets[i] = kernels::split_offsets_of(n);
-      thresholds[i] = n.threshold_mm;
+      split_nodes[i] = kernels::split_node_of(n, b.left_child[i]);
     }
     for (int t = 0; t < b.tree_count(); ++t)
-      split.push_back(kernels::SplitTree{offsets + t * per_tree, thresholds + t * per_tree});
+      split.push_back(kernels::SplitTree{split_nodes + b.tree_first[t]});
   }
   kernels::ForestKernelArgs args(int t, kernels::NodeLayout layout, const uint16_t* probe, int32_t width,
                                  int32_t height, int32_t focal, const EvaluatedPixel* pixels, int32_t n,
                                  uint32_t* out) const {
-    const size_t first = size_t(t) * blob::nodes_per_tree(b.depth());
+    const size_t first = b.tree_first[t];
     using L = kernels::NodeLayout;
     return kernels::ForestKernelArgs{probe, width + 2, width, height, focal, pixels, n, b.tree_nodes(t),
-                                     layout == L::kPacked8 ? packed + first : nullptr, b.tree_leaf_index(t),
-                                     b.depth(), out, layout == L::kSplit ? &split[size_t(t)] : nullptr,
+                                     layout == L::kPacked8 ? packed + first : nullptr, b.tree_left_child(t),
+                                     b.tree_leaf_index(t), b.depth(), b.tree_node_count(t), out,
+                                     layout == L::kSplit ? &split[size_t(t)] : nullptr,
                                      layout == L::kWide16 ? wide + first : nullptr};
   }
 };

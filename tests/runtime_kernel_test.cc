@@ -4,6 +4,8 @@
 // PCL's trees. The same file runs on both architectures (natively, and under qemu-aarch64).
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
@@ -346,8 +348,10 @@ TEST(KernelExactness, ExtremeThresholdsAndDepths) {
   const int16_t extremes[] = {-32768, -32767, -32766, -16384, -1, 0, 1, 16384, 32765, 32766, 32767};
   std::uniform_int_distribution<int> pick(0, int(sizeof extremes / sizeof extremes[0]) - 1), any(-32768, 32767),
       coin(0, 3);
-  for (auto& tree : c.tree_nodes)
-    for (blob::TreeNode& n : tree) n.threshold_mm = coin(rng) ? extremes[pick(rng)] : int16_t(any(rng));
+  for (size_t t = 0; t < c.tree_nodes.size(); ++t)
+    for (size_t m = 1; m <= c.tree_nodes[t].size(); ++m)
+      if (c.tree_left_child[t][m - 1] != m)  // split nodes (a leaf node keeps its pad threshold)
+        c.tree_nodes[t][m - 1].threshold_mm = coin(rng) ? extremes[pick(rng)] : int16_t(any(rng));
   const std::vector<uint8_t> bytes = blob::write_blob(c);
   blob::LoadedBlob b;
   ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
@@ -378,9 +382,9 @@ TEST(KernelExactness, ExtremeThresholdsAndDepths) {
     for (int32_t i = 0; i < n; i += 97) {
       const EvaluatedPixel p = pixels[size_t(i)];
       const int32_t s = scale_q13(focal_factor_mm(525.0f, 525.0f), p.z_mm);
-      uint32_t node = 0;
+      uint32_t node = 1;  // 1-based
       for (int level = 0; level < b.depth(); ++level) {
-        const blob::TreeNode& nd = b.tree_nodes(t)[node];
+        const blob::TreeNode& nd = b.tree_nodes(t)[node - 1];
         auto depth_at = [&](int32_t u, int32_t v) -> int32_t {
           if (u < 0 || v < 0 || u >= f.width || v >= f.height) return kBackgroundDepthMm;
           const uint16_t z = f.depth_mm[size_t(v) * f.width + u];
@@ -388,10 +392,60 @@ TEST(KernelExactness, ExtremeThresholdsAndDepths) {
         };
         const int32_t d1 = depth_at(p.u + probe_offset_px(nd.du1, s), p.v + probe_offset_px(nd.dv1, s));
         const int32_t d2 = depth_at(p.u + probe_offset_px(nd.du2, s), p.v + probe_offset_px(nd.dv2, s));
-        node = 2 * node + 1 + (d1 - d2 > nd.threshold_mm ? 1u : 0u);
+        node = b.tree_left_child(t)[node - 1] + (d1 - d2 > nd.threshold_mm ? 1u : 0u);
       }
-      EXPECT_EQ(ref[size_t(t)][size_t(i)], b.tree_leaf_index(t)[node - ((1u << b.depth()) - 1)]) << "pixel " << i;
+      ASSERT_EQ(b.tree_left_child(t)[node - 1], node) << "a walk of depth steps ends on a leaf node";
+      EXPECT_EQ(ref[size_t(t)][size_t(i)], b.tree_leaf_index(t)[node - 1]) << "pixel " << i;
     }
+  for (KernelIsa isa : kSimdIsas)
+    for (kernels::NodeLayout layout : kLayouts) {
+      if (!kernel_isa_supported(isa)) continue;
+      EXPECT_EQ(run(isa, layout), ref) << kernel_isa_name(isa) << " " << layout_name(layout);
+    }
+}
+
+TEST(KernelExactness, DeepUnbalancedSparseTrees) {
+  // Depth-20 sparse trees, unbalanced (a spine to level 20, other nodes split at 85 %), in every
+  // kernel and layout: leaves reached above level 20 stay on their leaf node.
+  const blob::BlobContents c = tools::random_sparse_bpc_forest(23, 3, 20, 8, 600, 300, 850, 40000);
+  const std::vector<uint8_t> bytes = blob::write_blob(c);
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+  ASSERT_EQ(b.depth(), 20);
+  const SyntheticFrame f = noisy_frame(24, 160, 120);
+  std::vector<uint16_t> probe;
+  std::vector<EvaluatedPixel> pixels;
+  kernel_input(f, &probe, &pixels);
+  ASSERT_GT(pixels.size(), 2u * 2048u);
+  const TreeCopies copies(b);
+  const int32_t n = int32_t(pixels.size());
+  auto run = [&](KernelIsa isa, kernels::NodeLayout layout) {
+    std::vector<std::vector<uint32_t>> out(3, std::vector<uint32_t>(pixels.size(), 0xFFFFFFFFu));
+    kernels::ForestKernelArgs a[3];
+    for (int t = 0; t < 3; ++t)
+      a[t] = copies.args(t, layout, probe.data(), f.width, f.height, focal_factor_mm(400.0f, 525.0f), pixels.data(), n,
+                         out[size_t(t)].data());
+    run_trees(isa, layout, a, 3);
+    return out;
+  };
+  const auto ref = run(KernelIsa::kScalar, kernels::NodeLayout::kBlob10);
+  // Leaf levels (breadth-first: a child's level is its parent's + 1): the pixels must reach many
+  // leaves, some at the bottom and some above it.
+  std::vector<int> level(b.tree_node_count(0) + 1, 0);
+  for (uint32_t m = 1; m <= b.tree_node_count(0); ++m)
+    if (b.tree_left_child(0)[m - 1] != m) level[b.tree_left_child(0)[m - 1]] = level[b.tree_left_child(0)[m - 1] + 1] = level[m] + 1;
+  std::vector<uint32_t> record_node(b.meta->leaf_count, 0);
+  for (uint32_t m = 1; m <= b.tree_node_count(0); ++m)
+    if (b.tree_left_child(0)[m - 1] == m) record_node[b.tree_leaf_index(0)[m - 1]] = m;
+  std::set<uint32_t> distinct(ref[0].begin(), ref[0].end());
+  int deepest = 0, shallowest = 99;
+  for (uint32_t r : distinct) {
+    deepest = std::max(deepest, level[record_node[r]]);
+    shallowest = std::min(shallowest, level[record_node[r]]);
+  }
+  EXPECT_GT(distinct.size(), 50u) << "the pixels must spread over many leaves for the comparison to mean much";
+  EXPECT_GE(deepest, 14);
+  EXPECT_LT(shallowest, 14);
   for (KernelIsa isa : kSimdIsas)
     for (kernels::NodeLayout layout : kLayouts) {
       if (!kernel_isa_supported(isa)) continue;

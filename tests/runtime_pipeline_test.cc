@@ -173,9 +173,9 @@ TEST(Pipeline, MinimumArenaSkipsTheSplitCopyWithIdenticalResults) {
   Loaded split(c, 160, 120);
   ASSERT_TRUE(split.pipeline.uses_split_nodes());
   const size_t minimum = minimum_arena_bytes(split.view, 160, 120);
-  const size_t copy = size_t(3) * blob::nodes_per_tree(12) * 10;
+  const size_t copy = split.view.total_nodes * 16;
   EXPECT_GE(split.arena_bytes - minimum, copy);
-  EXPECT_LT(split.arena_bytes - minimum, copy + 128);  // the two arrays and their alignment, nothing else
+  EXPECT_LT(split.arena_bytes - minimum, copy + 128);  // the split nodes and their alignment, nothing else
   std::unique_ptr<uint8_t, decltype(&std::free)> small(static_cast<uint8_t*>(std::aligned_alloc(64, (minimum + 63) / 64 * 64)),
                                                        &std::free);
   Pipeline in_place;
@@ -240,8 +240,10 @@ TEST(Pipeline, ForestFollowsTheFeatureRule) {
   // A depth-1 tree splitting on a unary feature: probe 40 px·m to the right; a pixel whose probe
   // leaves the disc reads background (far) → feature > threshold → right leaf (part 1).
   blob::BlobContents c = tools::single_part_bpc(2, 0, 1, 0);
-  c.tree_nodes[0][0] = blob::TreeNode{40, 0, 0, 0, 100};
-  c.tree_leaf_index[0] = {0, 1};
+  const blob::TreeNode leaf{0, 0, 0, 0, blob::kPadThreshold};
+  c.tree_nodes[0] = {blob::TreeNode{40, 0, 0, 0, 100}, leaf, leaf};  // root split, leaf nodes 2 and 3
+  c.tree_left_child[0] = {2, 2, 3};
+  c.tree_leaf_index[0] = {0, 0, 1};
   c.bpc_leaves = {32768, 0, 0, 32768};
   Loaded L(c);
   SyntheticFrame f = tools::make_disc_frame(320, 240, 160.0f, 120.0f, 20.0f, 1000);

@@ -14,8 +14,9 @@
 //   address       (v + 1)·stride + (u + 1) by a widening multiply-add, stride ≤ 4098.
 //   child         f > t  ⇔  t + p2 < p1 ⇔  t + e2 <u e1 for the biased elements e = p + kProbeBias
 //                 (forest_kernel.h): t ≥ −32768 keeps t + e2 ≥ 0, so the unsigned compare is exact and
-//                 its carry is the child bit. Node indices are 1-based in the kernels (root 1, children
-//                 of m at 2m and 2m + 1; node m is array element m − 1), so child = 2m + carry.
+//                 its carry is the child bit. Node indices are 1-based (root 1; node m is array element
+//                 m − 1, blob_format.h kNodes), so child = left_child[m − 1] + carry; a leaf node's left
+//                 child is itself and its pad threshold never sets the carry.
 // Speed (docs/runtime_speed.md): pixels are evaluated breadth-first, one tree level at a time over
 // a chunk of pixels, so the visits of a level are independent and overlap in the core; on the deep
 // levels (prefetch_from_level), a pixel's next node is prefetched as soon as the visit has chosen
@@ -39,11 +40,17 @@ constexpr int32_t kChunkPixels = 2048;
 // sweep) to the next: from the first level at which the nodes of all trees down to that level exceed
 // kCachedNodeBytes (a quarter of the Intel host's 2 MB L2, half of Zen 4's 1 MB). Above it a prefetch is an op
 // per visit for a line that is already cached: prefetching from level 6 instead measured 4–6 %
-// slower on the PCL trees (level 14 by this rule; levels 12–15 all measured alike).
+// slower on the PCL trees (level 14 by this rule; levels 12–15 all measured alike). The nodes down
+// to level L are at most min(2^(L+1) − 1, node_count) per tree (node_count: the tree's real count),
+// so a forest that fits the budget whole is never prefetched.
 constexpr size_t kCachedNodeBytes = size_t(512) << 10;
-inline int32_t prefetch_from_level(int32_t tree_count, int32_t node_bytes) {
+inline int32_t prefetch_from_level(int32_t tree_count, int32_t node_bytes, uint32_t node_count) {
   int32_t level = 0;
-  while (level < 30 && size_t(tree_count) * size_t(node_bytes) * ((size_t(2) << level) - 1) <= kCachedNodeBytes) ++level;
+  auto nodes_down_to = [&](int32_t l) {
+    const size_t full = (size_t(2) << l) - 1;
+    return full < node_count ? full : size_t(node_count);
+  };
+  while (level < 30 && size_t(tree_count) * size_t(node_bytes) * nodes_down_to(level) <= kCachedNodeBytes) ++level;
   return level;
 }
 
@@ -60,36 +67,44 @@ inline int32_t scale_q13_of(int32_t focal_factor, int32_t z_mm) {  // = dp::scal
   return s < 32767 ? s : 32767;
 }
 
-// Where a kernel reads node n (policies; the level loops are templates over them): its four offsets
-// as 4 int16 lanes of 64 bits (`bits`: δ, or 4·δ when kOffsetsTimesFour), its threshold (`threshold`;
+// Where a kernel reads node m (policies; the level loops are templates over them): its four offsets
+// as 4 int16 lanes of 64 bits (`bits`: δ, or 4·δ when kOffsetsTimesFour), its left child
+// (`left_child`: the blob's kLeftChild, or the split node's copy), its threshold (`threshold`;
 // when kThresholdInLanes, the low nibbles of the lanes carry it, kernels::pack_node's layout, `bits`
 // holds δ·16 above them, and a kernel may decode the threshold in lanes instead), and the prefetch
-// of its line(s).
+// of its line(s) (the left child's included).
 // An array of node structs with fields du1, dv1, du2, dv2, threshold_mm (offsets first: the 8-byte
 // load is unaligned for the blob's 10-byte nodes), taken from ForestKernelArgs::*kNodes.
 template <class Node, const Node* ForestKernelArgs::*kNodes>
 struct ArrayNodes {
   static constexpr bool kThresholdInLanes = false;
   static constexpr bool kOffsetsTimesFour = false;
-  static constexpr int32_t kBytes = sizeof(Node);
+  static constexpr int32_t kBytes = sizeof(Node) + sizeof(uint32_t);  // and the left child
   const Node* nodes;
-  explicit ArrayNodes(const ForestKernelArgs& a) : nodes(a.*kNodes) {}
+  explicit ArrayNodes(const ForestKernelArgs& a) : nodes(a.*kNodes), left(a.left_child) {}
   long long bits(uint32_t m) const {
     long long b;
     memcpy(&b, nodes + (size_t(m) - 1), sizeof b);
     return b;
   }
   int32_t threshold(uint32_t m) const { return nodes[size_t(m) - 1].threshold_mm; }
-  void prefetch(uint32_t m) const { __builtin_prefetch(nodes + (size_t(m) - 1), 0, 3); }
+  uint32_t left_child(uint32_t m) const { return left[size_t(m) - 1]; }
+  void prefetch(uint32_t m) const {
+    __builtin_prefetch(nodes + (size_t(m) - 1), 0, 3);
+    __builtin_prefetch(left + (size_t(m) - 1), 0, 3);
+  }
+  const uint32_t* left;
 };
 using BlobNodes = ArrayNodes<blob::TreeNode, &ForestKernelArgs::nodes>;  // the blob's 10-byte nodes
 using WideNodes = ArrayNodes<WideNode, &ForestKernelArgs::study_nodes>;  // layout study: 16-byte nodes
 struct PackedNodes {  // layout study: 8-byte nodes
   static constexpr bool kThresholdInLanes = true;
   static constexpr bool kOffsetsTimesFour = false;
-  static constexpr int32_t kBytes = sizeof(PackedNode);
+  static constexpr int32_t kBytes = sizeof(PackedNode) + sizeof(uint32_t);  // and the left child
   const PackedNode* nodes;
-  explicit PackedNodes(const ForestKernelArgs& a) : nodes(a.packed_nodes) {}
+  const uint32_t* left;
+  explicit PackedNodes(const ForestKernelArgs& a) : nodes(a.packed_nodes), left(a.left_child) {}
+  uint32_t left_child(uint32_t m) const { return left[size_t(m) - 1]; }
   long long bits(uint32_t m) const { return static_cast<long long>(nodes[size_t(m) - 1].bits); }
   // The lanes' low nibbles joined (kernels::pack_node); the AVX-512 kernel decodes them in lanes instead.
   int32_t threshold(uint32_t m) const {
@@ -100,25 +115,26 @@ struct PackedNodes {  // layout study: 8-byte nodes
     return int16_t(uint16_t((b & 15u) | ((b >> 12) & 0xF0u) | ((b >> 24) & 0xF00u) | ((b >> 36) & 0xF000u)));
 #endif
   }
-  void prefetch(uint32_t m) const { __builtin_prefetch(nodes + (size_t(m) - 1), 0, 3); }
+  void prefetch(uint32_t m) const {
+    __builtin_prefetch(nodes + (size_t(m) - 1), 0, 3);
+    __builtin_prefetch(left + (size_t(m) - 1), 0, 3);
+  }
 };
-struct SplitNodes {  // what the pipeline evaluates: offsets (4·δ) and thresholds in two arrays
+struct SplitNodes {  // what the pipeline evaluates: 16-byte nodes, offsets (4·δ), left child, threshold
   static constexpr bool kThresholdInLanes = false;
   static constexpr bool kOffsetsTimesFour = true;
-  static constexpr int32_t kBytes = sizeof(uint64_t) + sizeof(int16_t);
-  const uint64_t* offsets;
-  const int16_t* thresholds;
-  explicit SplitNodes(const ForestKernelArgs& a) : offsets(a.split->offsets), thresholds(a.split->thresholds_mm) {}
-  long long bits(uint32_t m) const { return static_cast<long long>(offsets[size_t(m) - 1]); }
-  int32_t threshold(uint32_t m) const { return thresholds[size_t(m) - 1]; }
-  void prefetch(uint32_t m) const {
-    __builtin_prefetch(offsets + (size_t(m) - 1), 0, 3);
-    __builtin_prefetch(thresholds + (size_t(m) - 1), 0, 3);
-  }
+  static constexpr int32_t kBytes = sizeof(SplitNode);
+  const SplitNode* nodes;
+  explicit SplitNodes(const ForestKernelArgs& a) : nodes(a.split->nodes) {}
+  long long bits(uint32_t m) const { return static_cast<long long>(nodes[size_t(m) - 1].offsets); }
+  int32_t threshold(uint32_t m) const { return nodes[size_t(m) - 1].threshold_mm; }
+  uint32_t left_child(uint32_t m) const { return nodes[size_t(m) - 1].left_child; }
+  void prefetch(uint32_t m) const { __builtin_prefetch(nodes + (size_t(m) - 1), 0, 3); }
 };
 
 // One level of one tree over a chunk whose setups are filled for `padded` pixels: node[i] holds each
-// pixel's node index (1-based) and becomes its child's; when kPrefetchChildren, each child's node is prefetched.
+// pixel's node index (1-based) and becomes its child's; when kPrefetchChildren, each child's node and
+// left-child entry are prefetched.
 using LevelFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t padded);
 
 // All levels of one tree (of a forest of tree_count trees whose nodes take kNodeBytes) over a
@@ -126,7 +142,7 @@ using LevelFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uin
 template <LevelFn kLevel, LevelFn kLevelPrefetchingChildren, int32_t kNodeBytes>
 void evaluate_chunk_by_levels(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,
                               int32_t count, int32_t padded, int32_t tree_count) {
-  const int32_t prefetch_from = prefetch_from_level(tree_count, kNodeBytes);
+  const int32_t prefetch_from = prefetch_from_level(tree_count, kNodeBytes, a.node_count);
   for (int32_t i = 0; i < padded; ++i) node[i] = 1;  // the root, 1-based
   for (int32_t level = 0; level < a.depth; ++level) {
     if (level + 1 >= prefetch_from && level + 1 < a.depth)
@@ -134,8 +150,7 @@ void evaluate_chunk_by_levels(const ForestKernelArgs& a, const ChunkSetup& setup
     else
       kLevel(a, setup, node, padded);
   }
-  const uint32_t first_leaf = 1u << a.depth;  // 1-based
-  for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - first_leaf];
+  for (int32_t i = 0; i < count; ++i) a.leaf_out[base + i] = a.leaf_index[node[i] - 1];
 }
 
 using ChunkFn = void (*)(const ForestKernelArgs& a, const ChunkSetup& setup, uint32_t* node, int32_t base,

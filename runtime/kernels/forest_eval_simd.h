@@ -12,7 +12,7 @@ namespace {
 
 // The scalar end of a visit, after the vector step made its two probe addresses (`addresses`: probe 1
 // in the low 32 bits, probe 2 in the high): the two probe loads, the child bit (the carry of
-// t + e2 <u e1, above) and node[i]'s child (1-based: 2m + bit), prefetched when asked.
+// t + e2 <u e1, above) and node[i]'s child (1-based: left_child[m − 1] + bit), prefetched when asked.
 // `m` is node[i] as the caller holds it: the AVX2 kernel hands it over as uint32_t, the AVX-512 one as
 // the 64-bit index it addressed the node with (each measured faster for its own kernel).
 template <bool kPrefetchChildren, class Nodes, class Index>
@@ -22,9 +22,10 @@ inline void finish_visit(const ForestKernelArgs& a, const Nodes& nodes, uint32_t
   // Two ops (mov r32 zero-extends; shr): GCC otherwise spends three on separating the pair.
   asm("movl %k1, %k0\n\tshrq $32, %1" : "=r"(probe1), "+r"(probe2));
   const uint32_t lhs = uint32_t(threshold) + a.probe_image[probe2], rhs = a.probe_image[probe1];
-  Index child = m;
-  // GCC makes the bit with setb and joins it with lea (three ops and a zeroing); adc does both in one.
-  asm("cmpl %2, %1\n\tadcl %k0, %k0" : "+r"(child) : "r"(lhs), "r"(rhs) : "cc");
+  // The left child's load depends on m only, so it overlaps the probe loads rather than lengthening the chain.
+  Index child = nodes.left_child(uint32_t(m));
+  // GCC makes the bit with setb and adds it (two ops and a zeroing); adc does both in one.
+  asm("cmpl %2, %1\n\tadcl $0, %k0" : "+r"(child) : "r"(lhs), "r"(rhs) : "cc");
   node[i] = uint32_t(child);
   if constexpr (kPrefetchChildren) nodes.prefetch(uint32_t(child));
 }

@@ -77,19 +77,29 @@ inline PackedNode pack_node(const blob::TreeNode& n) {
 // code. The pipeline copies the blob's nodes into kSplit at init (or, in a minimum arena, the kernels
 // read the blob's kBlob10 nodes in place); kPacked8 and kWide16 are kept for the study.
 enum class NodeLayout : int32_t { kBlob10, kPacked8, kWide16, kSplit };
-// kSplit: one tree's offsets and thresholds in two arrays, node n at [n] (heap order): offsets[n] holds
-// 4·du1, 4·dv1, 4·du2, 4·dv2 as 4 little-endian int16 (what one 8-byte load puts in a vector's lanes,
-// already scaled for the kernels' pmulhrsw: |4δ| ≤ 4·blob::kMaxProbeOffsetPxm = 16384 fits), and the
-// threshold is one scalar load. Fewest ops per visit of the layouts measured.
+// kSplit: one tree's nodes as 16-byte SplitNodes, node m at [m − 1] (the blob's breadth-first order):
+// offsets holds 4·du1, 4·dv1, 4·du2, 4·dv2 as 4 little-endian int16 (what one 8-byte load puts in a
+// vector's lanes, already scaled for the kernels' pmulhrsw: |4δ| ≤ 4·blob::kMaxProbeOffsetPxm = 16384
+// fits), then the node's left child (blob kLeftChild) and threshold, each one scalar load from the
+// same line: a visit touches one cache line (the blob's nodes and left children are two).
+struct alignas(16) SplitNode {
+  uint64_t offsets;
+  uint32_t left_child;
+  int16_t threshold_mm;
+  int16_t reserved;
+};
+static_assert(sizeof(SplitNode) == 16, "SplitNode is 16 bytes");
 struct SplitTree {
-  const uint64_t* offsets;
-  const int16_t* thresholds_mm;
+  const SplitNode* nodes;
 };
 namespace {
 inline uint64_t split_offsets_of(const blob::TreeNode& n) {
   static_assert(4 * blob::kMaxProbeOffsetPxm <= 32767, "4δ fits int16");
   return uint64_t(uint16_t(4 * n.du1)) | uint64_t(uint16_t(4 * n.dv1)) << 16 | uint64_t(uint16_t(4 * n.du2)) << 32 |
          uint64_t(uint16_t(4 * n.dv2)) << 48;
+}
+inline SplitNode split_node_of(const blob::TreeNode& n, uint32_t left_child) {
+  return SplitNode{split_offsets_of(n), left_child, n.threshold_mm, 0};
 }
 }  // namespace
 struct WideNode {  // kWide16: the blob node, aligned and padded to 16 bytes
@@ -106,10 +116,16 @@ struct ForestKernelArgs {
   int32_t focal_factor;           // runtime/fixed_point.h
   const EvaluatedPixel* pixels;   // pixels to classify; z_mm > 0, u < width, v < height
   int32_t pixel_count;
-  const blob::TreeNode* nodes;    // one tree: nodes_per_tree(depth) nodes in heap order
-  const PackedNode* packed_nodes; // the same tree packed (heap order), or nullptr
-  const uint32_t* leaf_index;     // that tree's leaves_per_tree(depth) leaf-record indices
+  // One tree as the blob stores it (blob_format.h kNodes): node m (1-based, root 1) at [m − 1] of
+  // nodes, left_child and leaf_index; node_count of each. A visit of node m goes to
+  // left_child[m − 1] + [feature > threshold]; after `depth` visits the node reached is a leaf node
+  // whose record is leaf_index[m − 1] (validated at load).
+  const blob::TreeNode* nodes;
+  const PackedNode* packed_nodes; // the same tree packed (same order), or nullptr
+  const uint32_t* left_child;
+  const uint32_t* leaf_index;
   int32_t depth;                  // validated 1..kMaxDepth
+  uint32_t node_count;            // validated 1..max_nodes_per_tree(depth)
   uint32_t* leaf_out;             // pixel_count outputs: leaf-record index reached
   const SplitTree* split;         // the same tree split (kSplit), or nullptr. The SIMD kernels read
                                   // split, else packed_nodes, else nodes; the result is the same
@@ -118,7 +134,7 @@ struct ForestKernelArgs {
 
 using ForestKernelFn = void (*)(const ForestKernelArgs& args);
 // Every tree of a forest over the same pixels, in one call: per_tree[0 .. tree_count) differ only in
-// nodes, packed_nodes, leaf_index and leaf_out (the probe image, pixels, focal factor and depth are
+// nodes, packed_nodes, left_child, leaf_index, node_count and leaf_out (the probe image, pixels, focal factor and depth are
 // the same). Results equal tree_count calls of the single-tree kernel; the SIMD kernels make each
 // pixel's setup once for all trees.
 using ForestTreesKernelFn = void (*)(const ForestKernelArgs* per_tree, int32_t tree_count);

@@ -302,11 +302,13 @@ blob::BlobContents ojr_on_pcl_nodes(const blob::BlobContents& pcl) {
   for (const char* n : tools::kJointNames) c.joint_names.push_back(n);
   c.votes_per_joint = 2;
   c.tree_nodes = pcl.tree_nodes;
+  c.tree_left_child = pcl.tree_left_child;
   std::mt19937 rng(5);
   const uint32_t leaves = 4096;
   for (size_t t = 0; t < pcl.tree_nodes.size(); ++t) {
-    std::vector<uint32_t> index(blob::leaves_per_tree(c.depth));
-    for (auto& i : index) i = rng() % leaves;
+    std::vector<uint32_t> index(pcl.tree_leaf_index[t].size(), 0);
+    for (size_t m = 1; m <= index.size(); ++m)
+      if (c.tree_left_child[t][m - 1] == m) index[m - 1] = rng() % leaves;  // leaf nodes only
     c.tree_leaf_index.push_back(std::move(index));
   }
   std::uniform_int_distribution<int> off(-300, 300), w(1, 1000);

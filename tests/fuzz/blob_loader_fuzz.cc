@@ -1,7 +1,8 @@
 // libFuzzer target: the loader must refuse or accept any byte string without crashing, and an
-// accepted blob must be internally consistent: every leaf index inside the leaf table, every leaf
-// record's entries inside the entry table (read here, so ASan sees any read past it), no record
-// above its capacity, every tag below it.
+// accepted blob must be internally consistent: a walk of `depth` steps from every tree's root, along
+// either child, stays inside the tree and ends on a leaf node whose record is inside the leaf table;
+// every leaf record's entries inside the entry table (read here, so ASan sees any read past it), no
+// record above its capacity, every tag below it.
 #include <stdint.h>
 #include <string.h>
 
@@ -13,9 +14,24 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   memcpy(storage, data, size);
   dp::blob::LoadedBlob b;
   if (dp::blob::load_blob(storage, size, &b) != dp::blob::BlobStatus::kOk) return 0;
-  const size_t slots = size_t(b.tree_count()) * dp::blob::leaves_per_tree(b.depth());
-  for (size_t i = 0; i < slots; ++i)
-    if (b.leaf_index[i] >= b.meta->leaf_count) __builtin_trap();
+  for (int t = 0; t < b.tree_count(); ++t) {
+    const uint32_t count = b.tree_node_count(t);
+    const uint32_t* left = b.tree_left_child(t);
+    for (uint32_t m = 1; m <= count; ++m) {
+      if (left[m - 1] == m) {  // a leaf node: its record in the table
+        if (b.tree_leaf_index(t)[m - 1] >= b.meta->leaf_count) __builtin_trap();
+        continue;
+      }
+      if (left[m - 1] <= m || left[m - 1] + 1 > count) __builtin_trap();
+    }
+    // Alternating walks (all-left, all-right, zig-zag) of depth steps end on leaf nodes.
+    const uint32_t patterns[4] = {0u, 0xFFFFFFFFu, 0x55555555u, 0xAAAAAAAAu};
+    for (uint32_t pattern : patterns) {
+      uint32_t m = 1;
+      for (int level = 0; level < b.depth(); ++level) m = left[m - 1] + (left[m - 1] == m ? 0 : (pattern >> level) & 1u);
+      if (m < 1 || m > count || left[m - 1] != m) __builtin_trap();
+    }
+  }
   const uint32_t capacity = uint32_t(dp::blob::max_entries_per_leaf(*b.meta));
   const size_t entry_bytes = dp::blob::leaf_entry_bytes(*b.meta);
   volatile uint32_t sink = 0;

@@ -12,7 +12,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   dp::fuzz::MemFile tree(data, size);
   try {
     const dp::tools::PclTree t = dp::tools::read_pcl_tree(tree.path());
-    if (t.nodes.size() != dp::blob::nodes_per_tree(t.depth) || t.leaf_labels.size() != dp::blob::leaves_per_tree(t.depth))
+    if (t.nodes.size() != dp::blob::nodes_per_heap(t.depth) || t.leaf_labels.size() != dp::blob::leaves_per_tree(t.depth))
       __builtin_trap();
     for (uint8_t l : t.leaf_labels)
       if (l >= dp::tools::kPclPartCount) __builtin_trap();

@@ -8,19 +8,26 @@
 namespace dp::tools {
 
 namespace {
-constexpr uint32_t kV1SectionCount = 5;  // meta, config, nodes, leaf index, dense leaves
+// Section kinds of the old formats (blob_upgrade.h): v1 meta, config, nodes, leaf index, dense
+// leaves; v2 the same four, then leaf offsets, leaf entries, entry tags.
+constexpr uint32_t kV1SectionCount = 5;
+constexpr uint32_t kV2SectionCount = 7;
 }  // namespace
 
-blob::BlobContents read_v1_blob(const std::vector<uint8_t>& bytes, const std::string& what) {
+blob::BlobContents read_old_blob(const std::vector<uint8_t>& bytes, const std::string& what, int* version) {
   using namespace dp::blob;
-  auto refuse = [&](const std::string& why) { fail(what + ": not a readable v1 blob: " + why); };
+  auto refuse = [&](const std::string& why) { fail(what + ": not a readable v1 or v2 blob: " + why); };
   if (bytes.size() < sizeof(BlobHeader)) refuse("shorter than a header");
   BlobHeader h;
   std::memcpy(&h, bytes.data(), sizeof h);
   if (h.magic != kMagic || h.endian_tag != kEndianTag) refuse("bad magic or endianness tag");
-  if (h.version_major != 1)
-    refuse("format version " + std::to_string(h.version_major) + "." + std::to_string(h.version_minor) + ", not 1.x");
-  if (h.section_count != kV1SectionCount || h.header_bytes != sizeof(BlobHeader) + kV1SectionCount * sizeof(SectionEntry) ||
+  if (h.version_major != 1 && h.version_major != 2)
+    refuse("format version " + std::to_string(h.version_major) + "." + std::to_string(h.version_minor) +
+           ", not 1.x or 2.x");
+  const bool v2 = h.version_major == 2;
+  if (version) *version = h.version_major;
+  const uint32_t kinds = v2 ? kV2SectionCount : kV1SectionCount;
+  if (h.section_count != kinds || h.header_bytes != sizeof(BlobHeader) + kinds * sizeof(SectionEntry) ||
       h.total_bytes != bytes.size())
     refuse("header sizes disagree with the file (" + std::to_string(bytes.size()) + " bytes)");
   BlobHeader zeroed = h;
@@ -30,33 +37,30 @@ blob::BlobContents read_v1_blob(const std::vector<uint8_t>& bytes, const std::st
   if (crc32(head.data(), head.size()) != h.header_crc32) refuse("header checksum mismatch");
   if (crc32(bytes.data() + h.header_bytes, bytes.size() - h.header_bytes) != h.payload_crc32)
     refuse("payload checksum mismatch");
-  SectionEntry s[kV1SectionCount];
-  std::memcpy(s, bytes.data() + sizeof h, sizeof s);
-  const uint8_t* section[kV1SectionCount + 1] = {};
-  uint64_t size[kV1SectionCount + 1] = {};
-  for (const SectionEntry& e : s) {
-    if (e.kind < 1 || e.kind > kV1SectionCount || section[e.kind]) refuse("section table lists an unknown or repeated kind");
+  SectionEntry s[kV2SectionCount];
+  std::memcpy(s, bytes.data() + sizeof h, kinds * sizeof(SectionEntry));
+  const uint8_t* section[kV2SectionCount + 1] = {};
+  uint64_t size[kV2SectionCount + 1] = {};
+  for (uint32_t i = 0; i < kinds; ++i) {
+    const SectionEntry& e = s[i];
+    if (e.kind < 1 || e.kind > kinds || section[e.kind]) refuse("section table lists an unknown or repeated kind");
     if (e.offset < h.header_bytes || e.offset > bytes.size() || e.size > bytes.size() - e.offset)
       refuse("a section lies outside the file");
     section[e.kind] = bytes.data() + e.offset;
     size[e.kind] = e.size;
   }
-  if (size[1] != sizeof(ForestMeta) || size[2] != sizeof(RuntimeConfig)) refuse("meta or config section size");
-  ForestMeta m;
-  std::memcpy(&m, section[1], sizeof m);
-  const uint32_t stride = m.entry_count;  // v1: leaf_stride_bytes
+  if (size[1] != kLegacyMetaBytes || size[2] != sizeof(RuntimeConfig)) refuse("meta or config section size");
+  ForestMeta m{};  // node_count stays 0: the old formats had none
+  std::memcpy(&m, section[1], kLegacyMetaBytes);
   const bool bpc = m.method == uint8_t(Method::kBpc);
   if ((!bpc && m.method != uint8_t(Method::kOjr)) || m.tree_count < 1 || m.tree_count > kMaxTrees || m.depth < 1 ||
       m.depth > kMaxDepth || m.part_count > kMaxParts || m.joint_count > kMaxJoints ||
-      m.votes_per_joint > kMaxVotesPerLeafJoint)
+      m.votes_per_joint > kMaxVotesPerLeafJoint || (bpc && m.part_count == 0) ||
+      (!bpc && m.joint_count * m.votes_per_joint == 0))
     refuse("meta counts out of range");
-  const uint32_t min_stride = bpc ? 2u * m.part_count : uint32_t(m.joint_count) * m.votes_per_joint * sizeof(OjrVote);
-  if (stride < min_stride || stride % 2 != 0 || (bpc && m.part_count == 0) || (!bpc && min_stride == 0))
-    refuse("leaf stride " + std::to_string(stride) + " does not fit the method and counts");
-  const size_t nodes = blob::nodes_per_tree(m.depth), slots = blob::leaves_per_tree(m.depth);
-  if (size[3] != m.tree_count * nodes * sizeof(TreeNode) || size[4] != m.tree_count * slots * sizeof(uint32_t) ||
-      size[5] != uint64_t(m.leaf_count) * stride)
-    refuse("a section's size disagrees with the meta");
+  const size_t nodes = nodes_per_heap(m.depth), slots = leaves_per_tree(m.depth);
+  if (size[3] != m.tree_count * nodes * sizeof(TreeNode) || size[4] != m.tree_count * slots * sizeof(uint32_t))
+    refuse("a tree section's size disagrees with the meta");
 
   BlobContents c;
   c.method = Method(m.method);
@@ -70,19 +74,38 @@ blob::BlobContents read_v1_blob(const std::vector<uint8_t>& bytes, const std::st
     std::memcpy(tn.data(), section[3] + t * nodes * sizeof(TreeNode), nodes * sizeof(TreeNode));
     std::vector<uint32_t> ti(slots);
     std::memcpy(ti.data(), section[4] + t * slots * sizeof(uint32_t), slots * sizeof(uint32_t));
-    c.tree_nodes.push_back(std::move(tn));
-    c.tree_leaf_index.push_back(std::move(ti));
+    append_heap_tree(&c, tn, ti);
   }
-  for (uint32_t l = 0; l < m.leaf_count; ++l) {
-    const uint8_t* record = section[5] + size_t(l) * stride;
-    if (bpc) {
-      const size_t at = c.bpc_leaves.size();
-      c.bpc_leaves.resize(at + m.part_count);
-      std::memcpy(&c.bpc_leaves[at], record, m.part_count * sizeof(uint16_t));
-    } else {
-      const size_t per_leaf = size_t(m.joint_count) * m.votes_per_joint, at = c.ojr_leaves.size();
-      c.ojr_leaves.resize(at + per_leaf);
-      std::memcpy(&c.ojr_leaves[at], record, per_leaf * sizeof(OjrVote));
+  if (v2) {
+    // Compact leaves: checked here as far as reading them needs; write_blob's load checks the rest.
+    if (size[5] != (uint64_t(m.leaf_count) + 1) * sizeof(uint32_t) ||
+        size[6] != uint64_t(m.entry_count) * leaf_entry_bytes(m) || size[7] != m.entry_count)
+      refuse("a leaf section's size disagrees with the meta");
+    std::vector<uint32_t> offsets(size_t(m.leaf_count) + 1);
+    std::memcpy(offsets.data(), section[5], offsets.size() * sizeof(uint32_t));
+    if (offsets[0] != 0 || offsets[m.leaf_count] != m.entry_count) refuse("leaf offsets do not span the entries");
+    for (uint32_t l = 0; l < m.leaf_count; ++l)
+      if (offsets[l + 1] < offsets[l]) refuse("leaf offsets decrease");
+    for (uint32_t e = 0; e < m.entry_count; ++e)
+      if (section[7][e] >= max_entries_per_leaf(m)) refuse("a leaf entry's tag is out of range");
+    add_dense_leaves(m, offsets.data(), section[6], section[7], &c);
+  } else {
+    const uint32_t stride = m.entry_count;  // v1: leaf_stride_bytes
+    const uint32_t min_stride = bpc ? 2u * m.part_count : uint32_t(m.joint_count) * m.votes_per_joint * sizeof(OjrVote);
+    if (stride < min_stride || stride % 2 != 0)
+      refuse("leaf stride " + std::to_string(stride) + " does not fit the method and counts");
+    if (size[5] != uint64_t(m.leaf_count) * stride) refuse("the leaf section's size disagrees with the meta");
+    for (uint32_t l = 0; l < m.leaf_count; ++l) {
+      const uint8_t* record = section[5] + size_t(l) * stride;
+      if (bpc) {
+        const size_t at = c.bpc_leaves.size();
+        c.bpc_leaves.resize(at + m.part_count);
+        std::memcpy(&c.bpc_leaves[at], record, m.part_count * sizeof(uint16_t));
+      } else {
+        const size_t per_leaf = size_t(m.joint_count) * m.votes_per_joint, at = c.ojr_leaves.size();
+        c.ojr_leaves.resize(at + per_leaf);
+        std::memcpy(&c.ojr_leaves[at], record, per_leaf * sizeof(OjrVote));
+      }
     }
   }
   std::memcpy(&c.config, section[2], sizeof c.config);

@@ -1,9 +1,12 @@
-// Forest blob v1 (dense leaves) → the current format. v1 is the same header, meta, config, nodes
-// and leaf index, with one dense leaf section (kind 5) of leaf_count records of leaf_stride_bytes:
-// BPC uint16 Q15 probability per part, OJR joints × K OjrVote (weight 0 = no vote); the meta's
-// entry_count field was leaf_stride_bytes (docs/blob_format.md, revision history). The upgrade is
-// lossless and deterministic: the same leaves, trees and config, written compactly by write_blob
-// (which validates the result with the current loader).
+// Forest blobs of older formats → the current one (v3: sparse breadth-first nodes, compact leaves).
+//   v1: dense leaves. Header, meta (ForestMeta up to kLegacyMetaBytes), config, complete heap-order
+//       nodes (kind 3), leaf-slot index (kind 4), one dense leaf section (kind 5) of leaf_count
+//       records of leaf_stride_bytes: BPC uint16 Q15 probability per part, OJR joints × K OjrVote
+//       (weight 0 = no vote); the meta's entry_count field was leaf_stride_bytes.
+//   v2: compact leaves (kinds 5..7 as in v3) with v1's complete heap-order nodes and leaf-slot index.
+// (docs/blob_format.md, revision history.) The upgrade is lossless and deterministic: every pixel
+// reaches the same leaf record (blob::append_heap_tree), with the same leaves and config, written by
+// write_blob (which validates the result with the current loader).
 #pragma once
 #include <cstdint>
 #include <string>
@@ -13,8 +16,9 @@
 
 namespace dp::tools {
 
-// The dense contents of a v1 blob. Throws ToolError naming `what` and the problem when the bytes
-// are not a v1 blob (magic, version, checksums, section table, sizes).
-blob::BlobContents read_v1_blob(const std::vector<uint8_t>& bytes, const std::string& what);
+// The contents of a v1 or v2 blob (trees sparse, leaves dense), and its major version in *version
+// when given. Throws ToolError naming `what` and the problem when the bytes are not a v1 or v2 blob
+// (magic, version, checksums, section table, sizes, leaf offsets and tags).
+blob::BlobContents read_old_blob(const std::vector<uint8_t>& bytes, const std::string& what, int* version = nullptr);
 
 }  // namespace dp::tools

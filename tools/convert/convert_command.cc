@@ -27,8 +27,9 @@ const char* const kUsage =
     "  FOREST: a trained forest (depthpose train) quantized to fixed point (docs/convert.md); reports the\n"
     "  worst quantization error and checks that the blob's leaves equal the trained forest's on sample frames.\n"
     "  --from-pcl: imports PCL people-detector trees (bzip2 ASCII, read in place) as a 25-part BPC blob.\n"
-    "  --upgrade-blob: rewrites a format-1 blob (dense leaves) as the current format (compact leaves),\n"
-    "  losslessly unless --bpc-* options are given: same trees, leaves and config (docs/blob_format.md).\n"
+    "  --upgrade-blob: rewrites a format-1 (dense leaves) or format-2 (complete heap-order trees) blob as\n"
+    "  the current format 3 (sparse nodes, compact leaves), losslessly unless --bpc-* options are given:\n"
+    "  every pixel reaches the same leaf, same leaves and config (docs/blob_format.md).\n"
     "  --out BLOB       blob to write (byte-identical for identical input)\n"
     "  --max-size WxH   largest frame the blob's arena size is computed for (default 640x480)\n"
     "  --check-frames N sample frames for the leaf check (default 12, 0 = skip, at most 256)\n"
@@ -79,8 +80,8 @@ int convert_trained(const Args& args) {
   const train::TrainedForest forest = train::read_forest(in);
   QuantizationReport rep;
   const std::vector<uint8_t> bytes = blob::write_blob(convert_forest(forest, options, in, &rep));
-  std::printf("%s: %s forest, %zu trees, blob depth %d (%llu padded nodes)\n", in.c_str(), forest.method.c_str(),
-              forest.trees.size(), rep.blob_depth, (unsigned long long)rep.padded_nodes);
+  std::printf("%s: %s forest, %zu trees, blob depth %d (%llu leaf nodes)\n", in.c_str(), forest.method.c_str(),
+              forest.trees.size(), rep.blob_depth, (unsigned long long)rep.leaf_nodes);
   std::printf("quantization: thresholds and offsets exact; worst probability error %.3g (bound 2^-15 = %.3g)",
               rep.worst_probability_error, 1.0 / 32768.0);
   if (forest.method == "ojr")
@@ -125,13 +126,14 @@ int convert_upgrade(const Args& args) {
   if (!args.positional().empty()) fail("convert --upgrade-blob: takes no FOREST\n" + args.usage());
   const std::string out = args.get("--out");
   const std::vector<uint8_t> old_bytes = blob::read_blob_file(in);
-  blob::BlobContents contents = read_v1_blob(old_bytes, in);
+  int old_version = 0;
+  blob::BlobContents contents = read_old_blob(old_bytes, in, &old_version);
   const CompactionReport compaction =
       compact_bpc_leaves(&contents, bpc_compaction_of(args, BpcCompaction{blob::kMaxParts, 1}));
   if (contents.method == blob::Method::kBpc) print_compaction(compaction);
   const std::vector<uint8_t> bytes = blob::write_blob(contents);
   blob::save_blob_file(out, bytes);
-  std::printf("wrote %s: %zu bytes (format 1: %zu bytes)\n", out.c_str(), bytes.size(), old_bytes.size());
+  std::printf("wrote %s: %zu bytes (format %d: %zu bytes)\n", out.c_str(), bytes.size(), old_version, old_bytes.size());
   return 0;
 }
 

@@ -126,7 +126,6 @@ blob::BlobContents convert_forest(const train::TrainedForest& forest, const Conv
     c.votes_per_joint = std::min(forest.votes_per_joint, blob::kMaxVotesPerLeafJoint);
   }
 
-  const size_t first_leaf = blob::nodes_per_tree(depth);
   uint32_t record_base = 0;
   double max_weight = 0;
   if (!bpc)
@@ -139,28 +138,37 @@ blob::BlobContents convert_forest(const train::TrainedForest& forest, const Conv
 
   for (size_t ti = 0; ti < forest.trees.size(); ++ti) {
     const train::TrainedTree& tree = forest.trees[ti];
-    std::vector<blob::TreeNode> nodes(blob::nodes_per_tree(depth), blob::TreeNode{0, 0, 0, 0, blob::kPadThreshold});
-    std::vector<uint32_t> index(blob::leaves_per_tree(depth), 0);
-    size_t split_nodes = 0;
-    for (const train::TrainedNode& n : tree.nodes) {
-      const int level = train::heap_level(n.heap_index);
-      if (!n.is_leaf()) {
-        for (int v : {n.du1, n.dv1, n.du2, n.dv2})
-          if (std::abs(v) > blob::kMaxProbeOffsetPxm)
-            fail(what + ": tree " + std::to_string(ti) + " node " + std::to_string(n.heap_index) + " offset " +
-                 std::to_string(v) + " beyond ±" + std::to_string(blob::kMaxProbeOffsetPxm));
-        nodes[n.heap_index] = blob::TreeNode{n.du1, n.dv1, n.du2, n.dv2, int16_t(n.threshold_mm)};
-        ++split_nodes;
+    // The trained nodes, sorted by heap index, are the blob's breadth-first order: node i is sparse node
+    // m = i + 1 and the k-th split node's children are the nodes at positions 2k − 1, 2k (heap 2h+1, 2h+2).
+    std::vector<blob::TreeNode> nodes;
+    std::vector<uint32_t> index, left_child;
+    uint32_t splits = 0;
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+      const train::TrainedNode& n = tree.nodes[i];
+      const uint32_t m = uint32_t(i + 1);
+      if (n.is_leaf()) {
+        nodes.push_back(blob::TreeNode{0, 0, 0, 0, blob::kPadThreshold});
+        index.push_back(record_base + uint32_t(n.leaf));
+        left_child.push_back(m);
+        ++rep.leaf_nodes;
         continue;
       }
-      // Every leaf slot under this leaf points at its record (only the always-left one is reached).
-      const uint64_t span = uint64_t(1) << (depth - level);
-      const uint64_t first = (uint64_t(n.heap_index) + 1) * span - 1 - first_leaf;
-      for (uint64_t s = 0; s < span; ++s) index[first + s] = record_base + uint32_t(n.leaf);
+      for (int v : {n.du1, n.dv1, n.du2, n.dv2})
+        if (std::abs(v) > blob::kMaxProbeOffsetPxm)
+          fail(what + ": tree " + std::to_string(ti) + " node " + std::to_string(n.heap_index) + " offset " +
+               std::to_string(v) + " beyond ±" + std::to_string(blob::kMaxProbeOffsetPxm));
+      const uint32_t left = 2 * ++splits;  // 1-based
+      if (left > tree.nodes.size() || tree.nodes[left - 1].heap_index != 2 * n.heap_index + 1 ||
+          tree.nodes[left].heap_index != 2 * n.heap_index + 2)
+        fail(what + ": tree " + std::to_string(ti) + " split node " + std::to_string(n.heap_index) +
+             " lacks a child (the trained tree is not a full binary tree)");
+      nodes.push_back(blob::TreeNode{n.du1, n.dv1, n.du2, n.dv2, int16_t(n.threshold_mm)});
+      index.push_back(0);
+      left_child.push_back(left);
     }
-    rep.padded_nodes += nodes.size() - split_nodes;
     c.tree_nodes.push_back(std::move(nodes));
     c.tree_leaf_index.push_back(std::move(index));
+    c.tree_left_child.push_back(std::move(left_child));
 
     for (size_t l = 0; l < tree.leaf_count(); ++l) {
       if (bpc) {
@@ -259,7 +267,8 @@ LeafCheck check_leaves(const train::TrainedForest& forest, const std::vector<uin
     std::vector<uint32_t> ref(pixels.size()), best(pixels.size());
     for (size_t t = 0; t < forest.trees.size(); ++t) {
       kernels::ForestKernelArgs a{padded.data(), width + 2, width, height, focal, pixels.data(), int32_t(pixels.size()),
-                                  b.tree_nodes(int(t)), nullptr, b.tree_leaf_index(int(t)), b.depth(), ref.data()};
+                                  b.tree_nodes(int(t)), nullptr, b.tree_left_child(int(t)), b.tree_leaf_index(int(t)),
+                                  b.depth(), b.tree_node_count(int(t)), ref.data()};
       kernels::forest_kernel(KernelIsa::kScalar)(a);
       a.leaf_out = best.data();
       kernels::forest_kernel(KernelIsa::kBest)(a);

@@ -1,4 +1,4 @@
-// Trained forest (tools/train/forest_file.h, full precision) → forest blob v2 (fixed point).
+// Trained forest (tools/train/forest_file.h, full precision) → forest blob v3 (fixed point).
 // docs/convert.md documents the quantization and its error bounds.
 //
 // Quantization
@@ -13,9 +13,10 @@
 //                   the runtime uses; relative error ≤ 0.5 / q.
 //   K > kMaxVotesPerLeafJoint: the heaviest kMaxVotesPerLeafJoint votes of each leaf/joint are kept.
 // Tree shape
-//   Blob depth = the deepest trained leaf's level (≥ 1). A leaf above that depth is padded: its
-//   subtree's nodes get threshold kPadThreshold with zero offsets (always left) and all its leaf
-//   slots point at its record, so the padded traversal ends on that record.
+//   Blob depth = the deepest trained leaf's level (≥ 1). Nodes are stored as trained, nothing padded
+//   (blob_format.h kNodes): the trained nodes in heap-index order are the breadth-first order, a
+//   leaf becomes a leaf node (left child itself, threshold kPadThreshold) holding its record, so a
+//   traversal that reaches a leaf above that depth stays on it for the remaining steps.
 // Output is byte-identical for identical input.
 #pragma once
 #include <cstdint>
@@ -65,7 +66,7 @@ struct QuantizationReport {
   double worst_vote_weight_rel_error = 0;// max |q/scale − w| / w over nonzero weights
   uint64_t clamped_vote_components = 0;  // |offset| > kMaxVoteOffsetMm
   uint64_t dropped_votes = 0;            // beyond kMaxVotesPerLeafJoint per leaf/joint
-  uint64_t padded_nodes = 0;             // nodes added below early leaves
+  uint64_t leaf_nodes = 0;               // leaf nodes stored (the trained leaves)
   int blob_depth = 0;
   CompactionReport bpc_compaction;
 };

@@ -65,10 +65,9 @@ blob::BlobContents pcl_blob_contents(const std::vector<PclTree>& trees) {
     for (int p = 0; p < kPclPartCount; ++p) c.bpc_leaves.push_back(p == label ? 32768 : 0);
   }
   for (const PclTree& t : trees) {
-    c.tree_nodes.push_back(t.nodes);
     std::vector<uint32_t> index(t.leaf_labels.size());
     for (size_t i = 0; i < index.size(); ++i) index[i] = uint32_t(record_of_label[t.leaf_labels[i]]);
-    c.tree_leaf_index.push_back(std::move(index));
+    blob::append_heap_tree(&c, t.nodes, index);
   }
   c.config = blob::default_runtime_config(kJointCount);
   for (int j = 0; j < kJointCount; ++j) c.config.joints[j].part_mask = pcl_joint_parts(j);

@@ -97,7 +97,7 @@ PclTree read_pcl_tree(const std::string& path) {
   if (v < 1 || v > blob::kMaxDepth)
     fail(path + ": tree height " + std::to_string(v) + " outside 1.." + std::to_string(blob::kMaxDepth));
   t.depth = int(v);
-  t.nodes.resize(blob::nodes_per_tree(t.depth));
+  t.nodes.resize(blob::nodes_per_heap(t.depth));
   t.leaf_labels.resize(blob::leaves_per_tree(t.depth));
   long f[5];
   for (auto& n : t.nodes) {

@@ -37,5 +37,12 @@ blob::BlobContents single_vote_ojr(int joint_count, int16_t dx_mm, int16_t dy_mm
 // with `leaf_count` random BPC leaves; for kernel equivalence tests and benchmarks.
 blob::BlobContents random_bpc_forest(uint64_t seed, int trees, int depth, int part_count, int max_offset,
                                      int thresh_range);
+// A random unbalanced forest of sparse trees grown breadth-first: the leftmost node of every level
+// splits (so the deepest leaf is at `depth`), any other node above `depth` with probability
+// split_per_mille/1000, until a tree holds max_nodes_per_tree nodes (≥ 2·depth + 1); offsets and
+// thresholds as random_bpc_forest, each leaf its own random BPC record. For deep-tree tests and the
+// blob-size measurement.
+blob::BlobContents random_sparse_bpc_forest(uint64_t seed, int trees, int depth, int part_count, int max_offset,
+                                            int thresh_range, int split_per_mille, uint32_t max_nodes_per_tree);
 
 }  // namespace dp::tools

@@ -23,6 +23,7 @@ static const char* kind_name(uint32_t k) {
     case 5: return "leaf_offsets";
     case 6: return "leaf_entries";
     case 7: return "entry_tags";
+    case 8: return "left_child";
   }
   return "?";
 }
@@ -46,12 +47,12 @@ void describe_blob(const blob::LoadedBlob& b, FILE* out) {
                "%zu at least without the split node copy (%llu recorded at conversion)\n", m.max_abs_offset_pxm,
                m.max_width, m.max_height, required_arena_bytes(b, int32_t(m.max_width), int32_t(m.max_height)),
                minimum_arena_bytes(b, int32_t(m.max_width), int32_t(m.max_height)), (unsigned long long)m.arena_bytes);
-  // Per-tree statistics: padded (never split) nodes and distinct leaves.
+  // Per-tree statistics: split and leaf nodes (a leaf node's left child is itself).
   for (int t = 0; t < m.tree_count; ++t) {
-    const blob::TreeNode* nodes = b.tree_nodes(t);
-    size_t pad = 0, n = blob::nodes_per_tree(m.depth);
-    for (size_t i = 0; i < n; ++i) pad += nodes[i].threshold_mm == blob::kPadThreshold;
-    std::fprintf(out, "  tree %d: %zu split nodes, %zu padded\n", t, n - pad, pad);
+    const uint32_t* left = b.tree_left_child(t);
+    size_t leaves = 0, n = b.tree_node_count(t);
+    for (size_t i = 0; i < n; ++i) leaves += left[i] == i + 1;
+    std::fprintf(out, "  tree %d: %zu split nodes, %zu leaf nodes\n", t, n - leaves, leaves);
   }
   std::fprintf(out, "parts (%d):", m.part_count);
   for (int i = 0; i < m.part_count; ++i) std::fprintf(out, " %s", m.part_names[i]);

@@ -11,12 +11,12 @@
 namespace dp::kernels::neon {
 namespace {
 
-// The scalar end of a visit (forest_eval_common.h: child = 2m + [t + e2 <u e1]).
+// The scalar end of a visit (forest_eval_common.h: child = left_child[m − 1] + [t + e2 <u e1]).
 template <bool kPrefetchChildren, class Nodes>
 inline void finish_visit(const ForestKernelArgs& a, const Nodes& nodes, uint32_t* node, int32_t i, uint32_t m,
                          uint32_t probe1, uint32_t probe2) {
   const uint32_t lhs = uint32_t(nodes.threshold(m)) + a.probe_image[probe2], rhs = a.probe_image[probe1];
-  const uint32_t child = 2 * m + (lhs < rhs ? 1u : 0u);
+  const uint32_t child = nodes.left_child(m) + (lhs < rhs ? 1u : 0u);
   node[i] = child;
   if constexpr (kPrefetchChildren) nodes.prefetch(child);
 }

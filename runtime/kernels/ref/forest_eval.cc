@@ -17,19 +17,18 @@ inline int32_t probe(const ForestKernelArgs& a, int32_t u, int32_t v) {
 
 void evaluate_tree(const ForestKernelArgs& a) {
   DP_DCHECK(a.depth >= 1 && a.depth <= blob::kMaxDepth && a.probe_stride == a.width + 2);
-  const uint32_t first_leaf = (1u << a.depth) - 1;
   for (int32_t i = 0; i < a.pixel_count; ++i) {
     const EvaluatedPixel p = a.pixels[i];
     DP_DCHECK(p.z_mm > 0 && p.u < a.width && p.v < a.height);
     const int32_t s = scale_q13(a.focal_factor, p.z_mm);
-    uint32_t n = 0;
+    uint32_t m = 1;  // the root (1-based; node m at [m − 1])
     for (int32_t level = 0; level < a.depth; ++level) {
-      const blob::TreeNode& node = a.nodes[n];
+      const blob::TreeNode& node = a.nodes[m - 1];
       const int32_t d1 = probe(a, p.u + probe_offset_px(node.du1, s), p.v + probe_offset_px(node.dv1, s));
       const int32_t d2 = probe(a, p.u + probe_offset_px(node.du2, s), p.v + probe_offset_px(node.dv2, s));
-      n = 2 * n + 1 + ((d1 - d2) > node.threshold_mm ? 1u : 0u);
+      m = a.left_child[m - 1] + ((d1 - d2) > node.threshold_mm ? 1u : 0u);
     }
-    a.leaf_out[i] = a.leaf_index[n - first_leaf];
+    a.leaf_out[i] = a.leaf_index[m - 1];
   }
 }
 
