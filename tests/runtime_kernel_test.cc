@@ -1048,7 +1048,7 @@ TEST(VoteCastingExactness, OjrInPlaceScanEqualsTheLiveCopy) {
   const blob::LoadedBlob& b = with_copy.view;
   const size_t minimum = minimum_arena_bytes(b, 320, 240);
   const size_t live = (size_t(b.meta->leaf_count) + 1) * 4 + size_t(b.meta->entry_count) * 9;
-  const size_t split = size_t(b.tree_count()) * blob::nodes_per_tree(b.depth()) * 10;
+  const size_t split = b.total_nodes * sizeof(kernels::SplitNode);
   EXPECT_GE(required_arena_bytes(b, 320, 240) - minimum, live + split);
   EXPECT_LT(required_arena_bytes(b, 320, 240) - minimum, live + split + 5 * 64);  // the arrays and their alignment
   std::unique_ptr<uint8_t, decltype(&std::free)> small(static_cast<uint8_t*>(std::aligned_alloc(64, (minimum + 63) / 64 * 64)),
