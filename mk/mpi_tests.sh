@@ -85,6 +85,9 @@ expect_failure MpiErrors.OptionMismatchNamesTheRank "rank 1 has '--depth'" \
 rm -rf "$ROOT/bad"; cp -r "$DATA" "$ROOT/bad"; echo garbage > "$ROOT/bad/depth/000020.png"  # frame 20: rank 1's share
 expect_failure MpiErrors.UnreadableImageNamesTheRank "rank 1 of 2: .*bad/depth/000020.png" \
   "${MPIRUN[@]}" -np 2 "$CLI" "${SMALL[@]/$DATA/$ROOT/bad}" --out "$ROOT/b.forest"
-expect_failure MpiErrors.DyingRankEndsTheJob "exited on signal 9|Killed|signal 9" \
+# Open MPI reports the killed rank as "exited on signal 9" or, when it sees the process end before
+# the signal is mapped (seen on a loaded machine), as "returned a non-zero exit code": either way the
+# job ends (no hang) with mpirun naming a failed process.
+expect_failure MpiErrors.DyingRankEndsTheJob "exited on signal 9|Killed|signal 9|returned a non-zero exit code" \
   "${MPIRUN[@]}" -np 1 "$CLI" "${SMALL[@]}" --depth 20 --offsets 2000 --out "$ROOT/k.forest" : -np 1 bash -c 'kill -9 $$'
 finish
