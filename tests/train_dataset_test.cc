@@ -141,7 +141,8 @@ TEST(TrainDataset, MetaSizeMustBeAnIntegerInRange) {
     const char* width;
     const char* expect;
   } cases[] = {{"3.8e26", "not a whole number"}, {"64.5", "not a whole number"},
-               {"18446744073709551615", "out of range"}, {"-5", "out of range"}, {"\"64\"", "string"}};
+               {"18446744073709551615", "out of range"}, {"-5", "out of range"}, {"0", "out of range"},
+               {"\"64\"", "string"}};
   for (const auto& c : cases) {
     TempDir tmp;
     write_toy_dataset(tmp.path + "/toy");

@@ -19,7 +19,7 @@ inline int64_t json_integer(const nlohmann::json& v, int64_t lo, int64_t hi, con
   const std::string range = " (expected an integer in " + std::to_string(lo) + ".." + std::to_string(hi) + ")";
   if (v.is_number_unsigned()) {
     const uint64_t u = v.get<uint64_t>();
-    if (hi < 0 || u > uint64_t(hi)) fail(what + " = " + std::to_string(u) + " is out of range" + range);
+    if (hi < 0 || u > uint64_t(hi) || (lo > 0 && u < uint64_t(lo))) fail(what + " = " + std::to_string(u) + " is out of range" + range);
     return int64_t(u);
   }
   if (v.is_number_integer()) {
