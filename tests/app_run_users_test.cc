@@ -195,6 +195,53 @@ TEST(AppRunUsersSharedData, TextModePrintsOneLinePerUser) {
   EXPECT_NE(c.text[4].find("tracked 2 frames"), std::string::npos) << c.text[4];
 }
 
+// Text mode prints each joint as the tracker reports it (the same position, state and calibrated
+// confidence as --json), not a raw vote weight.
+TEST(AppRunUsersSharedData, TextModeJointsCarryStateAndConfidenceAsJson) {
+  RunOptions o = options_for("oni:" + scene().oni);
+  o.max_frames = 3;
+  const Captured js = run_captured(o);
+  o.json = false;
+  const Captured text = run_captured(o);
+  ASSERT_EQ(js.lines.size(), 3u) << js.log;
+  ASSERT_EQ(text.text.size(), 9u) << text.log;
+  int tracked = 0;
+  for (size_t f = 0; f < 3; ++f) {
+    const json& line = js.lines[f];
+    ASSERT_TRUE(line.at("skeleton").get<bool>());
+    ASSERT_EQ(line.at("users").size(), 2u);
+    for (size_t i = 0; i < 2; ++i) {
+      const std::string& t = text.text[f * 3 + 1 + i];
+      EXPECT_EQ(t.find("votes"), std::string::npos) << t;
+      EXPECT_EQ(t.find("e+"), std::string::npos) << t;
+      // " name x y z state confidence" per joint, " name -" when missing, joined by " | ".
+      std::istringstream in(t.substr(t.find("):") + 2));
+      for (const json& j : line.at("users")[i].at("joints")) {
+        std::string name, x;
+        ASSERT_TRUE(in >> name >> x) << t;
+        EXPECT_EQ(name, j.at("name").get<std::string>()) << t;
+        if (j.at("state") == "missing") {
+          EXPECT_EQ(x, "-") << t;
+        } else {
+          std::string y, z, state, confidence;
+          ASSERT_TRUE(in >> y >> z >> state >> confidence) << t;
+          EXPECT_NEAR(std::stod(x), j.at("x").get<double>(), 6e-4) << t;
+          EXPECT_NEAR(std::stod(z), j.at("z").get<double>(), 6e-4) << t;
+          EXPECT_EQ(state, j.at("state").get<std::string>()) << t;
+          const double c = std::stod(confidence);
+          EXPECT_NEAR(c, j.at("confidence").get<double>(), 1e-9) << t;
+          EXPECT_GE(c, 0.0);
+          EXPECT_LE(c, 1.0);
+          tracked += state == "tracked";
+        }
+        std::string bar;
+        if (in >> bar) EXPECT_EQ(bar, "|") << t;
+      }
+    }
+  }
+  EXPECT_GT(tracked, 3 * 2 * 8) << "most joints of two people in view are tracked";
+}
+
 TEST(AppRunUsersSharedData, SegmentOffAndAutoOnDatasets) {
   // --segment off: the whole band is foreground (floor and clutter included); no users reported.
   RunOptions off = options_for("oni:" + scene().oni);
