@@ -530,6 +530,7 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
         tracker->begin_frame();
         for (int i = 0; i < seg_result->user_count; ++i) {
           FrameResult& ur = user_results[size_t(i)];
+          tracker->note_arrival(seg_result->users[i].id, seg_result->users[i].arrival);
           tracker->update(seg_result->users[i].id, ur, &skeletons[size_t(i)]);
           ur.stage_cycles[kStageSkeleton] = skeletons[size_t(i)].cycles;
           ur.total_cycles += skeletons[size_t(i)].cycles;
