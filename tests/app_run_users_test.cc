@@ -153,6 +153,7 @@ TEST(AppRunUsersSharedData, TwoPeopleOnARecordingGetJointsUnderStableIds) {
     for (const json& u : line["users"]) {
       const int id = u["id"].get<int>();
       EXPECT_EQ(u["frames_tracked"].get<int>(), frame + 1) << "id " << id << " was lost or renumbered";
+      EXPECT_EQ(u["arrival"].get<std::string>(), frame == 0 ? "new" : "continued") << "id " << id;
       // Which person is this user? The one the median distance of its joints to the person's
       // visible joints is smallest for, by a clear margin over the other person.
       std::vector<double> medians;
@@ -235,7 +236,9 @@ TEST(AppRunUsersSharedData, TextModeJointsCarryStateAndConfidenceAsJson) {
           tracked += state == "tracked";
         }
         std::string bar;
-        if (in >> bar) EXPECT_EQ(bar, "|") << t;
+        if (in >> bar) {
+          EXPECT_EQ(bar, "|") << t;
+        }
       }
     }
   }

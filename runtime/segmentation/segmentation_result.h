@@ -29,6 +29,8 @@ enum UserArrival : int32_t {
   kUserReturned = 2,    // a person gone longer than track_keep_frames re-identified by height
 };
 
+const char* user_arrival_name(int32_t arrival);  // "continued", "new", "returned"; "?" otherwise
+
 struct UserInfo {
   int32_t id;              // 1..max_users, stable across frames
   int32_t pixel_count;

@@ -2,6 +2,17 @@
 
 #include <math.h>
 
+namespace dp {
+const char* user_arrival_name(int32_t arrival) {
+  switch (arrival) {
+    case kUserContinued: return "continued";
+    case kUserNew: return "new";
+    case kUserReturned: return "returned";
+  }
+  return "?";
+}
+}  // namespace dp
+
 namespace dp::seg {
 
 // The per-frame verdicts on the candidates and the tracks they matched (assign_users).

@@ -195,7 +195,7 @@ void write_users_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameRe
     line.number(u.centroid_m[1]);
     line.add(",");
     line.number(u.centroid_m[2]);
-    line.add("],\"frames_tracked\":%d,\"joints\":", u.frames_tracked);
+    line.add("],\"frames_tracked\":%d,\"arrival\":\"%s\",\"joints\":", u.frames_tracked, user_arrival_name(u.arrival));
     write_joints_json(line, b, sf.users[i], sf.skeletons ? &sf.skeletons[i] : nullptr);
     line.add(",\"cycles\":%llu,\"evaluated_pixels\":%d,\"flags\":[", (unsigned long long)sf.users[i].total_cycles,
              sf.users[i].evaluated_pixels);
