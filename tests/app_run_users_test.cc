@@ -16,6 +16,7 @@
 #include "tests/app_test_support.h"
 #include "tests/cli_test_support.h"
 #include "tests/shared_data.h"
+#include "tools/app/reid_eval.h"
 #include "tools/app/run.h"
 #include "tools/cli/command.h"
 #include "tools/common/error.h"
@@ -285,4 +286,29 @@ TEST(AppRunUsersSharedData, EvalSegmentReportsSegmentationQuality) {
   EXPECT_GE(j["detection_rate"].get<double>(), 0.95);
   EXPECT_GT(j["foreground_iou_pooled"].get<double>(), 0.8);
   EXPECT_LE(j["false_users_per_frame"].get<double>(), 0.1);
+}
+
+// reid-eval's plumbing on the two-person scene: a gap shorter than track_keep_frames is an
+// occlusion (the same id back), and a newcomer meanwhile gets a fresh id; a sequence too short for
+// --leave + --gap is refused naming it.
+TEST(ReidEvalSharedData, ShortGapKeepsTheIdAndTooShortSequencesAreRefused) {
+  ReidEvalOptions o;
+  o.datasets = {scene().dataset};
+  o.leave_frame = 12;
+  o.gap_frames = 10;
+  const std::vector<ReidSequenceResult> r = evaluate_reid(o);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_EQ(reid_outcome_name(r[0].return_outcome), std::string("same"));
+  EXPECT_EQ(reid_outcome_name(r[0].newcomer_outcome), std::string("new"));
+  EXPECT_GT(r[0].person1_height_m, 1.0);
+  EXPECT_GT(r[0].person2_height_m, 1.0);
+  o.leave_frame = 20;
+  o.gap_frames = 20;
+  try {
+    evaluate_reid(o);
+    ADD_FAILURE() << "a 30-frame sequence was accepted for leave + gap = 40";
+  } catch (const ToolError& e) {
+    EXPECT_NE(std::string(e.what()).find(scene().dataset), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("needs more than --leave + --gap = 40"), std::string::npos) << e.what();
+  }
 }
