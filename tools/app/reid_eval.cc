@@ -115,12 +115,13 @@ std::vector<ReidSequenceResult> evaluate_reid(const ReidEvalOptions& o) {
               id_before = id;
               if (const UserInfo* u = user_with_id(r, id)) heights.push_back(u->top_height_m);
             }
-          } else if (f >= int(back) && id && id_before && res.return_outcome == kReidUnseen) {
+          } else if (f >= int(back) && id && id_before) {
+            if (res.return_outcome == kReidUnseen)
+              if (const UserInfo* u = user_with_id(r, id)) res.person1_back_height_m = u->top_height_m;
             res.return_outcome = id == id_before ? kReidSame
                                  : std::find(held_by_others.begin(), held_by_others.end(), id) != held_by_others.end()
                                      ? kReidOther
                                      : kReidNew;
-            if (const UserInfo* u = user_with_id(r, id)) res.person1_back_height_m = u->top_height_m;
           }
           if (f < int(back))
             for (int i = 0; i < r.user_count; ++i)
@@ -139,11 +140,12 @@ std::vector<ReidSequenceResult> evaluate_reid(const ReidEvalOptions& o) {
             if (const int id = id_of(people, labels, 1)) id_person1 = id;
           }
           const int id2 = f >= int(back) ? id_of(people, labels, 2) : 0;
-          if (id2 && id_person1 && res.newcomer_outcome == kReidUnseen) {
+          if (id2 && id_person1) {
+            if (res.newcomer_outcome == kReidUnseen)
+              if (const UserInfo* u = user_with_id(r, id2)) res.person2_height_m = u->top_height_m;
             res.newcomer_outcome = id2 == id_person1 ? kReidFalse
                                    : std::find(held.begin(), held.end(), id2) != held.end() ? kReidOther
                                                                                              : kReidNew;
-            if (const UserInfo* u = user_with_id(r, id2)) res.person2_height_m = u->top_height_m;
           }
           if (f < int(back))
             for (int i = 0; i < r.user_count; ++i)

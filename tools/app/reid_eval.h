@@ -5,12 +5,13 @@
 //
 // Per sequence, two runs of the live segmenter (background model on, as for a fixed camera):
 //   return     person 1 is in view for frames [0, leave), out of view for `gap` frames, then back;
-//              the others are in view throughout. Outcome at its first frame found again (within
-//              kFindFrames): its own id back (`same`), a fresh id (`new`) or an id someone else
-//              held before (`other`); `unseen` when it is not found.
+//              the others are in view throughout. Outcome on the last frame it is found in the
+//              kFindFrames (30) frames after coming back (a person lost again there and found
+//              under another id counts with the later id): its own id back (`same`), a fresh id (`new`) or an id
+//              someone else held before (`other`); `unseen` when it is not found.
 //   newcomer   person 1 is in view for [0, leave) and gone from then on; person 2 stays out of view
-//              until leave + gap, then enters: a different body. Outcome for person 2: `new` (a
-//              fresh id), `false` (person 1's id: a false re-identification), `other`, `unseen`.
+//              until leave + gap, then enters: a different body. Outcome for person 2 (as above):
+//              `new` (a fresh id), `false` (person 1's id: a false re-identification), `other`, `unseen`.
 // A person "has" the id that labels most of its visible pixels.
 #pragma once
 #include <string>
