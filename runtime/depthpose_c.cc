@@ -184,6 +184,7 @@ dp_status dp_tracker_process(dp_tracker* t, const uint16_t* depth_mm, int32_t wi
       t->segmentation.user_count = 0;
       return from(s);
     }
+    t->skeletons.note_arrival(id, t->segmentation.users[i].arrival);
     t->skeletons.update(id, *t->proposals, &t->user_skeletons[i]);
   }
   t->width = width;

@@ -66,7 +66,9 @@ typedef struct dp_joint {
 } dp_joint;
 
 typedef struct dp_user {
-  int32_t id;              /* 1..DP_MAX_USERS, stable while the person stays in view; the value in the user map */
+  int32_t id;              /* 1..DP_MAX_USERS, stable while the person stays in view, and given back to a person
+                            * who left and returns within 5 s when the height matches (docs/skeleton.md);
+                            * the value in the user map */
   int32_t pixel_count;     /* pixels labelled with this id */
   int32_t frames_tracked;  /* consecutive frames this id has been seen (1 = new) */
   float centroid[3];       /* mean 3D point of its pixels, metres */

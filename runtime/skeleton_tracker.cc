@@ -381,15 +381,40 @@ void SkeletonTracker::reset_user(UserState& u) {
   for (int j = 0; j < kSkeletonJoints; ++j) u.bone_length[j] = kGenericBoneM[j];
 }
 
+void SkeletonTracker::restart_user(UserState& u) {
+  float samples[kSkeletonJoints][kBoneSamples], length[kSkeletonJoints];
+  int32_t count[kSkeletonJoints], next[kSkeletonJoints];
+  memcpy(samples, u.bone_samples, sizeof samples);
+  memcpy(length, u.bone_length, sizeof length);
+  memcpy(count, u.bone_count, sizeof count);
+  memcpy(next, u.bone_next, sizeof next);
+  reset_user(u);
+  memcpy(u.bone_samples, samples, sizeof samples);
+  memcpy(u.bone_length, length, sizeof length);
+  memcpy(u.bone_count, count, sizeof count);
+  memcpy(u.bone_next, next, sizeof next);
+}
+
 void SkeletonTracker::forget(int32_t user_id) {
   if (user_id >= 1 && user_id <= kMaxUsers) reset_user(users_[user_id]);
+}
+
+void SkeletonTracker::user_returned(int32_t user_id) {
+  if (user_id < 1 || user_id > kMaxUsers) return;
+  users_[user_id].active = 0;
+  users_[user_id].returning = 1;
+}
+
+void SkeletonTracker::note_arrival(int32_t user_id, int32_t arrival) {
+  if (arrival == kUserNew) forget(user_id);
+  else if (arrival == kUserReturned) user_returned(user_id);
 }
 
 void SkeletonTracker::begin_frame() {
   for (int id = 1; id <= kMaxUsers; ++id) {
     UserState& u = users_[id];
     if (!u.active) continue;
-    if (++u.frames_unseen > config_.forget_frames) reset_user(u);
+    if (++u.frames_unseen > config_.forget_frames) u.active = 0;  // update() restarts it
   }
 }
 
@@ -419,7 +444,8 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
   const uint64_t t0 = cycle_count();
   UserState& u = users_[user_id];
   if (!u.active) {
-    reset_user(u);
+    if (u.returning) restart_user(u);
+    else reset_user(u);
     u.active = 1;
   }
   u.frames_unseen = 0;

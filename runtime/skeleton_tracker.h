@@ -36,6 +36,7 @@
 #include <stdint.h>
 
 #include "runtime/depthpose.h"
+#include "runtime/segmentation/segmentation_result.h"
 #include "runtime/segmentation/segmenter_config.h"
 #include "runtime/skeleton_filter.h"
 
@@ -95,6 +96,7 @@ struct SkeletonConfig {
   int32_t max_candidates;         // proposals considered per joint, 1..kMaxProposals
   float frame_period_s;           // time between updates, (0, 1] (the filter's dt)
   int32_t forget_frames;          // a user not updated for this many frames starts afresh, 1..10000
+                                  // (its bone lengths kept for user_returned())
   SkeletonFilterParams filter;    // skeleton_filter.h; skeleton_filter_preset(kDefault) by default
 };
 SkeletonConfig default_skeleton_config();
@@ -108,18 +110,29 @@ class SkeletonTracker {
   Status set_config(const SkeletonConfig& config);
   const SkeletonConfig& config() const { return config_; }
 
-  // Starts a frame: every user's "frames since seen" grows; those over forget_frames are forgotten.
+  // Starts a frame: every user's "frames since seen" grows; those over forget_frames are forgotten
+  // (their bone lengths stay for user_returned() until forget() or the id's next new person).
   void begin_frame();
   // One user's proposals of this frame (`proposals.joint_count` must be kSkeletonJoints) → `out`.
   // kNotInitialized before init; kBadArgument for a null pointer, user_id outside 1..kMaxUsers or
   // a result with another joint count.
   Status update(int32_t user_id, const FrameResult& proposals, Skeleton* out);
-  // Forgets one user now (e.g. its id was handed to someone else).
+  // Forgets one user now, body measures included: call it when the people finder gives the id to
+  // a new person (UserInfo::arrival == kUserNew), so nothing of the id's previous holder carries over.
   void forget(int32_t user_id);
+  // The id was given back to its returning person (UserInfo::arrival == kUserReturned, re-identified
+  // by the people finder): the next update() restarts the user's motion state (last positions,
+  // filters, facing) but keeps the bone lengths measured before it left, also when begin_frame()
+  // had already forgotten it. Call before that update().
+  void user_returned(int32_t user_id);
+  // What the people finder says of this frame's user (UserInfo::id, UserInfo::arrival): kUserNew
+  // → forget(), kUserReturned → user_returned(), kUserContinued → nothing. Call before update().
+  void note_arrival(int32_t user_id, int32_t arrival);
 
  private:
   struct UserState {
     int32_t active;
+    int32_t returning;  // user_returned() was called: the next update keeps the bone statistics
     int32_t frames_tracked;
     int32_t frames_unseen;
     int32_t has_last[kSkeletonJoints];
@@ -134,6 +147,7 @@ class SkeletonTracker {
     JointFilter filters[kSkeletonJoints];
   };
   void reset_user(UserState& u);
+  void restart_user(UserState& u);  // reset_user keeping the bone statistics
   void update_bones(UserState& u, const Skeleton& s);
 
   SkeletonConfig config_{};

@@ -362,7 +362,7 @@ TEST(AppRunSharedData, BadInputsGiveOneLineErrors) {
 }
 
 TEST(AppCli, SubcommandsAreRegisteredWithHelp) {
-  for (const char* name : {"run", "record", "devices"}) {
+  for (const char* name : {"run", "record", "devices", "skeleton-eval", "reid-eval"}) {
     const cli::Command* c = cli::find_command(name);
     ASSERT_NE(c, nullptr) << name;
     char arg0[16], help[] = "--help";

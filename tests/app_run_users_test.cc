@@ -16,6 +16,7 @@
 #include "tests/app_test_support.h"
 #include "tests/cli_test_support.h"
 #include "tests/shared_data.h"
+#include "tools/app/reid_eval.h"
 #include "tools/app/run.h"
 #include "tools/cli/command.h"
 #include "tools/common/error.h"
@@ -153,6 +154,7 @@ TEST(AppRunUsersSharedData, TwoPeopleOnARecordingGetJointsUnderStableIds) {
     for (const json& u : line["users"]) {
       const int id = u["id"].get<int>();
       EXPECT_EQ(u["frames_tracked"].get<int>(), frame + 1) << "id " << id << " was lost or renumbered";
+      EXPECT_EQ(u["arrival"].get<std::string>(), frame == 0 ? "new" : "continued") << "id " << id;
       // Which person is this user? The one the median distance of its joints to the person's
       // visible joints is smallest for, by a clear margin over the other person.
       std::vector<double> medians;
@@ -195,6 +197,55 @@ TEST(AppRunUsersSharedData, TextModePrintsOneLinePerUser) {
   EXPECT_NE(c.text[4].find("tracked 2 frames"), std::string::npos) << c.text[4];
 }
 
+// Text mode prints each joint as the tracker reports it (the same position, state and calibrated
+// confidence as --json), not a raw vote weight.
+TEST(AppRunUsersSharedData, TextModeJointsCarryStateAndConfidenceAsJson) {
+  RunOptions o = options_for("oni:" + scene().oni);
+  o.max_frames = 3;
+  const Captured js = run_captured(o);
+  o.json = false;
+  const Captured text = run_captured(o);
+  ASSERT_EQ(js.lines.size(), 3u) << js.log;
+  ASSERT_EQ(text.text.size(), 9u) << text.log;
+  int tracked = 0;
+  for (size_t f = 0; f < 3; ++f) {
+    const json& line = js.lines[f];
+    ASSERT_TRUE(line.at("skeleton").get<bool>());
+    ASSERT_EQ(line.at("users").size(), 2u);
+    for (size_t i = 0; i < 2; ++i) {
+      const std::string& t = text.text[f * 3 + 1 + i];
+      EXPECT_EQ(t.find("votes"), std::string::npos) << t;
+      EXPECT_EQ(t.find("e+"), std::string::npos) << t;
+      // " name x y z state confidence" per joint, " name -" when missing, joined by " | ".
+      std::istringstream in(t.substr(t.find("):") + 2));
+      for (const json& j : line.at("users")[i].at("joints")) {
+        std::string name, x;
+        ASSERT_TRUE(in >> name >> x) << t;
+        EXPECT_EQ(name, j.at("name").get<std::string>()) << t;
+        if (j.at("state") == "missing") {
+          EXPECT_EQ(x, "-") << t;
+        } else {
+          std::string y, z, state, confidence;
+          ASSERT_TRUE(in >> y >> z >> state >> confidence) << t;
+          EXPECT_NEAR(std::stod(x), j.at("x").get<double>(), 6e-4) << t;
+          EXPECT_NEAR(std::stod(z), j.at("z").get<double>(), 6e-4) << t;
+          EXPECT_EQ(state, j.at("state").get<std::string>()) << t;
+          const double c = std::stod(confidence);
+          EXPECT_NEAR(c, j.at("confidence").get<double>(), 1e-9) << t;
+          EXPECT_GE(c, 0.0);
+          EXPECT_LE(c, 1.0);
+          tracked += state == "tracked";
+        }
+        std::string bar;
+        if (in >> bar) {
+          EXPECT_EQ(bar, "|") << t;
+        }
+      }
+    }
+  }
+  EXPECT_GT(tracked, 3 * 2 * 8) << "most joints of two people in view are tracked";
+}
+
 TEST(AppRunUsersSharedData, SegmentOffAndAutoOnDatasets) {
   // --segment off: the whole band is foreground (floor and clutter included); no users reported.
   RunOptions off = options_for("oni:" + scene().oni);
@@ -235,4 +286,29 @@ TEST(AppRunUsersSharedData, EvalSegmentReportsSegmentationQuality) {
   EXPECT_GE(j["detection_rate"].get<double>(), 0.95);
   EXPECT_GT(j["foreground_iou_pooled"].get<double>(), 0.8);
   EXPECT_LE(j["false_users_per_frame"].get<double>(), 0.1);
+}
+
+// reid-eval's plumbing on the two-person scene: a gap shorter than track_keep_frames is an
+// occlusion (the same id back), and a newcomer meanwhile gets a fresh id; a sequence too short for
+// --leave + --gap is refused naming it.
+TEST(ReidEvalSharedData, ShortGapKeepsTheIdAndTooShortSequencesAreRefused) {
+  ReidEvalOptions o;
+  o.datasets = {scene().dataset};
+  o.leave_frame = 12;
+  o.gap_frames = 10;
+  const std::vector<ReidSequenceResult> r = evaluate_reid(o);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_EQ(reid_outcome_name(r[0].return_outcome), std::string("same"));
+  EXPECT_EQ(reid_outcome_name(r[0].newcomer_outcome), std::string("new"));
+  EXPECT_GT(r[0].person1_height_m, 1.0);
+  EXPECT_GT(r[0].person2_height_m, 1.0);
+  o.leave_frame = 20;
+  o.gap_frames = 20;
+  try {
+    evaluate_reid(o);
+    ADD_FAILURE() << "a 30-frame sequence was accepted for leave + gap = 40";
+  } catch (const ToolError& e) {
+    EXPECT_NE(std::string(e.what()).find(scene().dataset), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("needs more than --leave + --gap = 40"), std::string::npos) << e.what();
+  }
 }

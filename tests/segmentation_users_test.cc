@@ -287,3 +287,109 @@ TEST(SegmentationComponents, TwoPeopleSideBySideAreNotMerged) {
   ASSERT_EQ(h.run(f), Status::kOk);
   EXPECT_EQ(h.result.user_count, 2);
 }
+
+namespace {
+
+// The id labelling most of truth `truth`'s pixels (0 when it is not in view or not labelled).
+int id_of(const SegmenterHarness& h, const tools::RenderedScene& f, uint8_t truth) {
+  int votes[16] = {};
+  for (size_t i = 0; i < f.truth.size(); ++i)
+    if (f.truth[i] == truth && h.labels[i] && h.labels[i] < 16) ++votes[h.labels[i]];
+  int best = 0;
+  for (int id = 1; id < 16; ++id)
+    if (votes[id] > votes[best]) best = id;
+  return best;
+}
+
+struct Person {
+  float x, z, height;
+  uint8_t truth;
+};
+
+// One frame of these people (cylinders on the floor of room()); their ids → *ids (by truth).
+void show(SegmenterHarness& h, std::initializer_list<Person> people, int* ids, int* arrivals) {
+  tools::Scene s = room();
+  for (const Person& p : people) s.cylinders.push_back(person_at(p.x, p.z, p.truth, p.height));
+  const tools::RenderedScene f = tools::render_scene(s);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  for (const Person& p : people) {
+    ids[p.truth] = id_of(h, f, p.truth);
+    const UserInfo* u = h.user(ids[p.truth]);
+    ASSERT_TRUE(u) << "person " << int(p.truth) << " not found";
+    arrivals[p.truth] = u->arrival;
+  }
+}
+
+SegmenterConfig reid_config() {
+  SegmenterConfig cfg = default_segmenter_config(false);
+  cfg.track_keep_frames = 5;
+  cfg.reid_window_frames = 60;
+  return cfg;
+}
+
+}  // namespace
+
+TEST(SegmentationUsers, AReturningPersonGetsItsIdBackByHeightANewcomerDoesNot) {
+  SegmenterHarness h(reid_config());
+  const Person tall{-0.8f, 3.0f, 1.85f, 1}, short_one{0.8f, 2.5f, 1.55f, 2};
+  int ids[8] = {}, arrivals[8] = {};
+  show(h, {tall, short_one}, ids, arrivals);
+  EXPECT_EQ(arrivals[1], kUserNew);
+  EXPECT_EQ(arrivals[2], kUserNew);
+  const int tall_id = ids[1], short_id = ids[2];
+  ASSERT_NE(tall_id, short_id);
+  for (int i = 0; i < 12; ++i) {
+    show(h, {tall, short_one}, ids, arrivals);
+    EXPECT_EQ(arrivals[1], kUserContinued);
+  }
+  for (int i = 0; i < 10; ++i) show(h, {short_one}, ids, arrivals);  // the tall one is gone (> 5 frames)
+  // A newcomer 25 cm shorter, where the tall one was: a new id, not the tall one's (reserved).
+  const Person newcomer{-1.0f, 3.2f, 1.60f, 3};
+  show(h, {short_one, newcomer}, ids, arrivals);
+  EXPECT_EQ(arrivals[3], kUserNew);
+  EXPECT_NE(ids[3], tall_id);
+  EXPECT_NE(ids[3], short_id);
+  for (int i = 0; i < 3; ++i) show(h, {short_one, newcomer}, ids, arrivals);
+  // The tall one comes back elsewhere, 22 frames after last seen: its id again, marked returned.
+  const Person back{0.1f, 3.6f, 1.85f, 1};
+  show(h, {short_one, newcomer, back}, ids, arrivals);
+  EXPECT_EQ(ids[1], tall_id);
+  EXPECT_EQ(arrivals[1], kUserReturned);
+  show(h, {short_one, newcomer, back}, ids, arrivals);
+  EXPECT_EQ(ids[1], tall_id);
+  EXPECT_EQ(arrivals[1], kUserContinued);
+  EXPECT_EQ(ids[2], short_id);
+}
+
+TEST(SegmentationUsers, TwoSimilarGonePeopleAreNotGuessedAndTheWindowEnds) {
+  SegmenterHarness h(reid_config());
+  const Person a{-0.8f, 3.0f, 1.80f, 1}, b{0.8f, 3.0f, 1.82f, 2};
+  int ids[8] = {}, arrivals[8] = {};
+  for (int i = 0; i < 12; ++i) show(h, {a, b}, ids, arrivals);
+  const int id_a = ids[1], id_b = ids[2];
+  for (int i = 0; i < 8; ++i) {  // both gone
+    tools::Scene s = room();
+    ASSERT_EQ(h.run(tools::render_scene(s)), Status::kOk);
+    EXPECT_EQ(h.result.user_count, 0);
+  }
+  // One of them comes back: both heights fit within 5 cm, so no guess: a new id, neither of theirs.
+  show(h, {a}, ids, arrivals);
+  EXPECT_EQ(arrivals[1], kUserNew);
+  EXPECT_NE(ids[1], id_a);
+  EXPECT_NE(ids[1], id_b);
+
+  // Alone, one of them returning after the window (60 frames) is new too.
+  SegmenterHarness late(reid_config());
+  for (int i = 0; i < 12; ++i) show(late, {a}, ids, arrivals);
+  for (int i = 0; i < 70; ++i) ASSERT_EQ(late.run(tools::render_scene(room())), Status::kOk);
+  show(late, {a}, ids, arrivals);
+  EXPECT_EQ(arrivals[1], kUserNew);
+  // Within the window it is returned (same recipe, 40 frames away).
+  SegmenterHarness soon(reid_config());
+  for (int i = 0; i < 12; ++i) show(soon, {a}, ids, arrivals);
+  const int first = ids[1];
+  for (int i = 0; i < 40; ++i) ASSERT_EQ(soon.run(tools::render_scene(room())), Status::kOk);
+  show(soon, {a}, ids, arrivals);
+  EXPECT_EQ(arrivals[1], kUserReturned);
+  EXPECT_EQ(ids[1], first);
+}

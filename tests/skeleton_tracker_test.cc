@@ -207,6 +207,50 @@ TEST(SkeletonTracker, AUserUnseenForForgetFramesStartsAfresh) {
   EXPECT_EQ(s.frames_tracked, 1);
 }
 
+// A person the people finder re-identifies (kUserReturned) restarts with the bone lengths measured
+// before leaving; a new person under the same id (kUserNew) starts from the generic lengths.
+TEST(SkeletonTracker, AReturningUserKeepsItsBonesANewPersonDoesNot) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  ASSERT_EQ(tracker->init(skeleton_meta(), unfiltered()), Status::kOk);
+  float truth[kSkeletonJoints][3];
+  body(0.0f, truth);
+  const float measured = std::hypot(truth[kShoulderL][0] - truth[kNeck][0], truth[kShoulderL][1] - truth[kNeck][1]);
+  Skeleton s;
+  feed_still_body(*tracker, kBoneSamplesTrusted + 2, &s);
+  const float generic = 0.24f;
+  ASSERT_GT(std::fabs(measured - generic), 0.02f) << "the test body must differ from the generic lengths";
+  EXPECT_NEAR(s.bone_length_m[kShoulderL], measured, 1e-4f);
+  // Gone longer than forget_frames, then back, re-identified: motion state restarts, bones stay.
+  for (int f = 0; f < default_skeleton_config().forget_frames + 5; ++f) tracker->begin_frame();
+  tracker->note_arrival(1, kUserReturned);
+  body(0.6f, truth);  // back elsewhere
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
+  EXPECT_EQ(s.frames_tracked, 1);
+  EXPECT_NEAR(s.bone_length_m[kShoulderL], measured, 1e-4f);
+  EXPECT_EQ(s.joints[kHead].state, JointState::kTracked);
+  EXPECT_NEAR(s.joints[kHead].x_m, truth[kHead][0], 1e-5f);
+  // Re-identified while still remembered (a short gap): restarts too, bones kept.
+  tracker->note_arrival(1, kUserReturned);
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
+  EXPECT_EQ(s.frames_tracked, 1);
+  EXPECT_NEAR(s.bone_length_m[kShoulderL], measured, 1e-4f);
+  // The id handed to a new person: nothing carries over.
+  tracker->note_arrival(1, kUserNew);
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
+  EXPECT_EQ(s.frames_tracked, 1);
+  EXPECT_NEAR(s.bone_length_m[kShoulderL], generic, 1e-6f);
+  // Forgotten by begin_frame without a re-identification: a fresh start as before.
+  feed_still_body(*tracker, kBoneSamplesTrusted + 2, &s);
+  for (int f = 0; f < default_skeleton_config().forget_frames + 5; ++f) tracker->begin_frame();
+  tracker->note_arrival(1, kUserContinued);
+  ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
+  EXPECT_EQ(s.frames_tracked, 1);
+  EXPECT_NEAR(s.bone_length_m[kShoulderL], generic, 1e-6f);
+}
+
 TEST(SkeletonFilter, OffPassesThroughDefaultCutsJitterAndFollowsMotion) {
   const float dt = 1.0f / 30.0f;
   JointFilter off{}, def{}, strong{};

@@ -22,6 +22,15 @@ struct FloorPlane {
   int32_t held_frames;  // frames since the plane was last fitted (0 = fitted this frame)
 };
 
+// How a user got its id this frame (UserInfo::arrival).
+enum UserArrival : int32_t {
+  kUserContinued = 0,   // the id's track matched (also after a short occlusion within track_keep_frames)
+  kUserNew = 1,         // a new person: an id nobody held within reid_window_frames, or the oldest
+  kUserReturned = 2,    // a person gone longer than track_keep_frames re-identified by height
+};
+
+const char* user_arrival_name(int32_t arrival);  // "continued", "new", "returned"; "?" otherwise
+
 struct UserInfo {
   int32_t id;              // 1..max_users, stable across frames
   int32_t pixel_count;
@@ -29,6 +38,7 @@ struct UserInfo {
   int16_t u_min, v_min, u_max, v_max;  // bounding box, inclusive
   float top_height_m;      // highest point above the floor (camera y extent without floor)
   int32_t frames_tracked;  // consecutive frames this id has been seen (1 = new)
+  int32_t arrival;         // UserArrival: how this id came to this user this frame
 };
 
 enum SegmentationStage : int32_t {

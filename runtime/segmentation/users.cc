@@ -1,5 +1,18 @@
 #include "runtime/segmentation/users.h"
 
+#include <math.h>
+
+namespace dp {
+const char* user_arrival_name(int32_t arrival) {
+  switch (arrival) {
+    case kUserContinued: return "continued";
+    case kUserNew: return "new";
+    case kUserReturned: return "returned";
+  }
+  return "?";
+}
+}  // namespace dp
+
 namespace dp::seg {
 
 // The per-frame verdicts on the candidates and the tracks they matched (assign_users).
@@ -9,6 +22,7 @@ struct UserStage::Verdicts {
   bool outline[kMaxCandidates];  // qualifies only as low by its outline (low_max_solidity)
   float cx[kMaxCandidates], cy[kMaxCandidates], cz[kMaxCandidates];  // centroids, camera metres
   bool track_matched[kMaxUsers];
+  int32_t arrival[kMaxUsers];  // UserArrival of each track's user this frame
 };
 
 void UserStage::set_centroid(int32_t k, Verdicts* v) const {
@@ -109,19 +123,69 @@ int32_t UserStage::admit_new_users(const DepthFrame& f, int32_t n, Verdicts* v, 
       src.pixels = 0;
       continue;
     }
-    int32_t slot = -1;
-    for (int32_t t = 0; t < cfg.max_users && slot < 0; ++t)
-      if (!tracks_[t].active) slot = t;
+    const float centroid[3] = {v->cx[best_k], v->cy[best_k], v->cz[best_k]};
+    bool returned = false;
+    const int32_t slot = slot_for_new_user(candidates_[best_k], centroid, &returned);
     if (slot < 0) {
       r->flags |= kSegFlagUsersTruncated;
       break;
     }
-    tracks_[slot] = Track{1, 0, 0, {v->cx[best_k], v->cy[best_k], v->cz[best_k]}, {0, 0, 0}};
+    Track& tr = tracks_[slot];
+    if (!returned) tr = Track{};  // a returning person keeps its height samples
+    tr.active = 1;
+    tr.gone = 0;
+    tr.lost_frames = 0;
+    tr.frames_tracked = 0;
+    for (int a = 0; a < 3; ++a) {
+      tr.centroid[a] = centroid[a];
+      tr.velocity[a] = 0.0f;
+    }
+    v->arrival[slot] = returned ? kUserReturned : kUserNew;
     v->track_matched[slot] = true;
     candidates_[best_k].user = slot + 1;
   }
   return n;
 }
+
+// The id of a new user (slot, −1 when every id is in use): a gone track's whose person it is by
+// height and reach (*returned = true; none when two gone tracks' heights fit), else the lowest id
+// neither in use nor gone, else the one gone longest.
+int32_t UserStage::slot_for_new_user(const Candidate& c, const float* centroid, bool* returned) const {
+  const SegmenterConfig& cfg = *config_;
+  int32_t match = -1, height_matches = 0, free_slot = -1, oldest = -1;
+  for (int32_t t = 0; t < cfg.max_users; ++t) {
+    const Track& tr = tracks_[t];
+    if (tr.active) continue;
+    if (!tr.gone) {
+      if (free_slot < 0) free_slot = t;
+      continue;
+    }
+    if (oldest < 0 || tr.lost_frames > tracks_[oldest].lost_frames) oldest = t;
+    if (fabsf(c.top - tr.height_m) > cfg.reid_height_tolerance_m) continue;
+    ++height_matches;
+    const float dx = centroid[0] - tr.centroid[0], dy = centroid[1] - tr.centroid[1], dz = centroid[2] - tr.centroid[2];
+    const float reach = cfg.association_distance_m + cfg.reid_speed_m * float(tr.lost_frames);
+    if (dx * dx + dy * dy + dz * dz <= reach * reach) match = t;
+  }
+  *returned = height_matches == 1 && match >= 0;
+  if (*returned) return match;
+  return free_slot >= 0 ? free_slot : oldest;
+}
+
+namespace {
+// The median of a track's height samples (at most kReidHeightSamples, insertion sort).
+float median_height(const Track& tr) {
+  float sorted[kReidHeightSamples];
+  const int32_t n = tr.height_count;
+  for (int32_t i = 0; i < n; ++i) {
+    const float h = tr.heights[i];
+    int32_t k = i;
+    for (; k > 0 && sorted[k - 1] > h; --k) sorted[k] = sorted[k - 1];
+    sorted[k] = h;
+  }
+  return n > 0 ? sorted[n / 2] : 0.0f;
+}
+}  // namespace
 
 // Tracks (matched: moved and counted; unmatched: lost, dropped after track_keep_frames) and the
 // visible users, by id.
@@ -129,10 +193,17 @@ void UserStage::update_tracks(const Verdicts& v, SegmentationResult* r) {
   const SegmenterConfig& cfg = *config_;
   for (int32_t t = 0; t < kMaxUsers; ++t) {
     Track& tr = tracks_[t];
-    if (!tr.active) continue;
+    if (!tr.active) {
+      if (tr.gone && ++tr.lost_frames > cfg.reid_window_frames) tr.gone = 0;
+      continue;
+    }
     if (!v.track_matched[t]) {
       tr.frames_tracked = 0;
-      if (++tr.lost_frames > cfg.track_keep_frames) tr.active = 0;
+      if (++tr.lost_frames > cfg.track_keep_frames) {
+        tr.active = 0;
+        tr.gone = cfg.reid_window_frames > cfg.track_keep_frames && tr.height_count >= kReidHeightSamplesNeeded;
+        tr.height_m = median_height(tr);
+      }
       continue;
     }
     int32_t k = 0;
@@ -149,6 +220,9 @@ void UserStage::update_tracks(const Verdicts& v, SegmentationResult* r) {
     }
     tr.lost_frames = 0;
     if (tr.frames_tracked < 0x7fffffff) ++tr.frames_tracked;
+    tr.heights[tr.height_next] = c.top;
+    tr.height_next = (tr.height_next + 1) % kReidHeightSamples;
+    if (tr.height_count < kReidHeightSamples) ++tr.height_count;
     UserInfo& u = r->users[r->user_count++];
     u.id = t + 1;
     u.pixel_count = c.pixels;
@@ -156,6 +230,7 @@ void UserStage::update_tracks(const Verdicts& v, SegmentationResult* r) {
     u.u_min = c.u_min; u.v_min = c.v_min; u.u_max = c.u_max; u.v_max = c.v_max;
     u.top_height_m = c.top;
     u.frames_tracked = tr.frames_tracked;
+    u.arrival = v.arrival[t];
     r->user_pixels += c.pixels;
   }
 }

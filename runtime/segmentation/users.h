@@ -6,9 +6,16 @@
 //     candidates and pixel views are the component stage's (components.h). Owns nothing.
 //   - assign_users: merge fragments, judge every candidate, match tracks to candidates (greedy,
 //     nearest centroid relative to each track's reach), admit new users (largest first, lowest
-//     free id, at most max_users; kSegFlagUsersTruncated beyond), update the tracks, fill
+//     free id, at most max_users; kSegFlagUsersTruncated beyond; re-identification below), update the tracks, fill
 //     result->users (by increasing id), user_count, user_pixels and the labels (height ×
 //     stride_px bytes, 0 = background).
+//   - Re-identification: a track dropped after track_keep_frames stays `gone` for up to
+//     reid_window_frames since last seen, with the median of its last kReidHeightSamples heights.
+//     A new user takes a gone track's id when its height is within reid_height_tolerance_m of that
+//     track's and of no other gone track's, and its centroid within association_distance_m +
+//     reid_speed_m per frame gone of where the track was last seen (arrival kUserReturned).
+//     Otherwise it takes the lowest id that is neither in use nor gone, else the id gone longest
+//     (arrival kUserNew): a gone person's id is not handed to someone else while others are free.
 //   - Bounded: kMaxUsers × kMaxCandidates per matching round, kMaxUsers rounds; kMaxCandidates
 //     admission rounds; one sweep over the frame for the labels.
 //   - Units: centroids and velocities in camera metres (per frame).
@@ -19,12 +26,24 @@
 
 namespace dp::seg {
 
+// Heights (top_height_m) a track keeps, the last ones seen; re-identification needs
+// kReidHeightSamplesNeeded of them (a person seen about a third of a second at 30 fps).
+constexpr int32_t kReidHeightSamples = 15;  // odd: a true median
+constexpr int32_t kReidHeightSamplesNeeded = 10;
+
 struct Track {
   int32_t active;        // slot in use (visible or lost ≤ track_keep_frames)
-  int32_t lost_frames;
+  int32_t lost_frames;   // frames since last seen (counts on while gone, for re-identification)
   int32_t frames_tracked;
   float centroid[3];
   float velocity[3];     // metres per frame, smoothed
+  // Re-identification: a dropped track stays `gone` (its id reserved for its person) until
+  // lost_frames exceeds reid_window_frames; its height is the median of the samples.
+  int32_t gone;
+  int32_t height_count;  // samples held (≤ kReidHeightSamples)
+  int32_t height_next;   // ring position of the next sample
+  float heights[kReidHeightSamples];
+  float height_m;        // median of the samples when the track was dropped
 };
 
 struct UserStage : PersonTests {
@@ -38,6 +57,7 @@ struct UserStage : PersonTests {
   void judge_candidates(const DepthFrame& frame, int32_t candidate_count, Verdicts* v);
   void associate_tracks(int32_t candidate_count, Verdicts* v);
   int32_t admit_new_users(const DepthFrame& frame, int32_t candidate_count, Verdicts* v, SegmentationResult* r);
+  int32_t slot_for_new_user(const Candidate& c, const float* centroid, bool* returned) const;
   void update_tracks(const Verdicts& v, SegmentationResult* r);
   void write_labels(const DepthFrame& frame, SegmentationResult* r) const;
 };

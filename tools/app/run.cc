@@ -195,7 +195,7 @@ void write_users_json(LineBuffer& line, const blob::LoadedBlob& b, const FrameRe
     line.number(u.centroid_m[1]);
     line.add(",");
     line.number(u.centroid_m[2]);
-    line.add("],\"frames_tracked\":%d,\"joints\":", u.frames_tracked);
+    line.add("],\"frames_tracked\":%d,\"arrival\":\"%s\",\"joints\":", u.frames_tracked, user_arrival_name(u.arrival));
     write_joints_json(line, b, sf.users[i], sf.skeletons ? &sf.skeletons[i] : nullptr);
     line.add(",\"cycles\":%llu,\"evaluated_pixels\":%d,\"flags\":[", (unsigned long long)sf.users[i].total_cycles,
              sf.users[i].evaluated_pixels);
@@ -262,12 +262,19 @@ void write_frame_json(LineBuffer& line, const RunOptions& options, const blob::L
   line.add("}");
 }
 
-void write_joints_text(LineBuffer& line, const blob::LoadedBlob& b, const FrameResult& r) {
+// " head 0.012 0.457 2.055 tracked 0.80 | neck - | ...": with a skeleton, each joint's filtered
+// position, state and calibrated confidence (as in --json); "-" for a missing joint. Without (other
+// joint sets), each joint's best proposal and its summed vote weight ("votes 2.95e+08").
+void write_joints_text(LineBuffer& line, const blob::LoadedBlob& b, const FrameResult& r, const Skeleton* sk) {
   for (int j = 0; j < r.joint_count; ++j) {
     line.add(j ? " | %.*s" : " %.*s", blob::kNameBytes, b.meta->joint_names[j]);
-    if (r.proposal_count[j] > 0) {
+    if (sk) {
+      const TrackedJoint& t = sk->joints[j];
+      if (t.state == JointState::kMissing) line.add(" -");
+      else line.add(" %.3f %.3f %.3f %s %.2f", t.x_m, t.y_m, t.z_m, joint_state_name(t.state), t.confidence);
+    } else if (r.proposal_count[j] > 0) {
       const JointProposal& p = r.proposals[j][0];
-      line.add(" %.3f %.3f %.3f (%.3g)", p.x_m, p.y_m, p.z_m, p.confidence);
+      line.add(" %.3f %.3f %.3f (votes %.3g)", p.x_m, p.y_m, p.z_m, p.confidence);
     } else {
       line.add(" -");
     }
@@ -279,7 +286,7 @@ void write_frame_text(LineBuffer& line, const blob::LoadedBlob& b, int64_t frame
   line.clear();
   line.add("frame %lld (source %lld, %.2f ms):", (long long)frame, (long long)info.index, frame_ms);
   if (sf.seg) line.add(" %d user(s):", sf.seg->user_count);
-  write_joints_text(line, b, r);
+  write_joints_text(line, b, r, sf.frame_skeleton);
   if (r.flags & kFlagOverCycleBudget) line.add(" [over budget]");
   line.write(out);
   if (!sf.seg) return;
@@ -288,7 +295,7 @@ void write_frame_text(LineBuffer& line, const blob::LoadedBlob& b, int64_t frame
     line.clear();
     line.add("frame %lld user %d (%d px, tracked %d frames):", (long long)frame, u.id, u.pixel_count,
              u.frames_tracked);
-    write_joints_text(line, b, sf.users[i]);
+    write_joints_text(line, b, sf.users[i], sf.skeletons ? &sf.skeletons[i] : nullptr);
     line.write(out);
   }
 }
@@ -523,6 +530,7 @@ RunSummary run_app(const RunOptions& options, FILE* json_out, FILE* log) {
         tracker->begin_frame();
         for (int i = 0; i < seg_result->user_count; ++i) {
           FrameResult& ur = user_results[size_t(i)];
+          tracker->note_arrival(seg_result->users[i].id, seg_result->users[i].arrival);
           tracker->update(seg_result->users[i].id, ur, &skeletons[size_t(i)]);
           ur.stage_cycles[kStageSkeleton] = skeletons[size_t(i)].cycles;
           ur.total_cycles += skeletons[size_t(i)].cycles;
