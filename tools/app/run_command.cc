@@ -25,7 +25,7 @@ static int run_run(int argc, char** argv) {
                         "  Runs the forest on every frame of a source: one JSON line per frame on stdout (--json),\n"
                         "  events and a closing summary (fps, p50/p99/max frame time, budget overruns, dropped and\n"
                         "  corrupt frames) on stderr.\n"
-                        "  --blob BLOB          the model (forest_blob v2)\n") +
+                        "  --blob BLOB          the model (a forest blob, docs/blob_format.md)\n") +
                 kSourceUsage +
                 "  --json               one JSON line per processed frame (schema: docs/app.md); without it\n"
                 "                       one text line per frame (best proposal per joint)\n"
