@@ -5,8 +5,14 @@
 // time, so that other load on the machine does not distort it), where one evaluation =
 // one feature (offset pair) computed at one pixel and binned against the node's thresholds; the
 // paper's |T| candidates are offset pairs × thresholds, so the rate in (pixel·|T|) is ×20.
-// Environment: TRAIN_BENCH_METHOD (bpc|ojr: OJR adds the vote leaves), TRAIN_BENCH_IMAGES, TRAIN_BENCH_DEPTH, TRAIN_BENCH_OFFSETS, TRAIN_BENCH_THREADS
-// override the configuration; TRAIN_BENCH_LEVELS=1 prints each level's evaluations and wall time.
+// Environment: TRAIN_BENCH_METHOD (bpc|ojr: OJR adds the vote leaves), TRAIN_BENCH_IMAGES, TRAIN_BENCH_PIXELS
+// (per image), TRAIN_BENCH_DEPTH, TRAIN_BENCH_OFFSETS, TRAIN_BENCH_THRESHOLDS, TRAIN_BENCH_THREADS override the
+// configuration; TRAIN_BENCH_LEVELS=1 prints each level's evaluations, wall and CPU time.
+// Every run prints the rate per depth band (levels 0–3, 4–7, 8–11, 12–15, 16+: evaluations / CPU
+// seconds of the band's levels), because a whole training's cost is dominated by the deep levels,
+// where nodes hold few pixels and the per-node work (candidates, thresholds, scoring) weighs most.
+// `make bench` also runs the whole-training reference (`TRAIN_BENCH_IMAGES=300 TRAIN_BENCH_PIXELS=1000
+// TRAIN_BENCH_DEPTH=20 TRAIN_BENCH_OFFSETS=400`, docs/training.md "Throughput").
 // DEPTHPOSE_TRAIN_NO_AVX2=1 (read by the trainer) measures the scalar feature path.
 // Before/after comparisons: build both versions and alternate the two binaries back to back
 // (docs/training.md, Throughput), since this shared machine's load varies from minute to minute.
@@ -16,6 +22,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <thread>
+#include <vector>
 
 #include "tests/train_stick_bodies.h"
 #include "tools/train/forest_trainer.h"
@@ -40,33 +47,50 @@ int main() {
   const int images = env_int("TRAIN_BENCH_IMAGES", 1000);
   const int depth = env_int("TRAIN_BENCH_DEPTH", 16);
   const int offsets = env_int("TRAIN_BENCH_OFFSETS", 200);
+  const int pixels = env_int("TRAIN_BENCH_PIXELS", 2000);
+  const int thresholds = env_int("TRAIN_BENCH_THRESHOLDS", 20);
   const int threads = env_int("TRAIN_BENCH_THREADS", std::max(1u, std::thread::hardware_concurrency()));
   const auto t0 = std::chrono::steady_clock::now();
-  TrainingSet set = testing_bodies::stick_body_set(images, 2000);
+  TrainingSet set = testing_bodies::stick_body_set(images, pixels);
   const double make_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("train_bench: %d images 320x240 x 2000 px = %zu training pixels (made in %.1f s), 1 tree, depth %d, "
-              "%d offsets x 20 thresholds, %d threads\n",
-              images, set.tree_pixels[0].size(), make_s, depth, offsets, threads);
+  std::printf("train_bench: %d images 320x240 x %d px = %zu training pixels (made in %.1f s), 1 tree, depth %d, "
+              "%d offsets x %d thresholds, %d threads\n",
+              images, pixels, set.tree_pixels[0].size(), make_s, depth, offsets, thresholds, threads);
   std::fflush(stdout);
 
   ForestOptions fo;
   fo.method = std::getenv("TRAIN_BENCH_METHOD") ? std::getenv("TRAIN_BENCH_METHOD") : "bpc";
   fo.tree.max_depth = depth;
   fo.tree.offset_candidates = offsets;
-  fo.tree.threshold_candidates = 20;
+  fo.tree.threshold_candidates = thresholds;
   fo.tree.max_offset_pxm = 65;
   fo.tree.min_samples = 10;
   fo.tree.threads = threads;
   ForestStats stats;
   const auto t1 = std::chrono::steady_clock::now();
   const double c1 = cpu_seconds();
-  ProgressFn levels;
-  if (std::getenv("TRAIN_BENCH_LEVELS"))
-    levels = [](const LevelReport& r) {
-      if (!r.partial && !r.resumed && r.seconds > 0)
-        std::printf("train_bench:   level %2d: %6zu nodes, %.3g evaluations, %.2f s wall = %.2f ns each\n", r.level,
-                    r.frontier_nodes, double(r.feature_evaluations), r.seconds, 1e9 * r.seconds / std::max<double>(1, r.feature_evaluations));
-    };
+  // Per depth band: evaluations and process CPU seconds (the CPU clock read at each level's report,
+  // which comes on the calling thread after the level's work on all threads has finished).
+  constexpr int kBands = 5, kBandLevels = 4;
+  double band_evaluations[kBands] = {}, band_cpu[kBands] = {}, band_pixels[kBands] = {};
+  int band_levels[kBands] = {};
+  double level_cpu_start = c1;
+  const bool print_levels = std::getenv("TRAIN_BENCH_LEVELS") != nullptr;
+  ProgressFn levels = [&](const LevelReport& r) {
+    if (r.partial || r.resumed) return;
+    const double now = cpu_seconds(), cpu = now - level_cpu_start;
+    level_cpu_start = now;
+    const int band = std::min(kBands - 1, r.level / kBandLevels);
+    band_evaluations[band] += double(r.feature_evaluations);
+    band_cpu[band] += cpu;
+    band_pixels[band] += double(r.active_pixels) / std::max<size_t>(1, r.frontier_nodes);
+    ++band_levels[band];
+    if (print_levels)
+      std::printf("train_bench:   level %2d: %6zu nodes, %8.0f px/node, %.3g evaluations, %.2f s wall, %.2f s CPU = "
+                  "%.3g /s per core\n",
+                  r.level, r.frontier_nodes, double(r.active_pixels) / std::max<size_t>(1, r.frontier_nodes),
+                  double(r.feature_evaluations), r.seconds, cpu, r.feature_evaluations / std::max(1e-9, cpu));
+  };
   const TrainedForest forest = train_forest(set, fo, levels, &stats);
   const double cpu = cpu_seconds() - c1;
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
@@ -79,6 +103,13 @@ int main() {
               "threads busy): %.3g /s = %.2f ns each; x20 thresholds = %.3g pixel*candidate /s per core\n",
               double(stats.feature_evaluations), rate, cpu, 100 * cpu / (wall * threads), threads, core_rate,
               1e9 / core_rate, 20 * core_rate);
+  for (int b = 0; b < kBands; ++b) {
+    if (band_levels[b] == 0) continue;
+    const int last = b + 1 < kBands ? (b + 1) * kBandLevels - 1 : depth;
+    std::printf("train_bench: levels %2d-%2d: %5.1f%% of the evaluations, %6.2f s CPU, ~%.0f px per node: %.3g /s per core\n",
+                b * kBandLevels, last, 100 * band_evaluations[b] / std::max(1.0, double(stats.feature_evaluations)),
+                band_cpu[b], band_pixels[b] / band_levels[b], band_evaluations[b] / std::max(1e-9, band_cpu[b]));
+  }
   std::printf("train_bench: memory %.0f bytes per training pixel\n", stats.bytes_per_pixel);
   return 0;
 }

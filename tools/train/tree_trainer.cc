@@ -127,6 +127,12 @@ constexpr size_t kItemHistogramEntries = 65536;
 // Pixels per range item at least, near the root (see grow_tree): enough that an item's fixed cost
 // (zeroing and summing its partial histogram) stays small next to its feature evaluations.
 constexpr uint32_t kMinRangePixels = 4096;
+// Upper bound on the features a small node's work item keeps (int16, pixels × lanes): 256 KiB,
+// half of this machine's 512 KiB L2 per core. A node whose pixels' features fit computes them
+// once and takes its threshold sample's features from them (the sample's pixels are the node's),
+// instead of evaluating the ≤ 255 sample pixels again: deep in a tree, where nodes hold 20–300
+// pixels and the sample 20–50 of them, that is 10–100 % of the node's feature evaluations.
+constexpr size_t kStoredFeatureBytes = 262144;
 // Upper bound on a candidate group's histogram cells near the root: 256k = 1 MiB per range item;
 // a pixel's increments stay within its class's bins × candidates block (≤ 64 KiB at 31 classes).
 constexpr size_t kRangeHistogramEntries = 262144;
@@ -354,6 +360,10 @@ __attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, cons
                         _mm256_permute4x64_epi64(_mm256_packs_epi32(f0, f1), 0xD8));
   }
 }
+// bin_features for a non-inlined caller.
+__attribute__((target("avx2"))) void bins_avx2(const CandidateLanes& l, const int16_t* feature, int16_t* bin) {
+  bin_features(l, feature, bin);
+}
 // The same as pixel_features: features_avx2, then bin_features (16 lanes per instruction).
 __attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
                                                          int32_t v, int32_t s, int16_t* feature, int16_t* bin) {
@@ -406,6 +416,7 @@ struct Scratch {
   CandidateLanes lanes;
   std::vector<int16_t> feature, bin;  // one pixel's features and bins per lane (pixel_features)
   std::vector<int16_t> sample_features;  // threshold sample × lanes (prepare_group)
+  std::vector<int16_t> node_features;    // a small node's pixels × lanes (prepare_stored_group)
   std::vector<uint32_t> counts;   // classification histograms
   std::vector<int64_t> sums;      // regression histograms (fixed point, pixel_offsets)
   std::vector<int32_t> offsets;   // regression: one pixel's joints × {w, dx, dy, dz}
@@ -572,7 +583,7 @@ class Grower {
   // Thresholds: the feature's values at the node's sample pixels (its response distribution).
   static void set_thresholds(Candidate& c, const int16_t* sample_features, int count) {
     for (int i = 0; i < count; ++i) c.table[i] = sample_features[i];
-    std::sort(c.table, c.table + count);
+    sort_small(c.table, count);
     c.thresholds = static_cast<int>(std::unique(c.table, c.table + count) - c.table);
     int padded = 1;
     while (padded < c.thresholds + 1) padded *= 2;
@@ -585,7 +596,21 @@ class Grower {
     set_thresholds(c, sample.feature, sample.count);
   }
 
-  // Evaluates candidates [c0, c1) of `node`; returns the best.
+  // Ascending order, as std::sort (integers: the sorted sequence is unique). Insertion sort for the
+  // usual 20–50 thresholds, where std::sort's setup outweighs the work.
+  static void sort_small(int32_t* v, int count) {
+    if (count > 64) {
+      std::sort(v, v + count);
+      return;
+    }
+    for (int i = 1; i < count; ++i) {
+      const int32_t x = v[i];
+      int j = i;
+      for (; j > 0 && v[j - 1] > x; --j) v[j] = v[j - 1];
+      v[j] = x;
+    }
+  }
+
   // Candidates [c0, c1) of `node`, prepared once (offsets, thresholds, SIMD lanes) and shared by
   // the work items that accumulate their histograms over parts of the node's pixels.
   struct CandidateGroup {
@@ -623,6 +648,41 @@ class Grower {
       set_thresholds(g.candidates[c], s.sample.feature, n);
     }
     finish_group(g);
+  }
+  // Whether prepare_stored_group applies to candidates [c0, c1) of `node`: the AVX2 kernel, all of
+  // the node's pixels in this process, and their features within kStoredFeatureBytes.
+  bool stores_features(const NodeInfo& node, int c0, int c1) const {
+    const size_t padded = size_t(c1 - c0 + kLanes - 1) / kLanes * kLanes;
+    return features_ == pixel_features_avx2 && node.first == 0 && node.count == node.end - node.begin &&
+           size_t(node.count) * padded * sizeof(int16_t) <= kStoredFeatureBytes;
+  }
+  // The same group as prepare_group, for a node where stores_features(): the features of all the
+  // node's pixels go to the thread's node_features (pixel-major, l.padded per pixel) and the
+  // threshold sample's features are read from there (same pixels, same kernel, same values).
+  // Returns node_features for accumulate.
+  const int16_t* prepare_stored_group(const NodeInfo& node, int c0, int c1, CandidateGroup& g, int thread) {
+    Scratch& s = scratch_[thread];
+    g.c0 = c0;
+    g.c1 = c1;
+    g.candidates.resize(c1 - c0);
+    for (int c = 0; c < c1 - c0; ++c) draw_offsets(node, c0 + c, g.candidates[c]);
+    make_offset_lanes(g.candidates, g.lanes);
+    const size_t padded = size_t(g.lanes.padded);
+    s.node_features.resize(size_t(node.count) * padded);
+    int16_t* rows = s.node_features.data();
+    for (uint32_t i = node.begin; i < node.end; ++i) {
+      const TrainingPixel& p = px_[i];
+      features_avx2(g.lanes, images_[p.image], p.u, p.v, p.scale_q13, rows + (i - node.begin) * padded);
+    }
+    uint32_t positions[kBlock];
+    const int n = sample_positions(node, positions);
+    for (int c = 0; c < c1 - c0; ++c) {
+      const int lane = g.lanes.lane[c];
+      for (int i = 0; i < n; ++i) s.sample.feature[i] = rows[positions[i] * padded + lane];
+      set_thresholds(g.candidates[c], s.sample.feature, n);
+    }
+    finish_group(g);
+    return rows;
   }
   // The same group when the sample's features come from all ranks: `features` holds
   // (c1 − c0) × sample_count values, candidate-major (sample_features()).
@@ -667,8 +727,10 @@ class Grower {
   // (histogram_cells of them): a pixel's increments for all candidates fall in its class's
   // bins × lanes block (a few kB, L1-resident). Integer counts: partial histograms over
   // disjoint pixel ranges sum to the same cells in any order (threads here; processes later).
+  // `stored` (prepare_stored_group, pixels begin..end of the node): the pixels' features, binned
+  // without evaluating them again.
   void accumulate(const NodeInfo& node, const CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts,
-                  int thread) {
+                  int thread, const int16_t* stored = nullptr) {
     const int nc = g.c1 - g.c0;
     const size_t class_stride = size_t(g.bins) * nc;
     const CandidateLanes& l = g.lanes;
@@ -678,7 +740,10 @@ class Grower {
     int16_t* bin = s.bin.data();
     for (uint32_t i = begin; i < end; ++i) {
       const TrainingPixel& p = px_[i];
-      features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), bin);
+      if (stored)
+        bins_avx2(l, stored + size_t(i - node.begin) * l.padded, bin);
+      else
+        features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), bin);
       uint32_t* h = counts + node.class_of[p.label] * class_stride;
       for (int c = 0; c < nc; ++c) ++h[bin[c] * nc + c];
     }
@@ -725,7 +790,7 @@ class Grower {
   // joints × 5] fixed-point offset sums (add_offsets) of pixels [begin, end) of `node`.
   size_t regression_sums(const CandidateGroup& g) const { return size_t(g.c1 - g.c0) * g.bins * joints_ * 5; }
   void accumulate_regression(const CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts,
-                             int64_t* sums, int thread) {
+                             int64_t* sums, int thread, const int16_t* stored = nullptr) {
     Scratch& s = scratch_[thread];
     const int nc = g.c1 - g.c0, bins = g.bins, J = joints_;
     const size_t row = size_t(J) * 5;
@@ -735,7 +800,10 @@ class Grower {
     s.offsets.resize(size_t(J) * 4);
     for (uint32_t i = begin; i < end; ++i) {
       const TrainingPixel& p = px_[i];
-      features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
+      if (stored)
+        bins_avx2(l, stored + size_t(i - begin) * l.padded, s.bin.data());
+      else
+        features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
       pixel_offsets(p, s.offsets.data());
       for (int c = 0; c < nc; ++c) {
         const size_t cell = size_t(c) * bins + s.bin[l.lane[c]];
@@ -788,15 +856,19 @@ class Grower {
   Best evaluate(const NodeInfo& node, int c0, int c1, int thread) {
     Scratch& s = scratch_[thread];
     CandidateGroup& g = groups_[thread];
-    prepare_group(node, c0, c1, g, thread);
+    const int16_t* stored = nullptr;
+    if (stores_features(node, c0, c1))
+      stored = prepare_stored_group(node, c0, c1, g, thread);
+    else
+      prepare_group(node, c0, c1, g, thread);
     if (p_.objective == Objective::kClassification) {
       s.counts.assign(g.histogram_cells(node), 0);
-      accumulate(node, g, node.begin, node.end, s.counts.data(), thread);
+      accumulate(node, g, node.begin, node.end, s.counts.data(), thread, stored);
       return score_group(node, g, s.counts.data(), s.cum);
     }
     s.counts.assign(size_t(c1 - c0) * g.bins, 0);
     s.sums.assign(regression_sums(g), 0);
-    accumulate_regression(g, node.begin, node.end, s.counts.data(), s.sums.data(), thread);
+    accumulate_regression(g, node.begin, node.end, s.counts.data(), s.sums.data(), thread, stored);
     return score_regression(node, g, s.counts.data(), s.sums.data(), thread);
   }
 
@@ -818,7 +890,7 @@ class Grower {
     size_t b = 0;
     for (const Scratch& s : scratch_)
       b += sizeof(Scratch) + s.candidates.capacity() * sizeof(Candidate) + s.counts.capacity() * 4 +
-           s.sums.capacity() * 8 + s.offsets.capacity() * 4;
+           s.sums.capacity() * 8 + s.offsets.capacity() * 4 + s.node_features.capacity() * 2;
     return b;
   }
 
