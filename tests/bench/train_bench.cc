@@ -104,7 +104,7 @@ int main() {
               double(stats.feature_evaluations), rate, cpu, 100 * cpu / (wall * threads), threads, core_rate,
               1e9 / core_rate, 20 * core_rate);
   for (int b = 0; b < kBands; ++b) {
-    if (band_levels[b] == 0) continue;
+    if (band_evaluations[b] == 0) continue;
     const int last = b + 1 < kBands ? (b + 1) * kBandLevels - 1 : depth;
     std::printf("train_bench: levels %2d-%2d: %5.1f%% of the evaluations, %6.2f s CPU, ~%.0f px per node: %.3g /s per core\n",
                 b * kBandLevels, last, 100 * band_evaluations[b] / std::max(1.0, double(stats.feature_evaluations)),
