@@ -1,18 +1,20 @@
 // Training throughput of `depthpose train` on a reference configuration, with its own main.
-// Reference: 1 tree, depth 16, 1000 procedural 320×240 stick-body images × 2000 pixels,
-// 200 offset pairs × 20 thresholds per node, classification objective, all cores.
+// Reference: a whole small training — 1 tree grown to depth 20 (min 10 pixels per node) on 300
+// procedural 320×240 stick-body images × 1000 pixels, 400 offset pairs × 20 thresholds per node
+// (the shipped recipe's candidates), classification objective, all cores.
 // Reports wall time and pixel·candidate evaluations per second per core (evaluations / process CPU
 // time, so that other load on the machine does not distort it), where one evaluation =
 // one feature (offset pair) computed at one pixel and binned against the node's thresholds; the
 // paper's |T| candidates are offset pairs × thresholds, so the rate in (pixel·|T|) is ×20.
-// Environment: TRAIN_BENCH_METHOD (bpc|ojr: OJR adds the vote leaves), TRAIN_BENCH_IMAGES, TRAIN_BENCH_PIXELS
-// (per image), TRAIN_BENCH_DEPTH, TRAIN_BENCH_OFFSETS, TRAIN_BENCH_THRESHOLDS, TRAIN_BENCH_THREADS override the
-// configuration; TRAIN_BENCH_LEVELS=1 prints each level's evaluations, wall and CPU time.
-// Every run prints the rate per depth band (levels 0–3, 4–7, 8–11, 12–15, 16+: evaluations / CPU
-// seconds of the band's levels), because a whole training's cost is dominated by the deep levels,
-// where nodes hold few pixels and the per-node work (candidates, thresholds, scoring) weighs most.
-// `make bench` also runs the whole-training reference (`TRAIN_BENCH_IMAGES=300 TRAIN_BENCH_PIXELS=1000
-// TRAIN_BENCH_DEPTH=20 TRAIN_BENCH_OFFSETS=400`, docs/training.md "Throughput").
+// It also prints the rate per depth band (levels 0–3, 4–7, 8–11, 12–15, 16+: evaluations / CPU
+// seconds of the band's levels): near the root a node's pixels come a thousand at a time from
+// each image, deeper they come from many images a few at a time and per-node work (candidates,
+// thresholds, scoring) weighs more, so a whole training runs slower than its top levels.
+// Environment: TRAIN_BENCH_METHOD (bpc|ojr: OJR adds the vote leaves), TRAIN_BENCH_IMAGES,
+// TRAIN_BENCH_PIXELS (per image), TRAIN_BENCH_DATA (a dataset directory, layout v1, e.g. from
+// `depthpose synth`, in place of the stick bodies; TRAIN_BENCH_IMAGES is then ignored),
+// TRAIN_BENCH_DEPTH, TRAIN_BENCH_OFFSETS, TRAIN_BENCH_THRESHOLDS, TRAIN_BENCH_THREADS override
+// the configuration; TRAIN_BENCH_LEVELS=1 prints each level's evaluations, wall and CPU time.
 // DEPTHPOSE_TRAIN_NO_AVX2=1 (read by the trainer) measures the scalar feature path.
 // Before/after comparisons: build both versions and alternate the two binaries back to back
 // (docs/training.md, Throughput), since this shared machine's load varies from minute to minute.
@@ -44,18 +46,28 @@ int env_int(const char* name, int fallback) {
 
 int main() {
   using namespace dp::train;
-  const int images = env_int("TRAIN_BENCH_IMAGES", 1000);
-  const int depth = env_int("TRAIN_BENCH_DEPTH", 16);
-  const int offsets = env_int("TRAIN_BENCH_OFFSETS", 200);
-  const int pixels = env_int("TRAIN_BENCH_PIXELS", 2000);
+  const int images = env_int("TRAIN_BENCH_IMAGES", 300);
+  const int depth = env_int("TRAIN_BENCH_DEPTH", 20);
+  const int offsets = env_int("TRAIN_BENCH_OFFSETS", 400);
+  const int pixels = env_int("TRAIN_BENCH_PIXELS", 1000);
   const int thresholds = env_int("TRAIN_BENCH_THRESHOLDS", 20);
   const int threads = env_int("TRAIN_BENCH_THREADS", std::max(1u, std::thread::hardware_concurrency()));
   const auto t0 = std::chrono::steady_clock::now();
-  TrainingSet set = testing_bodies::stick_body_set(images, pixels);
+  const char* data = std::getenv("TRAIN_BENCH_DATA");
+  TrainingSet set;
+  if (data) {
+    SamplingOptions so;
+    so.pixels_per_image = pixels;
+    so.threads = threads;
+    set = load_training_set({data}, so);
+  } else {
+    set = testing_bodies::stick_body_set(images, pixels);
+  }
   const double make_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("train_bench: %d images 320x240 x %d px = %zu training pixels (made in %.1f s), 1 tree, depth %d, "
+  std::printf("train_bench: %zu images %s x %d px = %zu training pixels (made in %.1f s), 1 tree, depth %d, "
               "%d offsets x %d thresholds, %d threads\n",
-              images, pixels, set.tree_pixels[0].size(), make_s, depth, offsets, thresholds, threads);
+              set.images.size(), data ? data : "320x240 stick bodies", pixels, set.tree_pixels[0].size(), make_s, depth,
+              offsets, thresholds, threads);
   std::fflush(stdout);
 
   ForestOptions fo;
