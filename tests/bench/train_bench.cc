@@ -20,6 +20,7 @@
 // (docs/training.md, Throughput), since this shared machine's load varies from minute to minute.
 #include <time.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -117,7 +118,7 @@ int main() {
               1e9 / core_rate, 20 * core_rate);
   for (int b = 0; b < kBands; ++b) {
     if (band_evaluations[b] == 0) continue;
-    const int last = b + 1 < kBands ? (b + 1) * kBandLevels - 1 : depth;
+    const int last = b + 1 < kBands ? std::min(depth, (b + 1) * kBandLevels - 1) : depth;
     std::printf("train_bench: levels %2d-%2d: %5.1f%% of the evaluations, %6.2f s CPU, ~%.0f px per node: %.3g /s per core\n",
                 b * kBandLevels, last, 100 * band_evaluations[b] / std::max(1.0, double(stats.feature_evaluations)),
                 band_cpu[b], band_pixels[b] / band_levels[b], band_evaluations[b] / std::max(1e-9, band_cpu[b]));
