@@ -81,5 +81,28 @@ TEST(TrainGolden, PortableKernelGrowsTheSameForest) {
   EXPECT_EQ(hex(forest_digest(f)), c.digest) << c.name << ", portable kernel";
 }
 
+// Nodes whose pixels' features fit the trainer's stored-feature budget (a few hundred pixels at
+// 400 candidates) compute them once and take their threshold samples from them; the portable
+// kernel evaluates the samples separately. On a small set grown deep with the shipped recipe's
+// 400 candidates nearly every node below the first levels takes the stored path, so equal forests
+// for both kernels (both objectives, whose histograms differ) show that path changes no split.
+TEST(TrainGolden, StoredFeaturesOfSmallNodesGrowTheSameForest) {
+  const TrainingSet set = testing_bodies::stick_body_set(6, 120, 1, 7);
+  for (Objective objective : {Objective::kClassification, Objective::kRegression}) {
+    ForestOptions fo = golden_options("ojr", objective, 2);
+    fo.tree.max_depth = 12;
+    fo.tree.offset_candidates = 400;
+    fo.tree.min_samples = 4;
+    fo.leaf.reservoir = 8;
+    const TrainedForest avx2 = train_forest(set, fo, {});
+    ASSERT_EQ(setenv("DEPTHPOSE_TRAIN_NO_AVX2", "1", 1), 0);
+    const TrainedForest portable = train_forest(set, fo, {});
+    unsetenv("DEPTHPOSE_TRAIN_NO_AVX2");
+    EXPECT_GT(avx2.trees[0].nodes.size(), 100u) << "the tree should be deep enough to have many small nodes";
+    EXPECT_EQ(hex(forest_digest(avx2)), hex(forest_digest(portable)))
+        << (objective == Objective::kClassification ? "classification" : "regression");
+  }
+}
+
 }  // namespace
 }  // namespace dp::train

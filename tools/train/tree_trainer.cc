@@ -121,12 +121,24 @@ constexpr int kMaxThresholds = 255;  // padded search table of 256 entries
 constexpr double kOffsetsPerMetre = 4096.0;
 constexpr float kMaxRhoM = 8.0f;
 constexpr int kBlock = kMaxThresholds;  // pixels of a node's threshold sample
-// Upper bound on one work item's classification histogram cells (uint32): 64k = 256 KiB, half of
-// this machine's 512 KiB L2 per core, leaving the rest for the probe images' lines.
-constexpr size_t kItemHistogramEntries = 65536;
+// Upper bound on one work item's classification histogram cells (uint32): 256k = 1 MiB, so that a
+// node's 400 candidates × 21 bins × up to 31 classes form one group and each pixel's probe
+// neighbourhood is loaded once per node rather than once per group. A pixel's increments stay in
+// its class's bins × lanes block (≤ 34 KiB). Measured with `TRAIN_BENCH_IMAGES=1000
+// TRAIN_BENCH_PIXELS=300 TRAIN_BENCH_DEPTH=16 TRAIN_BENCH_OFFSETS=400 TRAIN_BENCH_THREADS=1
+// bench_train`, 3 alternated runs each: 64k cells (256 KiB, L2-resident; ≤ 156 candidates per group
+// at 20 classes) 1.73–1.80·10⁸ evaluations per CPU-second, 256k cells 2.01–2.14·10⁸ in two runs
+// and 1.75·10⁸ in the third (levels 8–15: +25 % in the first two).
+constexpr size_t kItemHistogramEntries = 262144;
 // Pixels per range item at least, near the root (see grow_tree): enough that an item's fixed cost
 // (zeroing and summing its partial histogram) stays small next to its feature evaluations.
 constexpr uint32_t kMinRangePixels = 4096;
+// Upper bound on the features a small node's work item keeps (int16, pixels × lanes): 256 KiB,
+// half of this machine's 512 KiB L2 per core. A node whose pixels' features fit computes them
+// once and takes its threshold sample's features from them (the sample's pixels are the node's),
+// instead of evaluating the ≤ 255 sample pixels again: deep in a tree, where nodes hold 20–300
+// pixels and the sample 20–50 of them, that is 10–100 % of the node's feature evaluations.
+constexpr size_t kStoredFeatureBytes = 262144;
 // Upper bound on a candidate group's histogram cells near the root: 256k = 1 MiB per range item;
 // a pixel's increments stay within its class's bins × candidates block (≤ 64 KiB at 31 classes).
 constexpr size_t kRangeHistogramEntries = 262144;
@@ -354,6 +366,10 @@ __attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, cons
                         _mm256_permute4x64_epi64(_mm256_packs_epi32(f0, f1), 0xD8));
   }
 }
+// bin_features for a non-inlined caller.
+__attribute__((target("avx2"))) void bins_avx2(const CandidateLanes& l, const int16_t* feature, int16_t* bin) {
+  bin_features(l, feature, bin);
+}
 // The same as pixel_features: features_avx2, then bin_features (16 lanes per instruction).
 __attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
                                                          int32_t v, int32_t s, int16_t* feature, int16_t* bin) {
@@ -367,6 +383,51 @@ using PixelFeaturesFn = void (*)(const CandidateLanes&, const ImageRef&, int32_t
 PixelFeaturesFn pick_pixel_features() {
   if (std::getenv("DEPTHPOSE_TRAIN_NO_AVX2") == nullptr && __builtin_cpu_supports("avx2")) return pixel_features_avx2;
   return pixel_features;
+}
+
+// Classification scores (Eq. 7 with Eq. 8, the objective score_group minimizes) of four adjacent
+// lanes [lane, lane + 4) of a group histogram (cells [class][bin][lane], `lanes_per_row` lanes per
+// bin row) at thresholds t < thresholds: out[(lane + i) × bins + t], +∞ where score_group skips
+// the threshold (nothing left of it, nothing right of it, or an empty bin). Every lane runs the
+// scalar code's operations in its order — nlogn(left) − Σ_j nlogn(left_j), the same for the right,
+// (wl + wr) / n, no fused multiply-add — so the scores are bit-identical; four lanes per
+// instruction and no branch per class. Needs n < kNLogNTable (every count is a table lookup).
+// nlogn of four counts < kNLogNTable. (The masked form with an explicit source: the plain
+// _mm256_i32gather_pd leaves GCC 12 warning about its undefined source operand.)
+__attribute__((target("avx2"), always_inline)) inline __m256d nlogn4(__m128i counts) {
+  return _mm256_mask_i32gather_pd(_mm256_setzero_pd(), kNLogN.v, counts,
+                                  _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), 8);
+}
+__attribute__((target("avx2"))) void score_lanes_avx2(const uint32_t* counts, int classes, int bins, int lanes_per_row,
+                                                      int lane, int thresholds, const uint32_t* totals, uint32_t n,
+                                                      double* out) {
+  __m128i cum[256];
+  for (int j = 0; j < classes; ++j) cum[j] = _mm_setzero_si128();
+  __m128i left = _mm_setzero_si128();
+  const __m128i all = _mm_set1_epi32(static_cast<int32_t>(n)), zero = _mm_setzero_si128();
+  const __m256d vn = _mm256_set1_pd(double(n)), skipped = _mm256_set1_pd(HUGE_VAL);
+  alignas(32) double score[4];
+  for (int t = 0; t < thresholds; ++t) {
+    __m128i in_bin = _mm_setzero_si128();
+    for (int j = 0; j < classes; ++j) {
+      const __m128i cell = _mm_loadu_si128(
+          reinterpret_cast<const __m128i*>(counts + (size_t(j) * bins + t) * lanes_per_row + lane));
+      cum[j] = _mm_add_epi32(cum[j], cell);
+      in_bin = _mm_add_epi32(in_bin, cell);
+    }
+    left = _mm_add_epi32(left, in_bin);
+    const __m128i right = _mm_sub_epi32(all, left);
+    __m256d wl = nlogn4(left), wr = nlogn4(right);
+    for (int j = 0; j < classes; ++j) {
+      wl = _mm256_sub_pd(wl, nlogn4(cum[j]));
+      wr = _mm256_sub_pd(wr, nlogn4(_mm_sub_epi32(_mm_set1_epi32(int32_t(totals[j])), cum[j])));
+    }
+    const __m128i skip = _mm_or_si128(_mm_or_si128(_mm_cmpeq_epi32(left, zero), _mm_cmpeq_epi32(right, zero)),
+                                      _mm_cmpeq_epi32(in_bin, zero));
+    _mm256_store_pd(score, _mm256_blendv_pd(_mm256_div_pd(_mm256_add_pd(wl, wr), vn), skipped,
+                                            _mm256_castsi256_pd(_mm256_cvtepi32_epi64(skip))));
+    for (int i = 0; i < 4; ++i) out[size_t(lane + i) * bins + t] = score[i];
+  }
 }
 
 struct NodeInfo {
@@ -400,16 +461,23 @@ struct Best {
   }
 };
 
+// score_group's scratch: running class counts (scalar lanes) and the scores by lane and threshold.
+struct ScoreScratch {
+  std::vector<uint32_t> cum;
+  std::vector<double> scores;
+};
+
 struct Scratch {
   Block sample{};
   std::vector<Candidate> candidates;
   CandidateLanes lanes;
   std::vector<int16_t> feature, bin;  // one pixel's features and bins per lane (pixel_features)
   std::vector<int16_t> sample_features;  // threshold sample × lanes (prepare_group)
+  std::vector<int16_t> node_features;    // a small node's pixels × lanes (prepare_stored_group)
   std::vector<uint32_t> counts;   // classification histograms
   std::vector<int64_t> sums;      // regression histograms (fixed point, pixel_offsets)
   std::vector<int32_t> offsets;   // regression: one pixel's joints × {w, dx, dy, dz}
-  std::vector<uint32_t> cum;
+  ScoreScratch score;
   std::vector<JointOffsetStats> left, right, total;
 };
 
@@ -585,7 +653,6 @@ class Grower {
     set_thresholds(c, sample.feature, sample.count);
   }
 
-  // Evaluates candidates [c0, c1) of `node`; returns the best.
   // Candidates [c0, c1) of `node`, prepared once (offsets, thresholds, SIMD lanes) and shared by
   // the work items that accumulate their histograms over parts of the node's pixels.
   struct CandidateGroup {
@@ -623,6 +690,41 @@ class Grower {
       set_thresholds(g.candidates[c], s.sample.feature, n);
     }
     finish_group(g);
+  }
+  // Whether prepare_stored_group applies to candidates [c0, c1) of `node`: the AVX2 kernel, all of
+  // the node's pixels in this process, and their features within kStoredFeatureBytes.
+  bool stores_features(const NodeInfo& node, int c0, int c1) const {
+    const size_t padded = size_t(c1 - c0 + kLanes - 1) / kLanes * kLanes;
+    return features_ == pixel_features_avx2 && node.first == 0 && node.count == node.end - node.begin &&
+           size_t(node.count) * padded * sizeof(int16_t) <= kStoredFeatureBytes;
+  }
+  // The same group as prepare_group, for a node where stores_features(): the features of all the
+  // node's pixels go to the thread's node_features (pixel-major, l.padded per pixel) and the
+  // threshold sample's features are read from there (same pixels, same kernel, same values).
+  // Returns node_features for accumulate.
+  const int16_t* prepare_stored_group(const NodeInfo& node, int c0, int c1, CandidateGroup& g, int thread) {
+    Scratch& s = scratch_[thread];
+    g.c0 = c0;
+    g.c1 = c1;
+    g.candidates.resize(c1 - c0);
+    for (int c = 0; c < c1 - c0; ++c) draw_offsets(node, c0 + c, g.candidates[c]);
+    make_offset_lanes(g.candidates, g.lanes);
+    const size_t padded = size_t(g.lanes.padded);
+    s.node_features.resize(size_t(node.count) * padded);
+    int16_t* rows = s.node_features.data();
+    for (uint32_t i = node.begin; i < node.end; ++i) {
+      const TrainingPixel& p = px_[i];
+      features_avx2(g.lanes, images_[p.image], p.u, p.v, p.scale_q13, rows + (i - node.begin) * padded);
+    }
+    uint32_t positions[kBlock];
+    const int n = sample_positions(node, positions);
+    for (int c = 0; c < c1 - c0; ++c) {
+      const int lane = g.lanes.lane[c];
+      for (int i = 0; i < n; ++i) s.sample.feature[i] = rows[positions[i] * padded + lane];
+      set_thresholds(g.candidates[c], s.sample.feature, n);
+    }
+    finish_group(g);
+    return rows;
   }
   // The same group when the sample's features come from all ranks: `features` holds
   // (c1 − c0) × sample_count values, candidate-major (sample_features()).
@@ -667,8 +769,10 @@ class Grower {
   // (histogram_cells of them): a pixel's increments for all candidates fall in its class's
   // bins × lanes block (a few kB, L1-resident). Integer counts: partial histograms over
   // disjoint pixel ranges sum to the same cells in any order (threads here; processes later).
+  // `stored` (prepare_stored_group, pixels begin..end of the node): the pixels' features, binned
+  // without evaluating them again.
   void accumulate(const NodeInfo& node, const CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts,
-                  int thread) {
+                  int thread, const int16_t* stored = nullptr) {
     const int nc = g.c1 - g.c0;
     const size_t class_stride = size_t(g.bins) * nc;
     const CandidateLanes& l = g.lanes;
@@ -678,54 +782,79 @@ class Grower {
     int16_t* bin = s.bin.data();
     for (uint32_t i = begin; i < end; ++i) {
       const TrainingPixel& p = px_[i];
-      features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), bin);
+      if (stored)
+        bins_avx2(l, stored + size_t(i - node.begin) * l.padded, bin);
+      else
+        features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), bin);
       uint32_t* h = counts + node.class_of[p.label] * class_stride;
       for (int c = 0; c < nc; ++c) ++h[bin[c] * nc + c];
     }
   }
 
   // Classification: the best (candidate, threshold) of a group from its complete histogram.
-  Best score_group(const NodeInfo& node, const CandidateGroup& g, const uint32_t* counts,
-                   std::vector<uint32_t>& cum) const {
+  Best score_group(const NodeInfo& node, const CandidateGroup& g, const uint32_t* counts, ScoreScratch& scratch) const {
     const int k = node.classes, nc = g.c1 - g.c0, bins = g.bins;
     const uint32_t n = node.count;
     Best best;
-    cum.resize(k);
+    if (features_ == pixel_features_avx2 && n < uint32_t(kNLogNTable) && nc >= 4) {
+      // Scores of all lanes first (four at a time, the last few lanes by the scalar rule), then
+      // the same scan as below in candidate order: the same strict comparisons on the same values.
+      scratch.scores.resize(size_t(nc) * bins);
+      double* scores = scratch.scores.data();
+      int lane = 0;
+      for (; lane + 4 <= nc; lane += 4)
+        score_lanes_avx2(counts, k, bins, nc, lane, bins - 1, node.totals.data(), n, scores);
+      for (; lane < nc; ++lane) score_lane(node, counts + lane, nc, bins, bins - 1, scratch.cum, scores + size_t(lane) * bins);
+      for (int c = 0; c < nc; ++c) {
+        const Candidate& cand = g.candidates[c];
+        const double* row = scores + size_t(g.lanes.lane[c]) * bins;
+        for (int t = 0; t < cand.thresholds; ++t) best.consider(row[t], g.c0 + c, cand, t);
+      }
+      return best;
+    }
+    scratch.scores.resize(bins);
     for (int c = 0; c < nc; ++c) {
       const Candidate& cand = g.candidates[c];
-      const uint32_t* h = counts + g.lanes.lane[c];
-      std::fill(cum.begin(), cum.end(), 0u);
-      uint32_t left = 0;
-      for (int t = 0; t < cand.thresholds; ++t) {
-        uint32_t in_bin = 0;
-        for (int j = 0; j < k; ++j) {
-          const uint32_t cell = h[(size_t(j) * bins + t) * nc];
-          cum[j] += cell;
-          in_bin += cell;
-        }
-        left += in_bin;
-        if (left == 0) continue;
-        const uint32_t right = n - left;
-        if (right == 0) break;
-        // An empty bin leaves every count, hence the score, as at the previous threshold, which
-        // cannot win a strict comparison against itself.
-        if (in_bin == 0) continue;
-        double wl = nlogn(left), wr = nlogn(right);
-        for (int j = 0; j < k; ++j) {
-          wl -= nlogn(cum[j]);
-          wr -= nlogn(node.totals[j] - cum[j]);
-        }
-        best.consider((wl + wr) / n, g.c0 + c, cand, t);
-      }
+      score_lane(node, counts + g.lanes.lane[c], nc, bins, cand.thresholds, scratch.cum, scratch.scores.data());
+      for (int t = 0; t < cand.thresholds; ++t) best.consider(scratch.scores[t], g.c0 + c, cand, t);
     }
     return best;
+  }
+  // The scores of one lane (h = its first cell) at thresholds t < thresholds into out[t]; +∞ where
+  // the threshold is skipped: nothing left of it, nothing right of it (then neither at any later
+  // one), or an empty bin (which leaves every count, hence the score, as at the previous
+  // threshold, which cannot win a strict comparison against itself).
+  void score_lane(const NodeInfo& node, const uint32_t* h, int nc, int bins, int thresholds, std::vector<uint32_t>& cum,
+                  double* out) const {
+    const int k = node.classes;
+    const uint32_t n = node.count;
+    cum.assign(k, 0u);
+    uint32_t left = 0;
+    for (int t = 0; t < thresholds; ++t) {
+      out[t] = HUGE_VAL;
+      uint32_t in_bin = 0;
+      for (int j = 0; j < k; ++j) {
+        const uint32_t cell = h[(size_t(j) * bins + t) * nc];
+        cum[j] += cell;
+        in_bin += cell;
+      }
+      left += in_bin;
+      if (left == 0 || left == n || in_bin == 0) continue;
+      const uint32_t right = n - left;
+      double wl = nlogn(left), wr = nlogn(right);
+      for (int j = 0; j < k; ++j) {
+        wl -= nlogn(cum[j]);
+        wr -= nlogn(node.totals[j] - cum[j]);
+      }
+      out[t] = (wl + wr) / n;
+    }
   }
 
   // Regression histogram of a group: counts[c × bins + bin] pixels and sums[(c × bins + bin) ×
   // joints × 5] fixed-point offset sums (add_offsets) of pixels [begin, end) of `node`.
   size_t regression_sums(const CandidateGroup& g) const { return size_t(g.c1 - g.c0) * g.bins * joints_ * 5; }
   void accumulate_regression(const CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts,
-                             int64_t* sums, int thread) {
+                             int64_t* sums, int thread, const int16_t* stored = nullptr) {
     Scratch& s = scratch_[thread];
     const int nc = g.c1 - g.c0, bins = g.bins, J = joints_;
     const size_t row = size_t(J) * 5;
@@ -735,7 +864,10 @@ class Grower {
     s.offsets.resize(size_t(J) * 4);
     for (uint32_t i = begin; i < end; ++i) {
       const TrainingPixel& p = px_[i];
-      features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
+      if (stored)
+        bins_avx2(l, stored + size_t(i - begin) * l.padded, s.bin.data());
+      else
+        features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
       pixel_offsets(p, s.offsets.data());
       for (int c = 0; c < nc; ++c) {
         const size_t cell = size_t(c) * bins + s.bin[l.lane[c]];
@@ -788,22 +920,26 @@ class Grower {
   Best evaluate(const NodeInfo& node, int c0, int c1, int thread) {
     Scratch& s = scratch_[thread];
     CandidateGroup& g = groups_[thread];
-    prepare_group(node, c0, c1, g, thread);
+    const int16_t* stored = nullptr;
+    if (stores_features(node, c0, c1))
+      stored = prepare_stored_group(node, c0, c1, g, thread);
+    else
+      prepare_group(node, c0, c1, g, thread);
     if (p_.objective == Objective::kClassification) {
       s.counts.assign(g.histogram_cells(node), 0);
-      accumulate(node, g, node.begin, node.end, s.counts.data(), thread);
-      return score_group(node, g, s.counts.data(), s.cum);
+      accumulate(node, g, node.begin, node.end, s.counts.data(), thread, stored);
+      return score_group(node, g, s.counts.data(), s.score);
     }
     s.counts.assign(size_t(c1 - c0) * g.bins, 0);
     s.sums.assign(regression_sums(g), 0);
-    accumulate_regression(g, node.begin, node.end, s.counts.data(), s.sums.data(), thread);
+    accumulate_regression(g, node.begin, node.end, s.counts.data(), s.sums.data(), thread, stored);
     return score_regression(node, g, s.counts.data(), s.sums.data(), thread);
   }
 
   // Candidates per candidate group (work item) of `node` on a level with `splittable` nodes to
   // search. More candidates per group means each pixel's neighbourhood, once in cache, serves more
   // probes. Classification groups hold as many as keep the group's histogram within
-  // kItemHistogramEntries (L2-resident), or kRangeHistogramEntries near the root (fewer than 8
+  // kItemHistogramEntries, or kRangeHistogramEntries near the root (fewer than 8
   // nodes per thread), where groups are shared among threads by pixel ranges instead (grow_tree).
   // The chosen split does not depend on it (ties go to the lowest candidate across groups).
   int chunk_for(const NodeInfo& node, size_t splittable) const {
@@ -818,7 +954,7 @@ class Grower {
     size_t b = 0;
     for (const Scratch& s : scratch_)
       b += sizeof(Scratch) + s.candidates.capacity() * sizeof(Candidate) + s.counts.capacity() * 4 +
-           s.sums.capacity() * 8 + s.offsets.capacity() * 4;
+           s.sums.capacity() * 8 + s.offsets.capacity() * 4 + s.node_features.capacity() * 2;
     return b;
   }
 
@@ -950,8 +1086,8 @@ void search_distributed(Grower& grower, const std::vector<NodeInfo>& info, const
       if (i % ranks != me) return;
       const NodeInfo& node = info[items[b0 + i].node];
       if (classification) {
-        std::vector<uint32_t> cum;
-        results[b0 + i] = grower.score_group(node, groups[i], counts.data() + count_at[i], cum);
+        ScoreScratch scratch;
+        results[b0 + i] = grower.score_group(node, groups[i], counts.data() + count_at[i], scratch);
       } else {
         results[b0 + i] = grower.score_regression(node, groups[i], counts.data() + count_at[i],
                                                   sums.data() + sum_at[i], thread);
@@ -1153,8 +1289,8 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
           for (size_t j = 0; j < sum.size(); ++j) sum[j] += partial[i][j];
           std::vector<uint32_t>().swap(partial[i]);
         }
-        std::vector<uint32_t> cum;
-        results[g] = grower.score_group(info[items[g].node], groups[g], sum.data(), cum);
+        ScoreScratch scratch;
+        results[g] = grower.score_group(info[items[g].node], groups[g], sum.data(), scratch);
       });
     }
 
