@@ -388,6 +388,23 @@ std::vector<size_t> furthest_neighbour_selection(const std::vector<JointSet>& it
       heap.push({m, -int64_t(packed_index[slot])});
     }
   };
+  // An item whose nearest distance fell below min_distance can never be selected (distances only
+  // fall, and the selection stops once the largest is below min_distance), so its distance no
+  // longer matters: it leaves its cell's member list the first time a scan sees it there. Late
+  // in the selection nearly every item is covered, and the scans touch only the few that are not.
+  // The selection is unchanged: every item that can still be selected is updated as before.
+  auto scan_cell = [&](Cell& k, const JointSet& s) {
+    std::vector<uint32_t>& m = k.members;
+    for (size_t t = 0; t < m.size();) {
+      update(m[t], s);
+      if (nearest[m[t]] < min_distance) {
+        m[t] = m.back();
+        m.pop_back();
+      } else {
+        ++t;
+      }
+    }
+  };
   size_t next = 0;
   double radius = std::numeric_limits<double>::infinity();
   for (;;) {
@@ -398,16 +415,15 @@ std::vector<size_t> furthest_neighbour_selection(const std::vector<JointSet>& it
     const double box_cells = reach < 0 ? 1e300 : std::pow(2.0 * reach + 1, 3);
     const std::array<int, 3>& c = coords[next];
     if (reach < 0 || box_cells > double(cells.size())) {
-      for (const Cell& k : cells)
+      for (Cell& k : cells)
         if (reach < 0 || (std::abs(k.x - c[0]) <= reach && std::abs(k.y - c[1]) <= reach && std::abs(k.z - c[2]) <= reach))
-          for (uint32_t i : k.members) update(i, s);
+          scan_cell(k, s);
     } else {
       for (int dx = -reach; dx <= reach; ++dx)
         for (int dy = -reach; dy <= reach; ++dy)
           for (int dz = -reach; dz <= reach; ++dz) {
             auto it = cell_of.find({c[0] + dx, c[1] + dy, c[2] + dz});
-            if (it != cell_of.end())
-              for (uint32_t i : cells[it->second].members) update(i, s);
+            if (it != cell_of.end()) scan_cell(cells[it->second], s);
           }
     }
     while (!heap.empty() && heap.top().first != nearest[slot_of[size_t(-heap.top().second)]]) heap.pop();
