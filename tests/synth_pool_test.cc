@@ -112,13 +112,19 @@ TEST_F(SynthPosePoolSharedData, MirrorSwapsSidesAndTwiceIsIdentity) {
   }
 }
 
-TEST_F(SynthPosePoolSharedData, VariedPoolIsDeterministicStaysNearItsSourcesAndReportsEveryPose) {
-  const HumanAssets& a = *assets_;
+// Mirror images, `noise_copies` noise copies per pose and 0.5 recombinations per pose.
+PoseVariation varied(int noise_copies, uint64_t seed) {
   PoseVariation v;
   v.mirror = true;
-  v.noise_copies = 2;
+  v.noise_copies = noise_copies;
   v.recombined_per_pose = 0.5;
-  v.seed = 7;
+  v.seed = seed;
+  return v;
+}
+
+TEST_F(SynthPosePoolSharedData, VariedPoolIsDeterministicStaysNearItsSourcesAndReportsEveryPose) {
+  const HumanAssets& a = *assets_;
+  PoseVariation v = varied(2, 7);
   PosePoolReport report;
   const PoseLibrary all = build_pose_pool(a, *clips_, categories_, v, 0.0, &report);
   size_t real = 0;
@@ -248,11 +254,7 @@ TEST_F(SynthPosePoolSharedData, PoolFromTheCacheEqualsTheFreshPoolAndOtherInputs
     EXPECT_EQ(got.categories[c].source_frames, fresh.categories[c].source_frames);
   }
   // The pruned, varied pool (what frames draw from) is the same bit for bit.
-  PoseVariation v;
-  v.mirror = true;
-  v.noise_copies = 1;
-  v.recombined_per_pose = 0.5;
-  v.seed = 11;
+  const PoseVariation v = varied(1, 11);
   PosePoolReport from_cache_report;
   expect_same_library(build_pose_pool(a, fresh, v, 0.05), build_pose_pool(a, got, v, 0.05, &from_cache_report));
   EXPECT_EQ(from_cache_report.categories.size(), fresh.categories.size());
