@@ -168,6 +168,12 @@ check-runtime: $(RUNTIME_LIB)
 # need it carry "SharedData" in their suite name: GTEST_ARGS=--gtest_filter=-*SharedData* runs the rest.
 SHARED ?= ../shared
 export DEPTHPOSE_SHARED := $(abspath $(SHARED))
+# PCL's three depth-20 trees as a blob, converted once by the CLI (~14 s CPU; rule in
+# mk/runtime_tests.mk) for the runs that need not convert them again: the debug run, the x86-64
+# digests and the aarch64 run (which has no libbz2). The normal and ASan+UBSan runs of
+# depthpose_tests still convert the trees in-process (PclRealFramesSharedData).
+PCL_TREES := $(foreach i,1 2 3,$(DEPTHPOSE_SHARED)/data/pcl-people-trees/forest$(i)_tree_20.txt.bz2)
+PCL_BLOB  := $(BUILD)/data/pcl.blob
 
 # One GoogleTest run: its log and exit status land in $(BUILD)/test-logs/unit.log(.rc) for
 # mk/test_summary.sh, which also counts suite set-up failures, skips and crashes.

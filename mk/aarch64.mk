@@ -7,8 +7,8 @@
 # (/usr/src/googletest) are built here with the cross compiler — no arm64 multiarch packages.
 # Built for arm64: the runtime and what its tests link (forest_blob's writer, the demo fixtures).
 # Not built: the CLI and the other tools (they link x86 host libraries: libpng, libbz2, OpenNI2,
-# libusb). The PCL-forest tests read the trees as a blob the x86 CLI converts first
-# (`depthpose convert --from-pcl`), as the arm64 build has no libbz2.
+# libusb). The PCL-forest tests read the trees as the blob the x86 CLI converts (PCL_BLOB,
+# mk/runtime_tests.mk), as the arm64 build has no libbz2.
 A64          := $(BUILD)/aarch64
 A64_CXX      ?= aarch64-linux-gnu-g++
 A64_NM       ?= aarch64-linux-gnu-nm
@@ -23,7 +23,6 @@ A64_TEST_SRCS := tests/runtime_kernel_test.cc tests/runtime_pipeline_test.cc for
 A64_TEST_OBJS := $(A64_TEST_SRCS:%.cc=$(A64)/testobj/%.o)
 A64_GTEST_OBJS := $(A64)/gtest/gtest-all.o $(A64)/gtest/gtest_main.o
 A64_CXXFLAGS := $(CXXSTD) $(OPT) -g $(WARN) -I. $(DEBUGFLAGS) -ffp-contract=off -pthread -DDP_NO_BZIP2=1 $(EXTRA_CXXFLAGS)
-PCL_TREES    := $(foreach i,1 2 3,$(DEPTHPOSE_SHARED)/data/pcl-people-trees/forest$(i)_tree_20.txt.bz2)
 
 .PHONY: aarch64 test-aarch64 check-runtime-aarch64 FORCE_A64
 aarch64: $(A64_LIB) $(A64_TEST_BIN)
@@ -45,19 +44,17 @@ $(A64_TEST_BIN): $(A64_TEST_OBJS) $(A64_GTEST_OBJS) $(A64_LIB)
 	@mkdir -p $(@D)
 	$(A64_CXX) -pthread -o $@ $(A64_TEST_OBJS) $(A64_GTEST_OBJS) $(A64_LIB)
 
-$(A64)/data/pcl.blob: $(CLI)
+# The x86-64 reference's digests of the real frames, which the aarch64 run must reproduce bit for
+# bit, from the same PCL blob the aarch64 run reads (PCL_BLOB, mk/runtime_tests.mk: converted once).
+$(A64)/data/x86_digests.txt: $(BUILD)/bin/runtime_tests $(PCL_BLOB)
 	@mkdir -p $(@D)
-	$(CLI) convert --from-pcl $(PCL_TREES) --out $@
-
-# The x86-64 reference's digests of the real frames, which the aarch64 run must reproduce bit for bit.
-$(A64)/data/x86_digests.txt: $(BUILD)/bin/runtime_tests
-	@mkdir -p $(@D)
-	@DP_DIGESTS_OUT=$@ $(BUILD)/bin/runtime_tests --gtest_filter=PclRealFramesSharedData.ReferenceDigestsAgreeAcrossArchitectures \
+	@DP_PCL_BLOB=$(PCL_BLOB) DP_DIGESTS_OUT=$@ $(BUILD)/bin/runtime_tests \
+	  --gtest_filter=PclRealFramesSharedData.ReferenceDigestsAgreeAcrossArchitectures \
 	  > $(A64)/data/x86_digests.log 2>&1 || { cat $(A64)/data/x86_digests.log; rm -f $@; exit 1; }
 
-test-aarch64: $(A64_TEST_BIN) $(A64)/data/pcl.blob $(A64)/data/x86_digests.txt
+test-aarch64: $(A64_TEST_BIN) $(PCL_BLOB) $(A64)/data/x86_digests.txt
 	@mkdir -p $(A64)/test-logs
-	@cd $(CURDIR) && DP_PCL_BLOB=$(A64)/data/pcl.blob DP_DIGESTS_EXPECTED=$(A64)/data/x86_digests.txt \
+	@cd $(CURDIR) && DP_PCL_BLOB=$(PCL_BLOB) DP_DIGESTS_EXPECTED=$(A64)/data/x86_digests.txt \
 	  $(QEMU_A64) $(A64_TEST_BIN) $(GTEST_ARGS) > $(A64)/test-logs/unit.log 2>&1; rc=$$?; \
 	  echo $$rc > $(A64)/test-logs/unit.log.rc; \
 	  grep -E '^\[  (FAILED|SKIPPED) \]|^\[==========\]|^\[  PASSED  \]' $(A64)/test-logs/unit.log | sed 's|^|$(A64): |'; \

@@ -16,11 +16,16 @@ check() {  # check NAME command...
 }
 {
   check MakeModel env CLI="$CLI" MODEL_DIR="$ROOT/model" MODEL_OUT="$ROOT/models" \
-    MODEL_W=160 MODEL_H=120 TRAIN_FRAMES=60 VAL_FRAMES=20 TEST_FRAMES=20 DEMO_FRAMES=5 \
+    MODEL_W=160 MODEL_H=120 TRAIN_FRAMES=60 SHARD_FRAMES=30 VAL_FRAMES=20 TEST_FRAMES=20 DEMO_FRAMES=5 \
     MODEL_DEPTH=8 MODEL_TREES=2 TRAIN_IMAGES_PER_TREE=60 TRAIN_PIXELS=200 TRAIN_OFFSETS=50 TRAIN_THRESHOLDS=10 \
     OJR_STRUCTURE_DEPTH=6 ASSETS="${ASSETS:-../shared/assets}" \
     TRAIN_CLIPS=01_01,01_02,02_01 VAL_CLIPS=01_12 TEST_CLIPS=01_13 DEMO_CLIPS=02_06 \
     mk/make_model.sh
+  # The second training shard read the pose cache the first one wrote; rendered again from its
+  # recorded command (which has no cache), it must be the same dataset byte for byte.
+  check PoseCacheChangesNoByte bash -c "grep -q 'pose_cache/train.bin: real poses read' '$LOG.steps' &&
+    cmd=\$(sed 's| --out [^ ]*| --out $ROOT/train_001_uncached|' '$ROOT/model/train_001/frames.jsonl.cmd') &&
+    \$cmd && diff -r -x frames.jsonl.cmd '$ROOT/model/train_001' '$ROOT/train_001_uncached'"
   check BlobsDescribed bash -c "'$CLI' info '$ROOT/models/bpc.blob' && '$CLI' info '$ROOT/models/ojr.blob'"
   # A chain that lost the labels or joints on the way scores ~0; even this tiny forest scores > 0.1.
   check EvalScores bash -c "grep -qE '^  \"mAP\": *0\.[1-9]' '$ROOT/model/eval_bpc.json' && grep -qE '^  \"mAP\": *0\.[1-9]' '$ROOT/model/eval_ojr.json'"

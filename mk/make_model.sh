@@ -36,10 +36,11 @@ made() {  # made FILE command...: FILE exists and was made by this very command 
   local file=$1; shift
   [ -f "$file" ] && [ -f "$file.cmd" ] && [ "$(cat "$file.cmd")" = "$*" ]
 }
+unrecorded=()  # options a step runs with but does not record (they leave its output unchanged)
 make_file() {  # make_file NAME FILE command...: runs the step, then records the command beside FILE
   local name=$1 file=$2; shift 2
   rm -f "$file.cmd"
-  step "$name" "$@"
+  step "$name" "$@" "${unrecorded[@]}"
   echo "$*" > "$file.cmd"
 }
 synth() {  # synth NAME LABEL SEED FRAMES CLIPS [more synth options]: renders a dataset unless made already
@@ -54,7 +55,17 @@ synth() {  # synth NAME LABEL SEED FRAMES CLIPS [more synth options]: renders a 
     train_*) rm -f "$D/bpc.forest.cmd" "$D/bpc.forest.checkpoint" "$D/ojr.forest.cmd" ;;
     val) rm -f "$D/bpc.blob" "$D/ojr.blob" ;;
   esac
-  make_file "$label" "$D/$name/frames.jsonl" "${cmd[@]}"
+  # A pooled split (not the --sequence demo) renders with the pose cache (one per split: the
+  # training shards read and retarget the clips once) and writes the pool report (poses before
+  # and after pruning per category) to pool_NAME.txt. Neither changes a byte of the dataset, so
+  # neither is part of the recorded command: shards recorded before the cache existed stay done.
+  local unrecorded=()
+  case " $* " in
+    *" --sequence "*) make_file "$label" "$D/$name/frames.jsonl" "${cmd[@]}" ;;
+    *) mkdir -p "$D/pose_cache"
+       unrecorded=(--pose-cache "$D/pose_cache/${name%%_*}.bin" --pool-report)
+       make_file "$label" "$D/$name/frames.jsonl" "${cmd[@]}" > "$D/pool_$name.txt" ;;
+  esac
 }
 # Every split: the varied pose pool, wide bodies, clothing and a hand-placed camera; each split has
 # its own seeds, so no body, outfit or pose variant is shared with training.

@@ -20,10 +20,18 @@ test-runtime: $(RUNTIME_TEST_BIN)
 	@mkdir -p $(BUILD)/test-logs
 	@cd $(CURDIR) && $(RUNTIME_TEST_BIN) $(GTEST_ARGS) 2>&1 | tee $(BUILD)/test-logs/runtime.log; exit $${PIPESTATUS[0]}
 
-test-debug:
+# PCL_BLOB (Makefile): PCL's trees converted once by the CLI.
+$(PCL_BLOB): $(CLI)
+	@mkdir -p $(@D)
+	$(CLI) convert --from-pcl $(PCL_TREES) --out $@
+
+# The debug binary builds while the CLI (which converts PCL_BLOB) does; the run waits for both.
+.PHONY: test-debug-build
+test-debug-build:
 	@$(MAKE) --no-print-directory BUILD=$(BUILD)/debug DEBUG=1 $(BUILD)/debug/bin/runtime_tests
+test-debug: test-debug-build $(PCL_BLOB)
 	@mkdir -p $(BUILD)/debug/test-logs
-	@cd $(CURDIR) && $(BUILD)/debug/bin/runtime_tests $(GTEST_ARGS) > $(BUILD)/debug/test-logs/unit.log 2>&1; rc=$$?; \
+	@cd $(CURDIR) && DP_PCL_BLOB=$(PCL_BLOB) $(BUILD)/debug/bin/runtime_tests $(GTEST_ARGS) > $(BUILD)/debug/test-logs/unit.log 2>&1; rc=$$?; \
 	  echo $$rc > $(BUILD)/debug/test-logs/unit.log.rc; \
 	  grep -E '^\[  (FAILED|SKIPPED) \]|^\[==========\]|^\[  PASSED  \]' $(BUILD)/debug/test-logs/unit.log | sed 's|^|$(BUILD)/debug: |'; \
 	  exit $$rc

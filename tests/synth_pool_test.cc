@@ -1,20 +1,25 @@
 // The pose pool: the grid-accelerated furthest-neighbour selection against the plain scan, mirror
 // images, rotation noise that keeps elbows and knees hinges, upper/lower-body recombination, the
-// per-category report, determinism, and the pose sheet of the CLI.
+// per-category report, determinism, the pose cache (a pool from cached real poses equals the fresh
+// one bit for bit; a cache for other inputs or a damaged file is refused, saying why), and the
+// pose sheet of the CLI.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 
 #include <png.h>
+#include <unistd.h>
 
 #include "tests/cli_test_support.h"
 #include "tests/shared_data.h"
 #include "tools/common/png_io.h"
 #include "tools/synth/clip_index.h"
+#include "tools/synth/pose_cache.h"
 #include "tools/synth/pose_pool.h"
 #include "tools/synth/synth.h"
 
@@ -107,13 +112,19 @@ TEST_F(SynthPosePoolSharedData, MirrorSwapsSidesAndTwiceIsIdentity) {
   }
 }
 
-TEST_F(SynthPosePoolSharedData, VariedPoolIsDeterministicStaysNearItsSourcesAndReportsEveryPose) {
-  const HumanAssets& a = *assets_;
+// Mirror images, `noise_copies` noise copies per pose and 0.5 recombinations per pose.
+PoseVariation varied(int noise_copies, uint64_t seed) {
   PoseVariation v;
   v.mirror = true;
-  v.noise_copies = 2;
+  v.noise_copies = noise_copies;
   v.recombined_per_pose = 0.5;
-  v.seed = 7;
+  v.seed = seed;
+  return v;
+}
+
+TEST_F(SynthPosePoolSharedData, VariedPoolIsDeterministicStaysNearItsSourcesAndReportsEveryPose) {
+  const HumanAssets& a = *assets_;
+  PoseVariation v = varied(2, 7);
   PosePoolReport report;
   const PoseLibrary all = build_pose_pool(a, *clips_, categories_, v, 0.0, &report);
   size_t real = 0;
@@ -185,14 +196,98 @@ TEST_F(SynthPosePoolSharedData, VariedPoolIsDeterministicStaysNearItsSourcesAndR
   PosePoolReport pruned;
   v.seed = 7;
   const PoseLibrary lib = build_pose_pool(a, *clips_, categories_, v, 0.05, &pruned);
-  size_t kept = 0, kept_real = 0;
+  size_t kept = 0, kept_real = 0, pooled = 0, pooled_kept = 0;
   for (size_t k = 0; k < 4; ++k) kept += pruned.kept[k];
-  for (const auto& c : pruned.categories) kept_real += c.kept;
+  for (const auto& c : pruned.categories) {
+    kept_real += c.kept;
+    pooled += c.pooled;
+    pooled_kept += c.pooled_kept;
+    EXPECT_LE(c.kept, c.pooled_kept) << c.name;
+    EXPECT_LE(c.pooled_kept, c.pooled) << c.name;
+  }
   EXPECT_EQ(kept, lib.poses.size());
   EXPECT_EQ(kept_real, pruned.kept[0]);
+  EXPECT_EQ(pooled, lib.candidate_count);  // every pose of every kind counts in one category
+  EXPECT_EQ(pooled_kept, lib.poses.size());
   EXPECT_LT(lib.poses.size(), all.poses.size());
   EXPECT_GT(pruned.kept[2], 0u);  // noise copies add poses the clips lack
   EXPECT_GT(pruned.kept[3], 0u);
+}
+
+void expect_same_library(const PoseLibrary& want, const PoseLibrary& got) {
+  ASSERT_EQ(got.origin, want.origin);
+  ASSERT_EQ(got.candidate_count, want.candidate_count);
+  ASSERT_EQ(got.poses.size(), want.poses.size());
+  for (size_t i = 0; i < want.poses.size(); ++i) {
+    ASSERT_EQ(got.poses[i].bone_world.size(), want.poses[i].bone_world.size());
+    for (size_t b = 0; b < want.poses[i].bone_world.size(); ++b)
+      ASSERT_EQ(std::memcmp(got.poses[i].bone_world[b].m.data(), want.poses[i].bone_world[b].m.data(), 9 * sizeof(double)), 0)
+          << want.origin[i] << " bone " << b;
+  }
+}
+
+TEST_F(SynthPosePoolSharedData, PoolFromTheCacheEqualsTheFreshPoolAndOtherInputsAreRefused) {
+  const HumanAssets& a = *assets_;
+  const std::string dir = fs::temp_directory_path() / ("synth_pose_cache_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string path = dir + "/pool.bin";
+  std::vector<ClipEntry> entries = selected_clip_entries(kAssets, {"02_01", "60_01", "105_13"});
+  const std::string key = pose_cache_key(kAssets, entries, 8);
+  std::vector<std::string> names;
+  for (const MotionClip& c : *clips_) names.push_back(c.name);
+  const RealPoses fresh = retarget_pool(a, *clips_, categories_);
+  ASSERT_GT(fresh.poses.size(), 500u);
+
+  RealPoses got;
+  std::vector<std::string> got_names;
+  std::string why;
+  EXPECT_FALSE(read_pose_cache(path, key, a.bones.size(), &got, &got_names, &why));
+  EXPECT_NE(why.find("no such file"), std::string::npos) << why;
+  write_pose_cache(path, key, fresh, names);
+  ASSERT_TRUE(read_pose_cache(path, key, a.bones.size(), &got, &got_names, &why)) << why;
+  EXPECT_EQ(got_names, names);
+  EXPECT_EQ(got.category_of_clip, fresh.category_of_clip);
+  ASSERT_EQ(got.categories.size(), fresh.categories.size());
+  for (size_t c = 0; c < got.categories.size(); ++c) {
+    EXPECT_EQ(got.categories[c].name, fresh.categories[c].name);
+    EXPECT_EQ(got.categories[c].sampled, fresh.categories[c].sampled);
+    EXPECT_EQ(got.categories[c].source_frames, fresh.categories[c].source_frames);
+  }
+  // The pruned, varied pool (what frames draw from) is the same bit for bit.
+  const PoseVariation v = varied(1, 11);
+  PosePoolReport from_cache_report;
+  expect_same_library(build_pose_pool(a, fresh, v, 0.05), build_pose_pool(a, got, v, 0.05, &from_cache_report));
+  EXPECT_EQ(from_cache_report.categories.size(), fresh.categories.size());
+
+  // Another stride, another clip file stamp: refused, naming the first differing key line.
+  EXPECT_FALSE(read_pose_cache(path, pose_cache_key(kAssets, entries, 4), a.bones.size(), &got, &got_names, &why));
+  EXPECT_NE(why.find("made for other inputs"), std::string::npos) << why;
+  EXPECT_NE(why.find("frame stride 4"), std::string::npos) << why;
+  entries.pop_back();
+  EXPECT_FALSE(read_pose_cache(path, pose_cache_key(kAssets, entries, 8), a.bones.size(), &got, &got_names, &why));
+  EXPECT_NE(why.find("made for other inputs"), std::string::npos) << why;
+  // A rig of another size, a flipped payload byte, a truncated file, another file: refused.
+  EXPECT_FALSE(read_pose_cache(path, key, a.bones.size() + 1, &got, &got_names, &why));
+  EXPECT_NE(why.find("bones"), std::string::npos) << why;
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  auto write = [&](const std::string& b) { std::ofstream(path, std::ios::binary) << b; };
+  std::string damaged = bytes;
+  damaged[damaged.size() / 2] ^= 0x10;
+  write(damaged);
+  EXPECT_FALSE(read_pose_cache(path, key, a.bones.size(), &got, &got_names, &why));
+  EXPECT_NE(why.find("CRC-32"), std::string::npos) << why;
+  write(bytes.substr(0, bytes.size() - 100));
+  EXPECT_FALSE(read_pose_cache(path, key, a.bones.size(), &got, &got_names, &why));
+  EXPECT_NE(why.find("truncated"), std::string::npos) << why;
+  write("frames.jsonl is not a cache");
+  EXPECT_FALSE(read_pose_cache(path, key, a.bones.size(), &got, &got_names, &why));
+  EXPECT_NE(why.find("not a depthpose pose cache"), std::string::npos) << why;
+  EXPECT_NE(why.find(path), std::string::npos) << why;
+  fs::remove_all(dir);
 }
 
 TEST(SynthPoseSheetSharedData, OneRowPerSkeletonNaming) {

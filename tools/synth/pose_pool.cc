@@ -116,53 +116,73 @@ JointSet aligned_joints(const HumanAssets& a, const Skeleton& rest, const BodyPo
   return j;
 }
 
-PoseLibrary build_pose_pool(const HumanAssets& a, const std::vector<MotionClip>& clips,
-                            const std::vector<std::string>& categories, const PoseVariation& v, double min_distance,
-                            PosePoolReport* report) {
+RealPoses retarget_pool(const HumanAssets& a, const std::vector<MotionClip>& clips,
+                        const std::vector<std::string>& categories) {
   if (categories.size() != clips.size()) fail("pose pool: one category per clip expected");
-  if (v.noise_copies < 0 || v.noise_copies > 4) fail("pose pool: noise copies must be 0..4");
-  if (!(v.recombined_per_pose >= 0 && v.recombined_per_pose <= 4)) fail("pose pool: recombined per pose must be 0..4");
-  if (!(v.noise_scale >= 0 && v.noise_scale <= 2)) fail("pose pool: noise scale must be 0..2");
-  PosePoolReport local;
-  PosePoolReport& r = report ? *report : local;
-  r = PosePoolReport{};
+  const auto t0 = std::chrono::steady_clock::now();
   const Skeleton rest = measure_skeleton(a, a.base_vertices);
-  const size_t bones = a.bones.size();
-
-  // Real poses.
-  auto t0 = std::chrono::steady_clock::now();
-  std::vector<BodyPose> poses;
-  std::vector<std::string> origin;
-  std::vector<PoseKind> kind;
-  std::vector<int> clip_of;
+  RealPoses real;
   std::map<std::string, size_t> category_row;
   for (size_t c = 0; c < clips.size(); ++c) {
-    const std::string name = categories[c].empty() ? "(none)" : categories[c];
-    if (!category_row.count(name)) {
-      category_row[name] = 0;
-    }
+    category_row[categories[c].empty() ? "(none)" : categories[c]] = 0;
     for (size_t k = 0; k < clips[c].frames.size(); ++k) {
-      poses.push_back(retarget_frame(a, rest, clips[c], k));
-      origin.push_back(clips[c].name + ":" + std::to_string(k * size_t(clips[c].frame_stride)));
-      kind.push_back(PoseKind::kReal);
-      clip_of.push_back(int(c));
+      real.poses.push_back(retarget_frame(a, rest, clips[c], k));
+      real.origin.push_back(clips[c].name + ":" + std::to_string(k * size_t(clips[c].frame_stride)));
+      real.clip_of.push_back(int(c));
     }
   }
   for (auto& [name, row] : category_row) {
-    row = r.categories.size();
-    r.categories.push_back({name});
+    row = real.categories.size();
+    real.categories.push_back({name});
   }
   for (size_t c = 0; c < clips.size(); ++c) {
-    PosePoolReport::Category& row = r.categories[category_row[categories[c].empty() ? "(none)" : categories[c]]];
-    row.clips++;
-    row.source_frames += clips[c].source_frame_count;
-    row.sampled += clips[c].frames.size();
+    const size_t row = category_row[categories[c].empty() ? "(none)" : categories[c]];
+    real.category_of_clip.push_back(int(row));
+    PosePoolReport::Category& r = real.categories[row];
+    r.clips++;
+    r.source_frames += clips[c].source_frame_count;
+    r.sampled += clips[c].frames.size();
   }
-  const size_t real_count = poses.size();
-  r.retarget_seconds = seconds_since(t0);
+  real.retarget_seconds = seconds_since(t0);
+  return real;
+}
+
+PoseLibrary build_pose_pool(const HumanAssets& a, const std::vector<MotionClip>& clips,
+                            const std::vector<std::string>& categories, const PoseVariation& v, double min_distance,
+                            PosePoolReport* report) {
+  return build_pose_pool(a, retarget_pool(a, clips, categories), v, min_distance, report);
+}
+
+PoseLibrary build_pose_pool(const HumanAssets& a, RealPoses real, const PoseVariation& v, double min_distance,
+                            PosePoolReport* report) {
+  if (v.noise_copies < 0 || v.noise_copies > 4) fail("pose pool: noise copies must be 0..4");
+  if (!(v.recombined_per_pose >= 0 && v.recombined_per_pose <= 4)) fail("pose pool: recombined per pose must be 0..4");
+  if (!(v.noise_scale >= 0 && v.noise_scale <= 2)) fail("pose pool: noise scale must be 0..2");
+  const size_t real_count = real.poses.size();
+  if (real.origin.size() != real_count || real.clip_of.size() != real_count)
+    fail("pose pool: real poses, origins and clips differ in count");
+  for (const int c : real.clip_of)
+    if (c < 0 || size_t(c) >= real.category_of_clip.size()) fail("pose pool: a real pose names no clip");
+  for (const int row : real.category_of_clip)
+    if (row < 0 || size_t(row) >= real.categories.size()) fail("pose pool: a clip names no category");
+  PosePoolReport local;
+  PosePoolReport& r = report ? *report : local;
+  r = PosePoolReport{};
+  r.categories = real.categories;
+  r.retarget_seconds = real.retarget_seconds;
+  const size_t clip_count = real.category_of_clip.size();
+  const Skeleton rest = measure_skeleton(a, a.base_vertices);
+  const size_t bones = a.bones.size();
+  for (const BodyPose& p : real.poses)
+    if (p.bone_world.size() != bones) fail("pose pool: a real pose has another bone count than the rig");
+
+  std::vector<BodyPose> poses = std::move(real.poses);
+  std::vector<std::string> origin = std::move(real.origin);
+  std::vector<PoseKind> kind(real_count, PoseKind::kReal);
+  std::vector<int> clip_of = std::move(real.clip_of);
 
   // Variation.
-  t0 = std::chrono::steady_clock::now();
+  auto t0 = std::chrono::steady_clock::now();
   std::vector<Vec3> rest_dir(bones);
   for (size_t b = 0; b < bones; ++b) rest_dir[b] = (rest.tails[b] - rest.heads[b]).normalized();
   auto local_direction = [&](const BodyPose& p, size_t b) {
@@ -251,7 +271,7 @@ PoseLibrary build_pose_pool(const HumanAssets& a, const std::vector<MotionClip>&
     for (size_t k = 0; k < count; ++k) {
       const size_t i = size_t(rng.below(real_count));
       size_t j = size_t(rng.below(real_count));
-      for (int tries = 0; tries < 8 && clip_of[j] == clip_of[i] && clips.size() > 1; ++tries)
+      for (int tries = 0; tries < 8 && clip_of[j] == clip_of[i] && clip_count > 1; ++tries)
         j = size_t(rng.below(real_count));
       BodyPose out;
       out.bone_world.resize(bones);
@@ -283,12 +303,12 @@ PoseLibrary build_pose_pool(const HumanAssets& a, const std::vector<MotionClip>&
   r.prune_cpu_seconds = thread_cpu_seconds() - cpu0;
   PoseLibrary lib;
   lib.candidate_count = poses.size();
+  for (size_t i = 0; i < poses.size(); ++i) r.categories[size_t(real.category_of_clip[size_t(clip_of[i])])].pooled++;
   for (size_t i : keep) {
     r.kept[int(kind[i])]++;
-    if (kind[i] == PoseKind::kReal) {
-      const size_t c = size_t(clip_of[i]);
-      r.categories[category_row[categories[c].empty() ? "(none)" : categories[c]]].kept++;
-    }
+    PosePoolReport::Category& row = r.categories[size_t(real.category_of_clip[size_t(clip_of[i])])];
+    row.pooled_kept++;
+    if (kind[i] == PoseKind::kReal) row.kept++;
     lib.poses.push_back(std::move(poses[i]));
     lib.origin.push_back(std::move(origin[i]));
   }
@@ -298,20 +318,25 @@ PoseLibrary build_pose_pool(const HumanAssets& a, const std::vector<MotionClip>&
 std::string format_pose_pool_report(const PosePoolReport& r, double min_distance) {
   std::string out;
   char line[256];
-  std::snprintf(line, sizeof line, "%-44s %6s %9s %9s %9s\n", "category", "clips", "frames", "sampled", "kept");
+  // sampled/kept: the category's real poses; pool/pool kept: its poses of every kind (a mirror,
+  // noise copy or recombination counts in the category of the clip it comes from).
+  std::snprintf(line, sizeof line, "%-44s %6s %9s %9s %9s %9s %9s\n", "category", "clips", "frames", "sampled", "kept",
+                "pool", "pool kept");
   out += line;
   PosePoolReport::Category total{"total"};
   for (const auto& c : r.categories) {
-    std::snprintf(line, sizeof line, "%-44s %6d %9ld %9zu %9zu\n", c.name.substr(0, 44).c_str(), c.clips,
-                  c.source_frames, c.sampled, c.kept);
+    std::snprintf(line, sizeof line, "%-44s %6d %9ld %9zu %9zu %9zu %9zu\n", c.name.substr(0, 44).c_str(), c.clips,
+                  c.source_frames, c.sampled, c.kept, c.pooled, c.pooled_kept);
     out += line;
     total.clips += c.clips;
     total.source_frames += c.source_frames;
     total.sampled += c.sampled;
     total.kept += c.kept;
+    total.pooled += c.pooled;
+    total.pooled_kept += c.pooled_kept;
   }
-  std::snprintf(line, sizeof line, "%-44s %6d %9ld %9zu %9zu\n", "total (real poses)", total.clips,
-                total.source_frames, total.sampled, total.kept);
+  std::snprintf(line, sizeof line, "%-44s %6d %9ld %9zu %9zu %9zu %9zu\n", "total", total.clips, total.source_frames,
+                total.sampled, total.kept, total.pooled, total.pooled_kept);
   out += line;
   for (int k = 0; k < kPoseKindCount; ++k) {
     std::snprintf(line, sizeof line, "poses %-11s %9zu before pruning, %9zu kept\n", pose_kind_name(PoseKind(k)),

@@ -47,6 +47,8 @@ struct PosePoolReport {
     long source_frames = 0;   // frames in the files
     size_t sampled = 0;       // real poses before pruning (after the frame stride)
     size_t kept = 0;          // real poses kept
+    size_t pooled = 0;        // poses of every kind before pruning (a variant counts in its source's category)
+    size_t pooled_kept = 0;   // poses of every kind kept
   };
   std::vector<Category> categories;       // sorted by name
   size_t generated[kPoseKindCount] = {};  // before pruning, per kind
@@ -57,9 +59,31 @@ struct PosePoolReport {
   double prune_cpu_seconds = 0;                                           // CPU time of the pruning thread
 };
 
-// categories[i] names clips[i]'s category ("" = "(none)"). min_distance in metres (0 keeps
-// every pose). The library's origin strings are "CLIP:FRAME" for real poses and carry a suffix
-// for the others ("02_01:240 mirror", "02_01:240 noise 1", "02_01:240+07_03:88").
+// The real poses of a pool: every sampled frame of the clips retargeted onto the rig, in clip
+// order, with what the variation, the pruning and the report need of the clips. It depends on the
+// clips, the frame stride and the human assets only, never on the variation seed, so one set
+// serves every shard of a corpus (pose_cache.h stores it in a file).
+struct RealPoses {
+  std::vector<BodyPose> poses;
+  std::vector<std::string> origin;                   // "CLIP:FRAME"
+  std::vector<int> clip_of;                          // index of the pose's clip
+  std::vector<int> category_of_clip;                 // per clip: its row of `categories`
+  std::vector<PosePoolReport::Category> categories;  // sorted by name; kept = 0
+  double retarget_seconds = 0;                       // wall time of retarget_pool
+};
+
+// categories[i] names clips[i]'s category ("" = "(none)").
+RealPoses retarget_pool(const HumanAssets& assets, const std::vector<MotionClip>& clips,
+                        const std::vector<std::string>& categories);
+
+// The pool from its real poses: variation (seeded by variation.seed), then furthest-neighbour
+// pruning at min_distance metres (0 keeps every pose). The library's origin strings are
+// "CLIP:FRAME" for real poses and carry a suffix for the others ("02_01:240 mirror",
+// "02_01:240 noise 1", "02_01:240+07_03:88"). Equal real poses give the same pool bit for bit,
+// whether they were just retargeted or read back from a pose cache.
+PoseLibrary build_pose_pool(const HumanAssets& assets, RealPoses real, const PoseVariation& variation,
+                            double min_distance, PosePoolReport* report = nullptr);
+// retarget_pool, then the above.
 PoseLibrary build_pose_pool(const HumanAssets& assets, const std::vector<MotionClip>& clips,
                             const std::vector<std::string>& categories, const PoseVariation& variation,
                             double min_distance, PosePoolReport* report = nullptr);

@@ -325,11 +325,9 @@ std::vector<size_t> furthest_neighbour_selection(const std::vector<JointSet>& it
   };
   std::vector<Cell> cells;
   std::map<std::array<int, 3>, size_t> cell_of;
-  std::vector<std::array<int, 3>> coords(n);
   for (size_t i = 0; i < n; ++i) {
     const std::array<int, 3> c = {int(std::floor(key_value(i, 0) / cell)), int(std::floor(key_value(i, 1) / cell)),
                                   int(std::floor(key_value(i, 2) / cell))};
-    coords[i] = c;
     auto it = cell_of.find(c);
     if (it == cell_of.end()) {
       it = cell_of.emplace(c, cells.size()).first;
@@ -388,26 +386,51 @@ std::vector<size_t> furthest_neighbour_selection(const std::vector<JointSet>& it
       heap.push({m, -int64_t(packed_index[slot])});
     }
   };
+  // An item whose nearest distance fell below min_distance can never be selected (distances only
+  // fall, and the selection stops once the largest is below min_distance), so its distance no
+  // longer matters: it leaves its cell's member list the first time a scan sees it there. Late
+  // in the selection nearly every item is covered, and the scans touch only the few that are not.
+  // The selection is unchanged: every item that can still be selected is updated as before.
+  auto scan_cell = [&](Cell& k, const JointSet& s) {
+    std::vector<uint32_t>& m = k.members;
+    for (size_t t = 0; t < m.size();) {
+      update(m[t], s);
+      if (nearest[m[t]] < min_distance) {
+        m[t] = m.back();
+        m.pop_back();
+      } else {
+        ++t;
+      }
+    }
+  };
   size_t next = 0;
   double radius = std::numeric_limits<double>::infinity();
   for (;;) {
     selected.push_back(next);
     nearest[slot_of[next]] = 0;
     const JointSet s = packed[slot_of[next]];
-    const int reach = std::isfinite(radius) ? int(std::ceil(radius / cell)) : -1;
-    const double box_cells = reach < 0 ? 1e300 : std::pow(2.0 * reach + 1, 3);
-    const std::array<int, 3>& c = coords[next];
-    if (reach < 0 || box_cells > double(cells.size())) {
-      for (const Cell& k : cells)
-        if (reach < 0 || (std::abs(k.x - c[0]) <= reach && std::abs(k.y - c[1]) <= reach && std::abs(k.z - c[2]) <= reach))
-          for (uint32_t i : k.members) update(i, s);
+    // The cells that can hold an item within `radius` of s: along each key coordinate, those
+    // meeting [v - radius, v + radius] (widened by a nanometre against rounding), 2-3 cells once
+    // the radius nears the cell size.
+    const bool bounded = std::isfinite(radius);
+    std::array<int, 3> lo{}, hi{};
+    double box_cells = bounded ? 1 : 1e300;
+    for (int k = 0; k < 3 && bounded; ++k) {
+      const double v = key_value(next, k), r = radius + 1e-9;
+      lo[size_t(k)] = int(std::floor((v - r) / cell));
+      hi[size_t(k)] = int(std::floor((v + r) / cell));
+      box_cells *= double(hi[size_t(k)] - lo[size_t(k)] + 1);
+    }
+    if (!bounded || box_cells > double(cells.size())) {
+      for (Cell& k : cells)
+        if (!bounded || (k.x >= lo[0] && k.x <= hi[0] && k.y >= lo[1] && k.y <= hi[1] && k.z >= lo[2] && k.z <= hi[2]))
+          scan_cell(k, s);
     } else {
-      for (int dx = -reach; dx <= reach; ++dx)
-        for (int dy = -reach; dy <= reach; ++dy)
-          for (int dz = -reach; dz <= reach; ++dz) {
-            auto it = cell_of.find({c[0] + dx, c[1] + dy, c[2] + dz});
-            if (it != cell_of.end())
-              for (uint32_t i : cells[it->second].members) update(i, s);
+      for (int x = lo[0]; x <= hi[0]; ++x)
+        for (int y = lo[1]; y <= hi[1]; ++y)
+          for (int z = lo[2]; z <= hi[2]; ++z) {
+            auto it = cell_of.find({x, y, z});
+            if (it != cell_of.end()) scan_cell(cells[it->second], s);
           }
     }
     while (!heap.empty() && heap.top().first != nearest[slot_of[size_t(-heap.top().second)]]) heap.pop();

@@ -12,6 +12,7 @@
 
 #include "tools/common/body_model.h"
 #include "tools/common/error.h"
+#include "tools/synth/pose_cache.h"
 
 namespace dp::synth {
 using dp::tools::fail;
@@ -53,9 +54,8 @@ void sample_shape(Rng& rng, const SynthConfig& c, ShapeControls& s) {
 
 }  // namespace
 
-std::vector<MotionClip> load_clips(const std::string& assets_dir, const std::vector<std::string>& selection,
-                                   int frame_stride, const std::string& splits_path,
-                                   std::vector<ClipEntry>* entries_out) {
+std::vector<ClipEntry> selected_clip_entries(const std::string& assets_dir, const std::vector<std::string>& selection,
+                                             const std::string& splits_path) {
   const std::string mocap = assets_dir + "/mocap";
   std::vector<ClipEntry> entries;
   if (selection.empty()) {
@@ -66,6 +66,19 @@ std::vector<MotionClip> load_clips(const std::string& assets_dir, const std::vec
   } else {
     entries = select_clips(mocap, selection, splits_path);
   }
+  return entries;
+}
+
+std::vector<MotionClip> load_clips(const std::string& assets_dir, const std::vector<std::string>& selection,
+                                   int frame_stride, const std::string& splits_path,
+                                   std::vector<ClipEntry>* entries_out) {
+  std::vector<ClipEntry> entries = selected_clip_entries(assets_dir, selection, splits_path);
+  std::vector<MotionClip> clips = load_clip_entries(entries, frame_stride);
+  if (entries_out) *entries_out = std::move(entries);
+  return clips;
+}
+
+std::vector<MotionClip> load_clip_entries(const std::vector<ClipEntry>& entries, int frame_stride) {
   // Clips parse independently: one worker per core.
   std::vector<MotionClip> clips(entries.size());
   std::atomic<size_t> next{0};
@@ -90,7 +103,6 @@ std::vector<MotionClip> load_clips(const std::string& assets_dir, const std::vec
   for (size_t t = 0; t < threads; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
   if (!error.empty()) fail(error);
-  if (entries_out) *entries_out = std::move(entries);
   return clips;
 }
 
@@ -106,20 +118,43 @@ Synthesizer::Synthesizer(const std::string& assets_dir, const SynthConfig& confi
   if (!(config_.clothed_share >= 0 && config_.clothed_share <= 1))
     fail("clothed share must be in [0, 1], got " + std::to_string(config_.clothed_share));
   if (config_.clothed_share > 0) wardrobe_ = load_wardrobe(assets_dir, assets_, vertex_labels_);
-  std::vector<ClipEntry> entries;
-  std::vector<MotionClip> clips =
-      load_clips(assets_dir, config_.clips, config_.pose_frame_stride, config_.splits_path, &entries);
+  const std::vector<ClipEntry> entries = selected_clip_entries(assets_dir, config_.clips, config_.splits_path);
   std::vector<std::string> categories;
-  for (size_t i = 0; i < clips.size(); ++i) {
-    clip_names_.push_back(clips[i].name);
-    categories.push_back(entries[i].category);
-    clip_categories_.push_back(entries[i].category);
-  }
+  for (const ClipEntry& e : entries) categories.push_back(e.category);
+  clip_categories_ = categories;
   if (config_.sequence) {
+    if (!config_.pose_cache_path.empty()) fail("a pose cache serves the pruned pose pool; --sequence uses none");
     // A sequence walks through the clips frame by frame: no pruning, clip order kept.
+    const std::vector<MotionClip> clips = load_clip_entries(entries, config_.pose_frame_stride);
+    for (const MotionClip& c : clips) clip_names_.push_back(c.name);
     library_ = build_pose_library(assets_, clips, 0.0, /*keep_order=*/true);
   } else {
-    library_ = build_pose_pool(assets_, clips, categories, config_.pose_variation, config_.pose_min_distance_m,
+    // The real poses: from the pose cache when it was made for exactly these inputs, otherwise
+    // loaded, retargeted (and cached). Variation and pruning run either way (they depend on the seed).
+    RealPoses real;
+    bool cached = false;
+    std::string key;
+    if (!config_.pose_cache_path.empty()) {
+      key = pose_cache_key(assets_dir, entries, config_.pose_frame_stride);
+      cached = read_pose_cache(config_.pose_cache_path, key, assets_.bones.size(), &real, &clip_names_,
+                               &pose_cache_note_);
+      if (cached && clip_names_.size() != entries.size()) {
+        cached = false;
+        pose_cache_note_ = "pose cache " + config_.pose_cache_path + " not used: it holds another number of clips";
+      }
+      if (cached) pose_cache_note_ = "pose cache " + config_.pose_cache_path + ": real poses read";
+    }
+    if (!cached) {
+      const std::vector<MotionClip> clips = load_clip_entries(entries, config_.pose_frame_stride);
+      clip_names_.clear();
+      for (const MotionClip& c : clips) clip_names_.push_back(c.name);
+      real = retarget_pool(assets_, clips, categories);
+      if (!config_.pose_cache_path.empty()) {
+        write_pose_cache(config_.pose_cache_path, key, real, clip_names_);
+        pose_cache_note_ += "; written from the clips";
+      }
+    }
+    library_ = build_pose_pool(assets_, std::move(real), config_.pose_variation, config_.pose_min_distance_m,
                                &pool_report_);
   }
   if (library_.poses.empty()) fail("no poses from the selected clips");

@@ -49,6 +49,10 @@ struct SynthConfig {
   int pose_frame_stride = 4;         // sample every 4th mocap frame (30 Hz of 120 Hz) before pruning
   double pose_min_distance_m = 0.05; // D_pose of the furthest-neighbour pruning
   PoseVariation pose_variation;      // synthetic poses added before pruning (pose_pool.h); none by default
+  // A pose cache file (pose_cache.h, `--pose-cache`): its real poses are used when it was made
+  // for these clips, stride, assets and executable; otherwise the clips are loaded and retargeted
+  // and the file written again. The frames do not depend on it. Empty = no cache. Not with sequence.
+  std::string pose_cache_path;
   double mirror_probability = 0.5;
   // Scene ranges (see docs/synthetic_data.md).
   double distance_min_m = 1.2, distance_max_m = 4.0;     // camera to body, along the floor
@@ -142,6 +146,8 @@ class Synthesizer {
   const PosePoolReport& pose_pool_report() const { return pool_report_; }
   const std::vector<uint8_t>& vertex_labels() const { return vertex_labels_; }
   const std::vector<std::string>& clip_names() const { return clip_names_; }
+  // What became of config.pose_cache_path ("" without one): read, or why not and rewritten.
+  const std::string& pose_cache_note() const { return pose_cache_note_; }
   const Wardrobe& wardrobe() const { return wardrobe_; }  // empty unless config.clothed_share > 0
 
   FrameParams sample_frame_params(uint64_t seed, uint64_t frame_index) const;
@@ -175,6 +181,7 @@ class Synthesizer {
   PosePoolReport pool_report_;
   std::vector<std::string> clip_names_;
   std::vector<std::string> clip_categories_;  // clips.tsv category per clip_names_ entry ("" = none)
+  std::string pose_cache_note_;
   Wardrobe wardrobe_;
 };
 
@@ -184,6 +191,10 @@ class Synthesizer {
 std::vector<MotionClip> load_clips(const std::string& assets_dir, const std::vector<std::string>& selection,
                                    int frame_stride, const std::string& splits_path = kDefaultSplitsPath,
                                    std::vector<ClipEntry>* entries_out = nullptr);
+// The two halves of load_clips: the index entries a selection names, and those clips loaded.
+std::vector<ClipEntry> selected_clip_entries(const std::string& assets_dir, const std::vector<std::string>& selection,
+                                             const std::string& splits_path = kDefaultSplitsPath);
+std::vector<MotionClip> load_clip_entries(const std::vector<ClipEntry>& entries, int frame_stride);
 
 // Part colours (31 distinct RGB) for figures and previews; index kNoLabel = black.
 void part_colour(uint8_t part, uint8_t rgb[3]);

@@ -59,6 +59,9 @@ const char* kUsage =
     "                      one rotation-noise copy each within the mocap's joint limits and 0.5\n"
     "                      upper/lower-body recombinations per pose (docs/synthetic_data.md)\n"
     "  --pose-seed S       seed of the pose variation (default 1)\n"
+    "  --pose-cache FILE   keep the pool's real poses (clips loaded and retargeted) in FILE and reuse\n"
+    "                      them while clips, stride, assets and this executable are unchanged (else\n"
+    "                      FILE is rebuilt); the dataset is byte-identical with or without it\n"
     "  --pool-report       print the pose pool per CMU category (before/after pruning, times)\n"
     "  --pool-sheet FILE.png  one row of pruned-pool poses per kind (real, mirror, noise, recombined)\n"
     "  --bodies KIND       wide (default): every macro control over its full range, ages 6-80,\n"
@@ -116,7 +119,7 @@ int synth_main(int argc, char** argv, dp::train::Communicator* comm) {
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
                         "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed", "--pool-sheet",
                         "--clothed", "--hat", "--hair", "--wardrobe-sheet", "--bodies", "--camera-height",
-                        "--camera-pitch", "--camera-roll"},
+                        "--camera-pitch", "--camera-roll", "--pose-cache"},
                        {"--floor", "--no-noise", "--sequence", "--pool-report", "--distributed"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
@@ -147,6 +150,7 @@ int synth_main(int argc, char** argv, dp::train::Communicator* comm) {
     fail("--pose-pool must be clips or varied, got '" + pool_kind + "'");
   }
   config.pose_variation.seed = uint64_t(args.get_int("--pose-seed", 1));
+  config.pose_cache_path = args.get("--pose-cache", "");
   config.clothed_share = args.get_double("--clothed", 0.8);
   config.hat_probability = args.get_double("--hat", 0.15);
   config.hair_probability = args.get_double("--hair", 0.85);
@@ -187,6 +191,7 @@ int synth_main(int argc, char** argv, dp::train::Communicator* comm) {
   std::fprintf(stderr, "synth: %zu clips, %zu sampled frames -> %zu poses after pruning at D_pose = %.0f mm (%.1fs)\n",
                synth.clip_names().size(), synth.pose_library().candidate_count, synth.pose_library().poses.size(),
                config.pose_min_distance_m * 1000, load_s);
+  if (!synth.pose_cache_note().empty()) std::fprintf(stderr, "synth: %s\n", synth.pose_cache_note().c_str());
 
   if (args.flag("--pool-report"))
     std::printf("%s", format_pose_pool_report(synth.pose_pool_report(), config.pose_min_distance_m).c_str());
