@@ -187,7 +187,9 @@ TEST(ConvertForest, TrainedNodesBecomeBreadthFirstSparseNodes) {
 TEST(ConvertForest, OjrVotesQuantizedWithinBounds) {
   const train::TrainedForest f = random_trained_forest(3, "ojr", 2, 8, 0.8, 6);
   tools::QuantizationReport rep;
-  const blob::BlobContents c = tools::convert_forest(f, {}, "test", &rep);
+  tools::ConvertOptions lossless;
+  lossless.ojr = tools::OjrCompaction{blob::kMaxVotesPerLeafJoint, 0, 0.0};
+  const blob::BlobContents c = tools::convert_forest(f, lossless, "test", &rep);
   EXPECT_EQ(c.votes_per_joint, blob::kMaxVotesPerLeafJoint);
   EXPECT_GT(rep.dropped_votes, 0u);            // K = 6 > 4
   EXPECT_LE(rep.worst_vote_offset_error_mm, 0.5);
@@ -312,4 +314,50 @@ TEST(ConvertForest, BpcCompactionKeepsTheHeaviestPartsAboveTheFloor) {
   blob::LoadedBlob b;
   ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
   EXPECT_EQ(b.meta->entry_count, 4u);  // the default keeps 4 parts ≥ 0.02: 8000, 12000, 4000, 8000
+}
+
+TEST(ConvertForest, OjrCompactionKeepsTheHeaviestShortVotes) {
+  blob::BlobContents c = tools::single_vote_ojr(2, 0, 0, 0);
+  c.votes_per_joint = 4;
+  c.config.joints[1].vote_length_mm = 500;
+  // Joint 0: weights 10, 40, 40, 5 (share 0.05 of 95); lane 2 is 300 mm long. Joint 1: one vote.
+  c.ojr_leaves = {{0, 0, 100, 10}, {0, 50, 0, 40}, {300, 0, 0, 40}, {0, 0, -20, 5}, {0, 0, 0, 0}, {0, 0, 0, 0},
+                  {0, 10, 0, 7}, {0, 0, 0, 0}};
+  const std::vector<blob::OjrVote> original = c.ojr_leaves;
+  tools::OjrCompactionReport r = tools::compact_ojr_leaves(&c, tools::OjrCompaction{2, 0, 0.0});
+  EXPECT_EQ(r.votes_before, 5u);
+  EXPECT_EQ(r.votes_after, 3u);
+  EXPECT_EQ(r.dropped_beyond_k, 2u);
+  EXPECT_EQ(c.ojr_leaves[1].weight, 40) << "ties go to the lower lane";
+  EXPECT_EQ(c.ojr_leaves[2].weight, 40);
+  EXPECT_EQ(c.ojr_leaves[0].weight, 0);
+  EXPECT_EQ(c.ojr_leaves[3].weight, 0);
+  EXPECT_EQ(c.ojr_leaves[6].weight, 7);
+  EXPECT_EQ(c.config.joints[0].vote_length_mm, 0) << "no length cut: the config is untouched";
+
+  c.ojr_leaves = original;
+  r = tools::compact_ojr_leaves(&c, tools::OjrCompaction{4, 250, 0.1});
+  EXPECT_EQ(r.dropped_long, 1u);   // lane 2: 300 mm
+  EXPECT_EQ(r.dropped_light, 1u);  // lane 3: 5 < 0.1 · 95
+  EXPECT_EQ(r.votes_after, 3u);
+  EXPECT_EQ(c.ojr_leaves[2].weight, 0);
+  EXPECT_EQ(c.ojr_leaves[3].weight, 0);
+  EXPECT_EQ(c.ojr_leaves[0].weight, 10) << "10 ≥ 0.1 · 95 stays";
+  EXPECT_EQ(c.config.joints[0].vote_length_mm, 250) << "no limit becomes the cut";
+  EXPECT_EQ(c.config.joints[1].vote_length_mm, 250) << "a longer limit becomes the cut";
+
+  c.ojr_leaves = original;
+  r = tools::compact_ojr_leaves(&c, tools::OjrCompaction{blob::kMaxVotesPerLeafJoint, 0, 0.0});
+  EXPECT_EQ(r.votes_after, r.votes_before) << "the lossless setting keeps every vote";
+  EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{0, 0, 0.0}), tools::ToolError);
+  EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{5, 0, 0.0}), tools::ToolError);
+  EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{1, 4001, 0.0}), tools::ToolError);
+  EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{1, 0, 1.5}), tools::ToolError);
+  // The blob stores only what is left.
+  c.ojr_leaves = original;
+  tools::compact_ojr_leaves(&c, tools::OjrCompaction{1, 0, 0.0});
+  const std::vector<uint8_t> bytes = blob::write_blob(c);
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+  EXPECT_EQ(b.meta->entry_count, 2u);
 }
