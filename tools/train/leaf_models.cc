@@ -12,9 +12,9 @@ std::vector<Mode> mean_shift_modes(const std::vector<std::array<float, 3>>& poin
   std::vector<Mode> modes;
   if (points.empty()) return modes;
   const size_t n = points.size();
-  // Structure of arrays in float for a vectorizable inner loop; points farther than 3b weigh
-  // < e^-9 ≈ 1.2e-4 of a coincident one and are left out (their exp is never computed).
-  std::vector<float> xs(n), ys(n), zs(n), w(n);
+  // Structure of arrays in float; points farther than 3b weigh < e^-9 ≈ 1.2e-4 of a coincident one
+  // and are left out (their exp is never computed).
+  std::vector<float> xs(n), ys(n), zs(n);
   for (size_t i = 0; i < n; ++i) {
     xs[i] = points[i][0];
     ys[i] = points[i][1];
@@ -32,20 +32,50 @@ std::vector<Mode> mean_shift_modes(const std::vector<std::array<float, 3>>& poin
     }
     return nullptr;
   };
+  // A step sums over the points within 3b of the path's position m, in index order. They are taken
+  // from `near`: the points within 4.01b of a centre c, valid while |m − c| ≤ b (triangle inequality,
+  // with margin for the float distance test), rebuilt around m when the path moves farther. A step
+  // thus reads the path's neighbourhood instead of every point, and its sums are the same
+  // operations in the same order as over all points, so the modes are exact.
+  const double b = bandwidth_m, recentre2 = b * b, near2 = (4.01 * b) * (4.01 * b);
+  std::vector<uint32_t> near;
+  std::vector<uint32_t> inside;
+  std::vector<double> kernel;
+  near.reserve(n);
+  inside.reserve(n);
+  kernel.reserve(n);
+  double centre[3] = {0, 0, 0};
+  bool have_near = false;
+  auto dist2 = [](const double* c, const float* m) {
+    const double dx = double(m[0]) - c[0], dy = double(m[1]) - c[1], dz = double(m[2]) - c[2];
+    return dx * dx + dy * dy + dz * dz;
+  };
   for (size_t s = 0; s < n; ++s) {
     float m[3] = {xs[s], ys[s], zs[s]};
     for (int iteration = 0; iteration < 100; ++iteration) {
       // A path that reaches a found mode's peak ends there: it would converge to the same point.
       if (iteration > 0 && near_mode(m, arrived2)) break;
-      for (size_t i = 0; i < n; ++i) {
+      if (!have_near || dist2(centre, m) > recentre2) {
+        near.clear();
+        for (int a = 0; a < 3; ++a) centre[a] = m[a];
+        for (uint32_t i = 0; i < n; ++i) {
+          const double dx = double(xs[i]) - centre[0], dy = double(ys[i]) - centre[1], dz = double(zs[i]) - centre[2];
+          if (dx * dx + dy * dy + dz * dz < near2) near.push_back(i);
+        }
+        have_near = true;
+      }
+      inside.clear();
+      kernel.clear();
+      for (uint32_t i : near) {
         const float dx = xs[i] - m[0], dy = ys[i] - m[1], dz = zs[i] - m[2];
         const float q = (dx * dx + dy * dy + dz * dz) * inv_b2;
-        w[i] = q < cutoff ? q : -1.0f;
+        if (q < cutoff) inside.push_back(i);
+        if (q < cutoff) kernel.push_back(std::exp(-q));  // float exp
       }
       double num[3] = {0, 0, 0}, den = 0;
-      for (size_t i = 0; i < n; ++i) {
-        if (w[i] < 0) continue;
-        const double k = std::exp(-w[i]);  // float exp
+      for (size_t e = 0; e < inside.size(); ++e) {
+        const double k = kernel[e];
+        const uint32_t i = inside[e];
         num[0] += k * xs[i];
         num[1] += k * ys[i];
         num[2] += k * zs[i];
@@ -104,14 +134,34 @@ void check_leaf_params(const LeafParams& params, int joints) {
                 std::to_string(params.vote_length_m.size()));
 }
 
+void prepare_votes(TrainedTree& tree, size_t leaves, int joints, int k, size_t first_leaf) {
+  const size_t vote_count = leaves * size_t(joints) * size_t(k);
+  if (first_leaf == 0)
+    tree.votes.assign(vote_count, LeafVote{});
+  else if (first_leaf > leaves || tree.votes.size() != vote_count)
+    tools::fail("resuming leaf votes at leaf " + std::to_string(first_leaf) + " of " + std::to_string(leaves) + " with " +
+                std::to_string(tree.votes.size()) + " votes (expected " + std::to_string(vote_count) + ")");
+}
+
+void for_leaf_blocks(size_t first_leaf, size_t leaves, const LeafParams& params, const std::function<void(size_t)>& fit,
+                     const LeavesDoneFn& leaves_done) {
+  const size_t block = std::max<size_t>(1, params.leaf_block);
+  for (size_t begin = first_leaf; begin < leaves; begin += block) {
+    const size_t end = std::min(leaves, begin + block);
+    parallel_for(end - begin, params.threads, [&](size_t i, int) { fit(begin + i); });
+    if (leaves_done) leaves_done(end);
+  }
+}
+
 void fit_votes(const TrainingSet& set, const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,
-               const LeafParams& params, int tree_index, TrainedTree& tree) {
+               const LeafParams& params, int tree_index, TrainedTree& tree, size_t first_leaf,
+               const LeavesDoneFn& leaves_done) {
   const int joints = static_cast<int>(set.joint_names.size());
   check_leaf_params(params, joints);
   if (!set.has_joints || joints == 0) tools::fail("offset joint regression leaves need joints in every frame");
   const int k = params.votes_per_joint;
-  tree.votes.assign(ranges.size() * joints * k, LeafVote{});
-  parallel_for(ranges.size(), params.threads, [&](size_t l, int) {
+  prepare_votes(tree, ranges.size(), joints, k, first_leaf);
+  for_leaf_blocks(first_leaf, ranges.size(), params, [&](size_t l) {
     std::vector<ReservoirSampler<std::array<float, 3>>> reservoirs(joints, ReservoirSampler<std::array<float, 3>>(params.reservoir));
     std::vector<Rng> rngs;
     for (int j = 0; j < joints; ++j) rngs.push_back(Rng::keyed(params.seed, 4, uint64_t(tree_index), l, uint64_t(j)));
@@ -120,7 +170,7 @@ void fit_votes(const TrainingSet& set, const std::vector<TrainingPixel>& pixels,
       for (int j = 0; j < joints; ++j) reservoirs[j].offer(joint_offset(set.images[p.image], p, j), rngs[j]);
     }
     for (int j = 0; j < joints; ++j) fill_leaf_votes(reservoirs[j].items(), params, j, &tree.votes[(l * joints + j) * k]);
-  });
+  }, leaves_done);
 }
 
 void fill_leaf_votes(const std::vector<std::array<float, 3>>& reservoir, const LeafParams& params, int joint,
