@@ -2,9 +2,7 @@
 // K and λ, OJR leaves fitted on a known geometry, BPC distributions, and retro-fitting.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cmath>
-#include <cstring>
 
 #include "tests/train_toy_data.h"
 #include "tools/train/forest_trainer.h"
@@ -89,74 +87,6 @@ TEST(TrainLeaves, MeanShiftFindsKnownModes) {
   EXPECT_EQ(v[1].weight, 0) << "padding vote must have weight 0";
   v = select_votes(modes, 0.33f, 3);
   EXPECT_EQ(v[2].weight, 10);
-}
-
-// The mean shift of Algorithm 3 written plainly: every start, every point each step (kernel
-// exp(−q) for q = |Δ−m|²/b² < 9), the same stopping and merging rules. mean_shift_modes reads only
-// each path's neighbourhood; its modes must be these, bit for bit.
-std::vector<Mode> plain_mean_shift(const std::vector<std::array<float, 3>>& pts, float b) {
-  std::vector<Mode> modes;
-  const float inv_b2 = 1.0f / (b * b), tol2 = 1e-6f * b * b, merge2 = 0.25f * b * b, arrived2 = 0.01f * b * b;
-  auto near_mode = [&](const float* m, float limit2) -> Mode* {
-    for (Mode& mode : modes) {
-      const float dx = mode.position[0] - m[0], dy = mode.position[1] - m[1], dz = mode.position[2] - m[2];
-      if (dx * dx + dy * dy + dz * dz < limit2) return &mode;
-    }
-    return nullptr;
-  };
-  for (const auto& p : pts) {
-    float m[3] = {p[0], p[1], p[2]};
-    for (int it = 0; it < 100; ++it) {
-      if (it > 0 && near_mode(m, arrived2)) break;
-      double num[3] = {0, 0, 0}, den = 0;
-      for (const auto& x : pts) {
-        const float dx = x[0] - m[0], dy = x[1] - m[1], dz = x[2] - m[2];
-        const float q = (dx * dx + dy * dy + dz * dz) * inv_b2;
-        if (!(q < 9.0f)) continue;
-        const double k = std::exp(-q);
-        num[0] += k * x[0];
-        num[1] += k * x[1];
-        num[2] += k * x[2];
-        den += k;
-      }
-      const float next[3] = {float(num[0] / den), float(num[1] / den), float(num[2] / den)};
-      const float shift2 = (next[0] - m[0]) * (next[0] - m[0]) + (next[1] - m[1]) * (next[1] - m[1]) +
-                           (next[2] - m[2]) * (next[2] - m[2]);
-      std::copy(next, next + 3, m);
-      if (shift2 < tol2) break;
-    }
-    if (Mode* mode = near_mode(m, merge2))
-      ++mode->weight;
-    else
-      modes.push_back({{m[0], m[1], m[2]}, 1});
-  }
-  std::stable_sort(modes.begin(), modes.end(), [](const Mode& a, const Mode& c) { return a.weight > c.weight; });
-  return modes;
-}
-
-TEST(TrainLeaves, MeanShiftEqualsThePlainAlgorithmBitForBit) {
-  // Reservoirs as retro-fitting meets them: one tight cluster, several, and offsets spread over a
-  // metre (far joints), at two bandwidths.
-  for (uint64_t seed = 1; seed <= 12; ++seed) {
-    std::vector<std::array<float, 3>> pts;
-    const int clusters = int(seed % 4) + 1;
-    for (int c = 0; c < clusters; ++c) {
-      const float spread = seed % 3 == 0 ? 0.5f : 0.02f + 0.03f * float(c);
-      auto more = cluster({0.2f * float(c) - 0.3f, 0.1f * float(c), -0.05f * float(c)}, 100 / clusters, spread,
-                          seed * 10 + uint64_t(c));
-      pts.insert(pts.end(), more.begin(), more.end());
-    }
-    for (float b : {0.05f, 0.08f}) {
-      const std::vector<Mode> fast = mean_shift_modes(pts, b), plain = plain_mean_shift(pts, b);
-      ASSERT_EQ(fast.size(), plain.size()) << "seed " << seed << " b " << b;
-      for (size_t i = 0; i < fast.size(); ++i) {
-        EXPECT_EQ(fast[i].weight, plain[i].weight) << "seed " << seed << " mode " << i;
-        for (int a = 0; a < 3; ++a)
-          EXPECT_EQ(std::memcmp(&fast[i].position[a], &plain[i].position[a], sizeof(float)), 0)
-              << "seed " << seed << " mode " << i << " axis " << a;
-      }
-    }
-  }
 }
 
 TEST(TrainLeaves, MeanShiftMergesOneBlob) {

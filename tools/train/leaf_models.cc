@@ -12,9 +12,9 @@ std::vector<Mode> mean_shift_modes(const std::vector<std::array<float, 3>>& poin
   std::vector<Mode> modes;
   if (points.empty()) return modes;
   const size_t n = points.size();
-  // Structure of arrays in float; points farther than 3b weigh < e^-9 ≈ 1.2e-4 of a coincident one
-  // and are left out (their exp is never computed).
-  std::vector<float> xs(n), ys(n), zs(n);
+  // Structure of arrays in float for a vectorizable inner loop; points farther than 3b weigh
+  // < e^-9 ≈ 1.2e-4 of a coincident one and are left out (their exp is never computed).
+  std::vector<float> xs(n), ys(n), zs(n), w(n);
   for (size_t i = 0; i < n; ++i) {
     xs[i] = points[i][0];
     ys[i] = points[i][1];
@@ -32,50 +32,20 @@ std::vector<Mode> mean_shift_modes(const std::vector<std::array<float, 3>>& poin
     }
     return nullptr;
   };
-  // A step sums over the points within 3b of the path's position m, in index order. They are taken
-  // from `near`: the points within 4.01b of a centre c, valid while |m − c| ≤ b (triangle inequality,
-  // with margin for the float distance test), rebuilt around m when the path moves farther. A step
-  // thus reads the path's neighbourhood instead of every point, and its sums are the same
-  // operations in the same order as over all points, so the modes are exact.
-  const double b = bandwidth_m, recentre2 = b * b, near2 = (4.01 * b) * (4.01 * b);
-  std::vector<uint32_t> near;
-  std::vector<uint32_t> inside;
-  std::vector<double> kernel;
-  near.reserve(n);
-  inside.reserve(n);
-  kernel.reserve(n);
-  double centre[3] = {0, 0, 0};
-  bool have_near = false;
-  auto dist2 = [](const double* c, const float* m) {
-    const double dx = double(m[0]) - c[0], dy = double(m[1]) - c[1], dz = double(m[2]) - c[2];
-    return dx * dx + dy * dy + dz * dz;
-  };
   for (size_t s = 0; s < n; ++s) {
     float m[3] = {xs[s], ys[s], zs[s]};
     for (int iteration = 0; iteration < 100; ++iteration) {
       // A path that reaches a found mode's peak ends there: it would converge to the same point.
       if (iteration > 0 && near_mode(m, arrived2)) break;
-      if (!have_near || dist2(centre, m) > recentre2) {
-        near.clear();
-        for (int a = 0; a < 3; ++a) centre[a] = m[a];
-        for (uint32_t i = 0; i < n; ++i) {
-          const double dx = double(xs[i]) - centre[0], dy = double(ys[i]) - centre[1], dz = double(zs[i]) - centre[2];
-          if (dx * dx + dy * dy + dz * dz < near2) near.push_back(i);
-        }
-        have_near = true;
-      }
-      inside.clear();
-      kernel.clear();
-      for (uint32_t i : near) {
+      for (size_t i = 0; i < n; ++i) {
         const float dx = xs[i] - m[0], dy = ys[i] - m[1], dz = zs[i] - m[2];
         const float q = (dx * dx + dy * dy + dz * dz) * inv_b2;
-        if (q < cutoff) inside.push_back(i);
-        if (q < cutoff) kernel.push_back(std::exp(-q));  // float exp
+        w[i] = q < cutoff ? q : -1.0f;
       }
       double num[3] = {0, 0, 0}, den = 0;
-      for (size_t e = 0; e < inside.size(); ++e) {
-        const double k = kernel[e];
-        const uint32_t i = inside[e];
+      for (size_t i = 0; i < n; ++i) {
+        if (w[i] < 0) continue;
+        const double k = std::exp(-w[i]);  // float exp
         num[0] += k * xs[i];
         num[1] += k * ys[i];
         num[2] += k * zs[i];
