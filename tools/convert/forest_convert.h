@@ -68,8 +68,10 @@ CompactionReport compact_bpc_leaves(blob::BlobContents* contents, const BpcCompa
 //   as trained (lossless)        18.99              86 958 084    0.558         0.627
 //   2 / 0.35 m / 0               10.25              54 536 964    0.564         0.628
 //   2 / 0.30 m / 0  (chosen)      7.63              44 825 156    0.575         0.628
-// The tuned vote lengths of the shipped OJR blob are 100..350 mm: votes beyond 0.3 m are nearly
-// never cast, and the cut halves the leaf entries at no measured accuracy cost. A weight share of
+//   2 / 0.15 m / 0                1.99              23 875 908    0.620         0.629
+// The tuned vote lengths of the shipped OJR blob are 100..350 mm (this forest's reach 450 mm): votes
+// beyond 0.3 m are nearly never cast, and the cut halves the leaf entries at no measured accuracy
+// cost, with a margin for joints whose best λ_j is long. A weight share of
 // 0.2..0.3 dropped only 5..10 % of the votes at no gain, so it stays off; K stays as trained.
 struct OjrCompaction {
   int max_votes = blob::kMaxVotesPerLeafJoint;  // per (leaf, joint), 1..kMaxVotesPerLeafJoint
