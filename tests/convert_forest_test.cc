@@ -361,3 +361,37 @@ TEST(ConvertForest, OjrCompactionKeepsTheHeaviestShortVotes) {
   ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
   EXPECT_EQ(b.meta->entry_count, 2u);
 }
+
+TEST(ConvertForest, CommandAppliesAndChecksTheOjrCompactionOptions) {
+  TempDir dir;
+  const std::string forest = dir.path + "/o.forest";
+  train::write_forest(forest, random_trained_forest(5, "ojr", 2, 6, 0.8, 2));
+  auto entries = [&](const std::string& name) {
+    const std::vector<uint8_t> bytes = blob::read_blob_file(dir.path + "/" + name);
+    blob::LoadedBlob b;
+    EXPECT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+    return std::pair{b.meta->entry_count, b.config->joints[0].vote_length_mm};
+  };
+  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/all.blob", "--check-frames", "0", "--ojr-max-length",
+                         "0"}),
+            0);
+  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/cut.blob", "--check-frames", "0"}), 0);
+  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/one.blob", "--check-frames", "0", "--ojr-max-votes",
+                         "1", "--ojr-max-length", "0"}),
+            0);
+  const auto [all, all_len] = entries("all.blob");
+  const auto [cut, cut_len] = entries("cut.blob");
+  const auto [one, one_len] = entries("one.blob");
+  EXPECT_LT(cut, all) << "the default drops votes longer than 0.3 m (the fixture's reach ±2.5 m)";
+  EXPECT_EQ(cut_len, 300) << "and lowers the vote length to the cut";
+  EXPECT_EQ(all_len, 400) << "no cut: the default config";
+  EXPECT_LT(one, all);
+  for (const char* bad : {"--ojr-max-votes=5", "--ojr-max-length=4.5", "--ojr-min-share=-0.1", "--ojr-min-share=x"}) {
+    const std::string option(bad);
+    const size_t eq = option.find('=');
+    EXPECT_THROW(run_command({"convert", forest, "--out", dir.path + "/bad.blob", option.substr(0, eq),
+                              option.substr(eq + 1)}),
+                 tools::ToolError)
+        << bad;
+  }
+}

@@ -28,7 +28,7 @@ const char* const kUsage =
     "  worst quantization error and checks that the blob's leaves equal the trained forest's on sample frames.\n"
     "  --from-pcl: imports PCL people-detector trees (bzip2 ASCII, read in place) as a 25-part BPC blob.\n"
     "  --upgrade-blob: rewrites a format-1 (dense leaves) or format-2 (complete heap-order trees) blob as\n"
-    "  the current format 3 (sparse nodes, compact leaves), losslessly unless --bpc-* options are given:\n"
+    "  the current format 3 (sparse nodes, compact leaves), losslessly unless --bpc-*/--ojr-* options are given:\n"
     "  every pixel reaches the same leaf, same leaves and config (docs/blob_format.md).\n"
     "  --out BLOB       blob to write (byte-identical for identical input)\n"
     "  --max-size WxH   largest frame the blob's arena size is computed for (default 640x480)\n"
