@@ -155,9 +155,9 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
     // checkpoints them after blocks of leaves.
     size_t first_leaf = 0;
     LeavesDoneFn leaves_done;
-    if (checkpointing && options.structure && ojr) {
+    if (options.structure && ojr) {
       const size_t per_leaf = set.joint_names.size() * size_t(lp.votes_per_joint);
-      if (t < checkpoint.retrofit.size()) {
+      if (checkpointing && t < checkpoint.retrofit.size()) {
         RetrofitState& r = checkpoint.retrofit[t];
         if (r.leaves_done > tree.leaf_count() || r.votes.size() != r.leaves_done * per_leaf ||
             r.complete != (r.leaves_done == tree.leaf_count()))
@@ -170,9 +170,11 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
       }
       auto last_write = std::chrono::steady_clock::now();
       leaves_done = [&, t, per_leaf](size_t done) {
+        if (options.retrofit_progress) options.retrofit_progress(static_cast<int>(t), done, tree.leaf_count());
         const bool complete = done == tree.leaf_count();
         const auto now = std::chrono::steady_clock::now();
-        if (!complete && std::chrono::duration<double>(now - last_write).count() < options.retrofit_checkpoint_seconds)
+        if (!checkpointing ||
+            (!complete && std::chrono::duration<double>(now - last_write).count() < options.retrofit_checkpoint_seconds))
           return;
         checkpoint.retrofit.resize(t + 1);
         checkpoint.retrofit[t] = {done, complete, std::vector<LeafVote>(tree.votes.begin(), tree.votes.begin() + done * per_leaf)};

@@ -28,6 +28,8 @@ struct ForestOptions {
   std::string checkpoint_path;
   bool resume = false;
   double retrofit_checkpoint_seconds = 60;  // seconds, ≥ 0: a 2^20-leaf tree's votes take ~0.5 GB to write
+  // Retro-fit progress: called after every block of leaves with the tree and its leaves done of all.
+  std::function<void(int tree, size_t leaves_done, size_t leaves)> retrofit_progress;
   // Called after each checkpoint is written (tree, levels done; retro-fit: leaves done). Tests throw
   // from it to stop a run.
   std::function<void(int tree, int levels_done)> after_checkpoint;

@@ -1,4 +1,5 @@
 // `depthpose train`: command-line front end of forest_trainer.h. docs/training.md is the manual.
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -278,6 +279,20 @@ int train_main(int argc, char** argv, Communicator* comm) {
       ++done_trees;
     }
   };
+  // Retro-fit: one line per tree at most every 10 s, and at its end, with the time left for the
+  // forest (trees are assumed to cost alike).
+  const auto fit_start = std::chrono::steady_clock::now();
+  auto last_line = fit_start - std::chrono::hours(1);
+  if (structure && !quiet && root)
+    fo.retrofit_progress = [&](int tree, size_t done, size_t leaves) {
+      const auto now = std::chrono::steady_clock::now();
+      if (done < leaves && now - last_line < std::chrono::seconds(10)) return;
+      last_line = now;
+      const double spent = std::chrono::duration<double>(now - fit_start).count();
+      const double share = (tree + double(done) / double(leaves)) / trees;
+      std::fprintf(stderr, "train: tree %d/%d votes: %zu/%zu leaves, %s (ETA %s)\n", tree + 1, trees, done, leaves,
+                   format_duration(spent).c_str(), format_duration(share > 0 ? spent * (1 - share) / share : 0).c_str());
+    };
   ForestStats stats;
   TrainedForest forest;
   try {
