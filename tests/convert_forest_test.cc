@@ -187,7 +187,9 @@ TEST(ConvertForest, TrainedNodesBecomeBreadthFirstSparseNodes) {
 TEST(ConvertForest, OjrVotesQuantizedWithinBounds) {
   const train::TrainedForest f = random_trained_forest(3, "ojr", 2, 8, 0.8, 6);
   tools::QuantizationReport rep;
-  const blob::BlobContents c = tools::convert_forest(f, {}, "test", &rep);
+  tools::ConvertOptions lossless;
+  lossless.ojr = tools::OjrCompaction{blob::kMaxVotesPerLeafJoint, 0, 0.0};
+  const blob::BlobContents c = tools::convert_forest(f, lossless, "test", &rep);
   EXPECT_EQ(c.votes_per_joint, blob::kMaxVotesPerLeafJoint);
   EXPECT_GT(rep.dropped_votes, 0u);            // K = 6 > 4
   EXPECT_LE(rep.worst_vote_offset_error_mm, 0.5);
@@ -312,4 +314,84 @@ TEST(ConvertForest, BpcCompactionKeepsTheHeaviestPartsAboveTheFloor) {
   blob::LoadedBlob b;
   ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
   EXPECT_EQ(b.meta->entry_count, 4u);  // the default keeps 4 parts ≥ 0.02: 8000, 12000, 4000, 8000
+}
+
+TEST(ConvertForest, OjrCompactionKeepsTheHeaviestShortVotes) {
+  blob::BlobContents c = tools::single_vote_ojr(2, 0, 0, 0);
+  c.votes_per_joint = 4;
+  c.config.joints[1].vote_length_mm = 500;
+  // Joint 0: weights 10, 40, 40, 5 (share 0.05 of 95); lane 2 is 300 mm long. Joint 1: one vote.
+  c.ojr_leaves = {{0, 0, 100, 10}, {0, 50, 0, 40}, {300, 0, 0, 40}, {0, 0, -20, 5}, {0, 0, 0, 0}, {0, 0, 0, 0},
+                  {0, 10, 0, 7}, {0, 0, 0, 0}};
+  const std::vector<blob::OjrVote> original = c.ojr_leaves;
+  tools::OjrCompactionReport r = tools::compact_ojr_leaves(&c, tools::OjrCompaction{2, 0, 0.0});
+  EXPECT_EQ(r.votes_before, 5u);
+  EXPECT_EQ(r.votes_after, 3u);
+  EXPECT_EQ(r.dropped_beyond_k, 2u);
+  EXPECT_EQ(c.ojr_leaves[1].weight, 40) << "ties go to the lower lane";
+  EXPECT_EQ(c.ojr_leaves[2].weight, 40);
+  EXPECT_EQ(c.ojr_leaves[0].weight, 0);
+  EXPECT_EQ(c.ojr_leaves[3].weight, 0);
+  EXPECT_EQ(c.ojr_leaves[6].weight, 7);
+  EXPECT_EQ(c.config.joints[0].vote_length_mm, 0) << "no length cut: the config is untouched";
+
+  c.ojr_leaves = original;
+  r = tools::compact_ojr_leaves(&c, tools::OjrCompaction{4, 250, 0.1});
+  EXPECT_EQ(r.dropped_long, 1u);   // lane 2: 300 mm
+  EXPECT_EQ(r.dropped_light, 1u);  // lane 3: 5 < 0.1 · 95
+  EXPECT_EQ(r.votes_after, 3u);
+  EXPECT_EQ(c.ojr_leaves[2].weight, 0);
+  EXPECT_EQ(c.ojr_leaves[3].weight, 0);
+  EXPECT_EQ(c.ojr_leaves[0].weight, 10) << "10 ≥ 0.1 · 95 stays";
+  EXPECT_EQ(c.config.joints[0].vote_length_mm, 250) << "no limit becomes the cut";
+  EXPECT_EQ(c.config.joints[1].vote_length_mm, 250) << "a longer limit becomes the cut";
+
+  c.ojr_leaves = original;
+  r = tools::compact_ojr_leaves(&c, tools::OjrCompaction{blob::kMaxVotesPerLeafJoint, 0, 0.0});
+  EXPECT_EQ(r.votes_after, r.votes_before) << "the lossless setting keeps every vote";
+  EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{0, 0, 0.0}), tools::ToolError);
+  EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{5, 0, 0.0}), tools::ToolError);
+  EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{1, 4001, 0.0}), tools::ToolError);
+  EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{1, 0, 1.5}), tools::ToolError);
+  // The blob stores only what is left.
+  c.ojr_leaves = original;
+  tools::compact_ojr_leaves(&c, tools::OjrCompaction{1, 0, 0.0});
+  const std::vector<uint8_t> bytes = blob::write_blob(c);
+  blob::LoadedBlob b;
+  ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+  EXPECT_EQ(b.meta->entry_count, 2u);
+}
+
+TEST(ConvertForest, CommandAppliesAndChecksTheOjrCompactionOptions) {
+  TempDir dir;
+  const std::string forest = dir.path + "/o.forest";
+  train::write_forest(forest, random_trained_forest(5, "ojr", 2, 6, 0.8, 2));
+  auto entries = [&](const std::string& name) {
+    const std::vector<uint8_t> bytes = blob::read_blob_file(dir.path + "/" + name);
+    blob::LoadedBlob b;
+    EXPECT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+    return std::pair{b.meta->entry_count, b.config->joints[0].vote_length_mm};
+  };
+  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/all.blob", "--check-frames", "0", "--ojr-max-length",
+                         "0"}),
+            0);
+  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/cut.blob", "--check-frames", "0"}), 0);
+  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/one.blob", "--check-frames", "0", "--ojr-max-votes",
+                         "1", "--ojr-max-length", "0"}),
+            0);
+  const auto [all, all_len] = entries("all.blob");
+  const auto [cut, cut_len] = entries("cut.blob");
+  const auto [one, one_len] = entries("one.blob");
+  EXPECT_LT(cut, all) << "the default drops votes longer than 0.3 m (the fixture's reach ±2.5 m)";
+  EXPECT_EQ(cut_len, 300) << "and lowers the vote length to the cut";
+  EXPECT_EQ(all_len, 400) << "no cut: the default config";
+  EXPECT_LT(one, all);
+  for (const char* bad : {"--ojr-max-votes=5", "--ojr-max-length=4.5", "--ojr-min-share=-0.1", "--ojr-min-share=x"}) {
+    const std::string option(bad);
+    const size_t eq = option.find('=');
+    EXPECT_THROW(run_command({"convert", forest, "--out", dir.path + "/bad.blob", option.substr(0, eq),
+                              option.substr(eq + 1)}),
+                 tools::ToolError)
+        << bad;
+  }
 }

@@ -11,6 +11,7 @@
 #include "tests/train_stick_bodies.h"
 #include "tests/train_toy_data.h"
 #include "tools/common/error.h"
+#include "tools/common/file_io.h"
 #include "tools/train/checkpoint.h"
 #include "tools/train/forest_trainer.h"
 
@@ -190,12 +191,85 @@ TEST(TrainResume, CommandWritesRemovesAndChecksItsCheckpoint) {
   });
   EXPECT_NE(e.find(tmp.path + "/c.ckpt"), std::string::npos) << e;
   EXPECT_NE(e.find("bad magic"), std::string::npos) << e;
-  // Retro-fitting is not checkpointed: asking for it is an error, not silently ignored.
+  // An OJR retro-fit stopped after its first checkpoint (exit 75) and resumed writes the forest of
+  // an uninterrupted retro-fit and removes its checkpoint.
+  const std::vector<std::string> retrofit = {"train", "--data", data, "--method", "ojr", "--structure",
+                                             tmp.path + "/a.forest", "--quiet", "--no-timings"};
+  auto retro = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = retrofit;
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  ASSERT_EQ(0, testsupport::run_cli(retro({"--out", tmp.path + "/d.forest"})));
+  ASSERT_EQ(75, testsupport::run_cli(retro({"--out", tmp.path + "/e.forest", "--stop-after", "1"})));
+  ASSERT_TRUE(std::filesystem::exists(tmp.path + "/e.forest.checkpoint"));
+  EXPECT_EQ(read_checkpoint(tmp.path + "/e.forest.checkpoint").retrofit.size(), 1u);
+  ASSERT_EQ(0, testsupport::run_cli(retro({"--out", tmp.path + "/e.forest", "--resume"})));
+  EXPECT_FALSE(std::filesystem::exists(tmp.path + "/e.forest.checkpoint"));
+  EXPECT_TRUE(tools::read_file_bytes(tmp.path + "/d.forest") == tools::read_file_bytes(tmp.path + "/e.forest"));
+  // A grown forest's checkpoint does not resume a retro-fit.
+  ASSERT_EQ(75, testsupport::run_cli(with({"--out", tmp.path + "/f.forest", "--stop-after", "1"})));
   EXPECT_NE(what_of([&] {
-              testsupport::run_cli({"train", "--data", data, "--method", "bpc", "--structure", tmp.path + "/a.forest",
-                                    "--resume", "--quiet", "--out", tmp.path + "/d.forest"});
-            }).find("not checkpointed"),
+              testsupport::run_cli(retro({"--out", tmp.path + "/g.forest", "--checkpoint",
+                                          tmp.path + "/f.forest.checkpoint", "--resume"}));
+            }).find("other options"),
             std::string::npos);
+}
+
+TEST(TrainResume, StoppedAndResumedRetrofitEqualsUninterruptedRetrofit) {
+  testing_toy::TempDir tmp;
+  const TrainingSet set = testing_bodies::stick_body_set(16, 300, 2, 3);
+  const TrainedForest structure = train_forest(set, resume_options("bpc", Objective::kClassification), {});
+  ForestOptions base = resume_options("ojr", Objective::kClassification);
+  base.structure = &structure;
+  base.leaf.leaf_block = 7;  // several checkpoints per tree
+  const std::vector<uint8_t> expected = bytes_without_timings(train_forest(set, base, {}));
+  size_t leaves0 = structure.trees[0].leaf_count();
+  ASSERT_GT(leaves0, 14u) << "the structure must have several blocks of leaves";
+  // Stop points: (tree, leaves done): inside tree 0, tree 0 complete, inside tree 1.
+  for (const auto& [stop_tree, stop_leaves] : {std::pair{0, 7}, std::pair{0, int(leaves0)}, std::pair{1, 14}}) {
+    const std::string what = "retro-fit stopped at tree " + std::to_string(stop_tree) + " after " +
+                             std::to_string(stop_leaves) + " leaves";
+    ForestOptions fo = base;
+    fo.checkpoint_path = tmp.path + "/ojr.checkpoint";
+    fo.retrofit_checkpoint_seconds = 0;
+    std::filesystem::remove(fo.checkpoint_path);
+    fo.tree.threads = 1;
+    fo.after_checkpoint = [&](int tree, int leaves) {
+      if (tree == stop_tree && leaves == stop_leaves) throw Stop{};
+    };
+    EXPECT_THROW(train_forest(set, fo, {}), Stop) << what;
+    const TrainingCheckpoint written = read_checkpoint(fo.checkpoint_path);
+    ASSERT_EQ(written.retrofit.size(), size_t(stop_tree + 1)) << what;
+    EXPECT_TRUE(written.trees.empty()) << what;
+    EXPECT_EQ(written.retrofit.back().leaves_done, size_t(stop_leaves)) << what;
+    EXPECT_EQ(written.retrofit.back().complete, size_t(stop_leaves) == structure.trees[size_t(stop_tree)].leaf_count())
+        << what;
+
+    fo.tree.threads = 2;
+    fo.resume = true;
+    int first_after_resume = -1;
+    fo.after_checkpoint = [&](int tree, int leaves) {
+      if (first_after_resume < 0) first_after_resume = tree * 100000 + leaves;
+    };
+    const TrainedForest resumed = train_forest(set, fo, {});
+    const int next = stop_leaves == int(leaves0) ? 100000 + 7 : stop_tree * 100000 + stop_leaves + 7;
+    EXPECT_EQ(first_after_resume, next) << what << ": the resumed fit continues at the next block";
+    EXPECT_TRUE(bytes_without_timings(resumed) == expected) << what << ": resumed forest differs";
+  }
+  // A checkpoint of another structure is refused.
+  ForestOptions fo = base;
+  fo.checkpoint_path = tmp.path + "/ojr.checkpoint";
+  fo.retrofit_checkpoint_seconds = 0;
+  fo.after_checkpoint = [&](int, int) { throw Stop{}; };
+  std::filesystem::remove(fo.checkpoint_path);
+  EXPECT_THROW(train_forest(set, fo, {}), Stop);
+  TrainedForest other = structure;
+  other.trees[0].nodes[0].threshold_mm += 1;
+  fo.structure = &other;
+  fo.resume = true;
+  fo.after_checkpoint = {};
+  EXPECT_NE(what_of([&] { train_forest(set, fo, {}); }).find("structure"), std::string::npos);
 }
 
 }  // namespace

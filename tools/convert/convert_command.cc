@@ -28,14 +28,30 @@ const char* const kUsage =
     "  worst quantization error and checks that the blob's leaves equal the trained forest's on sample frames.\n"
     "  --from-pcl: imports PCL people-detector trees (bzip2 ASCII, read in place) as a 25-part BPC blob.\n"
     "  --upgrade-blob: rewrites a format-1 (dense leaves) or format-2 (complete heap-order trees) blob as\n"
-    "  the current format 3 (sparse nodes, compact leaves), losslessly unless --bpc-* options are given:\n"
+    "  the current format 3 (sparse nodes, compact leaves), losslessly unless --bpc-*/--ojr-* options are given:\n"
     "  every pixel reaches the same leaf, same leaves and config (docs/blob_format.md).\n"
     "  --out BLOB       blob to write (byte-identical for identical input)\n"
     "  --max-size WxH   largest frame the blob's arena size is computed for (default 640x480)\n"
     "  --check-frames N sample frames for the leaf check (default 12, 0 = skip, at most 256)\n"
     "  --bpc-max-parts N          BPC leaves keep their N most probable parts (1..32, default %d)\n"
     "  --bpc-min-probability P    BPC leaves drop parts below P (0..1, default %.4f); dropped mass is\n"
-    "                             not renormalized (docs/convert.md). 32 and 0: lossless\n";
+    "                             not renormalized (docs/convert.md). 32 and 0: lossless\n"
+    "  --ojr-max-votes N          OJR: each leaf and joint keeps its N heaviest votes (1..4, default %d)\n"
+    "  --ojr-max-length M         OJR: votes longer than M metres are dropped and every joint's vote length\n"
+    "                             is lowered to M (0..4, default %.3f; 0 = no limit)\n"
+    "  --ojr-min-share S          OJR: votes below S of their leaf and joint's vote weight are dropped (0..1,\n"
+    "                             default %.3f). 4, 0, 0: lossless\n";
+
+// The value of option `name` (a number in 0..limit), or `fallback` when it is not given.
+double bounded_option(const Args& args, const std::string& name, double fallback, double limit) {
+  if (!args.has(name)) return fallback;
+  const std::string text = args.get(name);
+  char* end = nullptr;
+  const double p = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || *end != 0 || !(p >= 0.0 && p <= limit))
+    fail("convert: " + name + " '" + text + "' is not a number in 0.." + std::to_string(int(limit)));
+  return p;
+}
 
 // The BPC compaction options over `k` (convert: BpcCompaction's measured defaults; --upgrade-blob:
 // lossless unless asked).
@@ -44,14 +60,31 @@ BpcCompaction bpc_compaction_of(const Args& args, BpcCompaction k) {
   if (parts < 1 || parts > blob::kMaxParts) fail("convert: --bpc-max-parts " + std::to_string(parts) + " is outside 1..32");
   k.max_parts = int(parts);
   if (args.has("--bpc-min-probability")) {
-    const std::string text = args.get("--bpc-min-probability");
-    char* end = nullptr;
-    const double p = std::strtod(text.c_str(), &end);
-    if (end == text.c_str() || *end != 0 || !(p >= 0.0 && p <= 1.0))
-      fail("convert: --bpc-min-probability '" + text + "' is not a probability in 0..1");
+    const double p = bounded_option(args, "--bpc-min-probability", 0.0, 1.0);
     k.min_q15 = uint16_t(std::clamp<double>(std::ceil(p * 32768.0), 1.0, 32768.0));
   }
   return k;
+}
+
+// The OJR compaction options over `k` (convert: OjrCompaction's measured defaults; --upgrade-blob:
+// lossless unless asked).
+OjrCompaction ojr_compaction_of(const Args& args, OjrCompaction k) {
+  const long long votes = args.get_int("--ojr-max-votes", k.max_votes);
+  if (votes < 1 || votes > blob::kMaxVotesPerLeafJoint)
+    fail("convert: --ojr-max-votes " + std::to_string(votes) + " is outside 1.." +
+         std::to_string(blob::kMaxVotesPerLeafJoint));
+  k.max_votes = int(votes);
+  k.max_length_mm = uint16_t(std::lround(
+      1000.0 * bounded_option(args, "--ojr-max-length", k.max_length_mm / 1000.0, blob::kMaxVoteLengthMm / 1000.0)));
+  k.min_share = bounded_option(args, "--ojr-min-share", k.min_share, 1.0);
+  return k;
+}
+
+void print_ojr_compaction(const OjrCompactionReport& r) {
+  std::printf("OJR compaction: %llu of %llu votes kept (dropped: %llu too long, %llu below the weight share, %llu "
+              "beyond the votes per joint)\n",
+              (unsigned long long)r.votes_after, (unsigned long long)r.votes_before, (unsigned long long)r.dropped_long,
+              (unsigned long long)r.dropped_light, (unsigned long long)r.dropped_beyond_k);
 }
 
 void print_compaction(const CompactionReport& r) {
@@ -73,6 +106,7 @@ int convert_trained(const Args& args) {
   options.max_width = w;
   options.max_height = h;
   options.bpc = bpc_compaction_of(args, BpcCompaction{});
+  options.ojr = ojr_compaction_of(args, OjrCompaction{});
   const long long check_frames = args.get_int("--check-frames", 12);
   if (check_frames < 0 || check_frames > limits::kMaxCheckFrames)
     fail("convert: --check-frames " + std::to_string(check_frames) + " is outside 0.." +
@@ -91,6 +125,7 @@ int convert_trained(const Args& args) {
                 rep.worst_vote_weight_rel_error, (unsigned long long)rep.dropped_votes, blob::kMaxVotesPerLeafJoint);
   std::printf("\n");
   if (forest.method == "bpc") print_compaction(rep.bpc_compaction);
+  if (forest.method == "ojr") print_ojr_compaction(rep.ojr_compaction);
   if (check_frames > 0) {
     const int cw = int(std::min<unsigned>(w, 320)), ch = int(std::min<unsigned>(h, 240));
     const LeafCheck check = check_leaves(forest, bytes, sample_frames(cw, ch, int(check_frames)), cw, ch,
@@ -131,6 +166,8 @@ int convert_upgrade(const Args& args) {
   const CompactionReport compaction =
       compact_bpc_leaves(&contents, bpc_compaction_of(args, BpcCompaction{blob::kMaxParts, 1}));
   if (contents.method == blob::Method::kBpc) print_compaction(compaction);
+  const OjrCompactionReport ojr = compact_ojr_leaves(&contents, ojr_compaction_of(args, OjrCompaction{blob::kMaxVotesPerLeafJoint, 0, 0.0}));
+  if (contents.method == blob::Method::kOjr) print_ojr_compaction(ojr);
   const std::vector<uint8_t> bytes = blob::write_blob(contents);
   blob::save_blob_file(out, bytes);
   std::printf("wrote %s: %zu bytes (format %d: %zu bytes)\n", out.c_str(), bytes.size(), old_version, old_bytes.size());
@@ -140,12 +177,15 @@ int convert_upgrade(const Args& args) {
 int convert_main(int argc, char** argv) {
   static const std::string usage = [] {
     const BpcCompaction k;
+    const OjrCompaction o;
     char text[4096];
-    std::snprintf(text, sizeof text, kUsage, k.max_parts, k.min_q15 / 32768.0);
+    std::snprintf(text, sizeof text, kUsage, k.max_parts, k.min_q15 / 32768.0, o.max_votes, o.max_length_mm / 1000.0,
+                  o.min_share);
     return std::string(text);
   }();
   Args args(argc, argv, usage.c_str(),
-            {"--out", "--max-size", "--check-frames", "--upgrade-blob", "--bpc-max-parts", "--bpc-min-probability"},
+            {"--out", "--max-size", "--check-frames", "--upgrade-blob", "--bpc-max-parts", "--bpc-min-probability",
+             "--ojr-max-votes", "--ojr-max-length", "--ojr-min-share"},
             {"--from-pcl"});
   if (args.help_requested()) {
     std::printf("%s", args.usage().c_str());

@@ -89,6 +89,55 @@ CompactionReport compact_bpc_leaves(blob::BlobContents* c, const BpcCompaction& 
   return rep;
 }
 
+OjrCompactionReport compact_ojr_leaves(blob::BlobContents* c, const OjrCompaction& k) {
+  OjrCompactionReport rep;
+  if (c->method != blob::Method::kOjr) return rep;
+  if (k.max_votes < 1 || k.max_votes > blob::kMaxVotesPerLeafJoint || k.max_length_mm > blob::kMaxVoteLengthMm ||
+      !(k.min_share >= 0.0 && k.min_share <= 1.0))
+    fail("OJR compaction: max votes " + std::to_string(k.max_votes) + " outside 1.." +
+         std::to_string(blob::kMaxVotesPerLeafJoint) + ", max length " + std::to_string(k.max_length_mm) +
+         " mm outside 0.." + std::to_string(blob::kMaxVoteLengthMm) + " or min share " + std::to_string(k.min_share) +
+         " outside 0..1");
+  const size_t lanes = size_t(c->votes_per_joint);
+  if (lanes == 0) return rep;
+  const int64_t len2 = int64_t(k.max_length_mm) * k.max_length_mm;
+  std::vector<size_t> order(lanes);
+  for (size_t g = 0; g * lanes < c->ojr_leaves.size(); ++g) {  // one (record, joint) at a time
+    blob::OjrVote* v = &c->ojr_leaves[g * lanes];
+    uint64_t total = 0;
+    for (size_t i = 0; i < lanes; ++i) total += v[i].weight;
+    for (size_t i = 0; i < lanes; ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return v[a].weight > v[b].weight; });
+    int kept = 0;
+    for (size_t i : order) {
+      blob::OjrVote& x = v[i];
+      if (x.weight == 0) continue;
+      ++rep.votes_before;
+      const int64_t d2 = int64_t(x.dx_mm) * x.dx_mm + int64_t(x.dy_mm) * x.dy_mm + int64_t(x.dz_mm) * x.dz_mm;
+      uint64_t* reason = nullptr;
+      if (k.max_length_mm > 0 && d2 > len2)
+        reason = &rep.dropped_long;
+      else if (double(x.weight) < k.min_share * double(total))
+        reason = &rep.dropped_light;
+      else if (kept == k.max_votes)
+        reason = &rep.dropped_beyond_k;
+      if (reason) {
+        ++*reason;
+        x = blob::OjrVote{0, 0, 0, 0};
+        continue;
+      }
+      ++kept;
+      ++rep.votes_after;
+    }
+  }
+  if (k.max_length_mm > 0)
+    for (size_t j = 0; j < c->joint_names.size(); ++j) {
+      uint16_t& len = c->config.joints[j].vote_length_mm;
+      if (len == 0 || len > k.max_length_mm) len = k.max_length_mm;
+    }
+  return rep;
+}
+
 blob::BlobContents convert_forest(const train::TrainedForest& forest, const ConvertOptions& options,
                                   const std::string& what, QuantizationReport* report) {
   QuantizationReport rep;
@@ -216,6 +265,7 @@ blob::BlobContents convert_forest(const train::TrainedForest& forest, const Conv
   c.config = blob::default_runtime_config(int(c.joint_names.size()));
   for (size_t j = 0; j < masks.size(); ++j) c.config.joints[j].part_mask = masks[j];
   rep.bpc_compaction = compact_bpc_leaves(&c, options.bpc);
+  rep.ojr_compaction = compact_ojr_leaves(&c, options.ojr);
   if (report) *report = rep;
   return c;
 }

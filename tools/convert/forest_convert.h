@@ -55,9 +55,43 @@ struct CompactionReport {
 // ranked by probability, ties by part index.
 CompactionReport compact_bpc_leaves(blob::BlobContents* contents, const BpcCompaction& compaction);
 
+// OJR leaf compaction: a (leaf, joint) keeps at most max_votes votes, each at most max_length_mm
+// long (0 = any length) and carrying at least min_share of the weight of that (leaf, joint)'s
+// votes; the others are dropped (weight 0: not stored). A vote longer than the config's vote length
+// λ_j is never cast (runtime/ojr_votes.h), so the length cut only removes votes the runtime would
+// skip unless a config raises λ_j above it: compaction lowers each joint's λ_j to max_length_mm
+// (0 or longer becomes max_length_mm), and a tuned λ_j beyond it changes nothing.
+// Defaults, measured with `depthpose eval` (D_tp 0.1 m) on 300 held-out frames (split:test) with a
+// depth-20 OJR forest (BPC structure from 1500 split:train frames, 3 trees, min 10 samples, K = 2,
+// λ = 0.5 m at training), each blob tuned on 150 split:validation frames (`depthpose tune`):
+//   votes / length cut / share   votes per record   blob bytes    mAP untuned   mAP tuned
+//   as trained (lossless)        18.99              86 958 084    0.558         0.627
+//   2 / 0.35 m / 0               10.25              54 536 964    0.564         0.628
+//   2 / 0.30 m / 0  (chosen)      7.63              44 825 156    0.575         0.628
+//   2 / 0.15 m / 0                1.99              23 875 908    0.620         0.629
+// The tuned vote lengths of the shipped OJR blob are 100..350 mm (this forest's reach 450 mm): votes
+// beyond 0.3 m are nearly never cast, and the cut halves the leaf entries at no measured accuracy
+// cost, with a margin for joints whose best λ_j is long. A weight share of
+// 0.2..0.3 dropped only 5..10 % of the votes at no gain, so it stays off; K stays as trained.
+struct OjrCompaction {
+  int max_votes = blob::kMaxVotesPerLeafJoint;  // per (leaf, joint), 1..kMaxVotesPerLeafJoint
+  uint16_t max_length_mm = 300;                 // 0..kMaxVoteLengthMm; 0 = no limit
+  double min_share = 0;                         // 0..1 of the (leaf, joint)'s total vote weight
+};
+
+struct OjrCompactionReport {
+  uint64_t votes_before = 0, votes_after = 0;  // nonzero votes
+  uint64_t dropped_long = 0, dropped_light = 0, dropped_beyond_k = 0;  // by the first rule that dropped each
+};
+
+// Applies `compaction` to the dense OJR leaves of `contents` (no-op for BPC) and lowers the config's
+// vote lengths to its max_length_mm. Deterministic: votes ranked by weight, ties by lane.
+OjrCompactionReport compact_ojr_leaves(blob::BlobContents* contents, const OjrCompaction& compaction);
+
 struct ConvertOptions {
   uint32_t max_width = 640, max_height = 480;  // frame size the arena is sized for
   BpcCompaction bpc;                           // BPC leaf compaction (measured defaults)
+  OjrCompaction ojr;                           // OJR leaf compaction (measured defaults)
 };
 
 struct QuantizationReport {
@@ -69,6 +103,7 @@ struct QuantizationReport {
   uint64_t leaf_nodes = 0;               // leaf nodes stored (the trained leaves)
   int blob_depth = 0;
   CompactionReport bpc_compaction;
+  OjrCompactionReport ojr_compaction;
 };
 
 // The blob contents for `forest`. Throws ToolError (naming `what`) for what the blob cannot hold:

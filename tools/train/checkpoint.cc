@@ -4,6 +4,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -20,7 +21,7 @@ using tools::fail;
 namespace {
 
 constexpr char kMagic[8] = {'D', 'P', 'T', 'R', 'C', 'K', 'P', 'T'};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;  // reads 1 (no retro-fit) and 2
 constexpr size_t kNodeInts = 7;
 
 // FNV-1a over 64-bit words (tail bytes one by one): fast enough for gigabytes of probe images.
@@ -50,6 +51,17 @@ void put(std::vector<uint8_t>& out, T v) {
   const size_t at = out.size();
   out.resize(at + sizeof v);
   std::memcpy(out.data() + at, &v, sizeof v);
+}
+
+// zlib CRC-32 of n bytes; crc32's length is 32-bit, so a long file goes in slices.
+uint32_t crc_of(const uint8_t* data, size_t n) {
+  uLong crc = crc32(0L, Z_NULL, 0);
+  for (size_t at = 0; at < n;) {
+    const size_t slice = std::min<size_t>(n - at, size_t(1) << 30);
+    crc = crc32(crc, data + at, static_cast<uInt>(slice));
+    at += slice;
+  }
+  return static_cast<uint32_t>(crc);
 }
 
 }  // namespace
@@ -111,6 +123,9 @@ void write_checkpoint(const std::string& path, const TrainingCheckpoint& checkpo
                                {"complete", t.complete},
                                {"feature_evaluations", t.feature_evaluations},
                                {"nodes", t.nodes.size()}});
+  header["retrofit"] = nlohmann::json::array();
+  for (const RetrofitState& r : checkpoint.retrofit)
+    header["retrofit"].push_back({{"leaves_done", r.leaves_done}, {"complete", r.complete}, {"votes", r.votes.size()}});
   const std::string text = header.dump();
   std::vector<uint8_t> out(kMagic, kMagic + 8);
   put<uint32_t>(out, kVersion);
@@ -120,7 +135,10 @@ void write_checkpoint(const std::string& path, const TrainingCheckpoint& checkpo
     for (const DecidedNode& n : t.nodes)
       for (int32_t v : {static_cast<int32_t>(n.heap), int32_t(n.leaf ? 1 : 0), n.du1, n.dv1, n.du2, n.dv2, n.threshold})
         put<int32_t>(out, v);
-  put<uint32_t>(out, static_cast<uint32_t>(crc32(0L, out.data(), static_cast<uInt>(out.size()))));
+  for (const RetrofitState& r : checkpoint.retrofit)
+    for (const LeafVote& v : r.votes)
+      for (float x : {v.dx, v.dy, v.dz, v.weight}) put<float>(out, x);
+  put<uint32_t>(out, crc_of(out.data(), out.size()));
 
   const std::string tmp = path + ".tmp";
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -151,9 +169,10 @@ TrainingCheckpoint read_checkpoint(const std::string& path) {
   uint32_t version, header_bytes, crc;
   std::memcpy(&version, data.data() + 8, 4);
   std::memcpy(&header_bytes, data.data() + 12, 4);
-  if (version != kVersion) bad("version " + std::to_string(version) + ", this build reads version 1");
+  if (version != 1 && version != kVersion)
+    bad("version " + std::to_string(version) + ", this build reads versions 1 and 2");
   std::memcpy(&crc, data.data() + data.size() - 4, 4);
-  if (crc != static_cast<uint32_t>(crc32(0L, data.data(), static_cast<uInt>(data.size() - 4))))
+  if (crc != crc_of(data.data(), data.size() - 4))
     bad("CRC-32 mismatch (truncated or damaged file)");
   if (size_t(header_bytes) > data.size() - 20) bad("header length " + std::to_string(header_bytes) + " beyond the file");
   TrainingCheckpoint c;
@@ -179,12 +198,31 @@ TrainingCheckpoint read_checkpoint(const std::string& path) {
       }
       c.trees.push_back(std::move(g));
     }
+    if (version >= 2)
+      for (const auto& t : header.at("retrofit")) {
+        RetrofitState r;
+        r.leaves_done = size_t(tools::json_integer_field(t, "leaves_done", 0, INT64_MAX, "checkpoint " + path));
+        r.complete = t.at("complete").get<bool>();
+        const size_t count = size_t(tools::json_integer_field(t, "votes", 0, INT64_MAX, "checkpoint " + path));
+        if (count > (data.size() - 4 - at) / sizeof(LeafVote))
+          bad("retro-fit tree " + std::to_string(c.retrofit.size()) + " lists more votes than the file holds");
+        r.votes.resize(count);
+        for (LeafVote& v : r.votes) {
+          float x[4];
+          std::memcpy(x, data.data() + at, sizeof x);
+          at += sizeof x;
+          v = {x[0], x[1], x[2], x[3]};
+        }
+        c.retrofit.push_back(std::move(r));
+      }
     if (at != data.size() - 4) bad("trailing bytes after the node records");
   } catch (const nlohmann::json::exception& e) {
     bad(std::string("bad JSON header: ") + e.what());
   }
   for (size_t t = 0; t + 1 < c.trees.size(); ++t)
     if (!c.trees[t].complete) bad("tree " + std::to_string(t) + " is incomplete but a later tree was begun");
+  for (size_t t = 0; t + 1 < c.retrofit.size(); ++t)
+    if (!c.retrofit[t].complete) bad("retro-fit tree " + std::to_string(t) + " is incomplete but a later tree was begun");
   return c;
 }
 

@@ -8,13 +8,20 @@
 // models are fitted after the structure. It also records the options that determine the forest
 // and a digest of the training data; resuming with other options or data is refused.
 //
+// A retro-fit (OJR votes onto a given structure) checkpoints its votes instead: per tree begun, the
+// votes of the leaves fitted so far (leaf_models.h fits them in blocks of leaves, each leaf from
+// its own pixels only, so a resumed fit continues at the next leaf and gives the same votes).
+//
 // File layout (little-endian):
 //   "DPTRCKPT"            8 bytes magic
-//   uint32 version        1
+//   uint32 version        2 (version 1, written before retro-fit checkpoints, is read too)
 //   uint32 header_bytes   length of the JSON header that follows
 //   JSON header           {"options":{...},"data_digest":"<16 hex>","trees":[{"levels_done":L,
-//                          "complete":bool,"feature_evaluations":N,"nodes":count},...]}
+//                          "complete":bool,"feature_evaluations":N,"nodes":count},...],
+//                          "retrofit":[{"leaves_done":n,"complete":bool,"votes":count},...]}
+//                          ("retrofit" absent in version 1)
 //   per tree, its nodes   count × 7 int32: heap, leaf (0/1), du1, dv1, du2, dv2, threshold
+//   per retrofit tree     count × 4 float32: dx, dy, dz (metres), weight
 //   uint32 crc32          zlib CRC-32 of every byte before it
 // Written to FILE.tmp, flushed and fsync'ed, then renamed over FILE, so FILE is always either the
 // previous complete checkpoint or the new one.
@@ -28,10 +35,18 @@
 
 namespace dp::train {
 
+// A retro-fit's progress on one tree.
+struct RetrofitState {
+  size_t leaves_done = 0;             // leaves [0, leaves_done) have their final votes
+  bool complete = false;              // every leaf of the tree
+  std::vector<LeafVote> votes;        // leaves_done × joints × K
+};
+
 struct TrainingCheckpoint {
   std::string options_json = "{}";    // the forest-determining options (JSON object text)
   std::string data_digest;            // training_data_digest() of the set
   std::vector<GrowthState> trees;     // trees begun, in order; all but the last are complete
+  std::vector<RetrofitState> retrofit;  // retro-fits: trees begun, in order; all but the last complete
 };
 
 // 64-bit digest (16 hex digits) of everything in the set that the forest depends on: image crops,

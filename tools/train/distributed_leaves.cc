@@ -51,7 +51,8 @@ T take(const std::vector<uint8_t>& in, size_t& at, int rank) {
 }  // namespace
 
 void fit_votes_distributed(const TrainingSet& set, const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,
-                           const LeafParams& params, int tree_index, TrainedTree& tree, Communicator& comm) {
+                           const LeafParams& params, int tree_index, TrainedTree& tree, Communicator& comm,
+                           size_t first_leaf, const LeavesDoneFn& leaves_done) {
   const int joints = static_cast<int>(set.joint_names.size());
   check_leaf_params(params, joints);
   if (!set.has_joints || joints == 0) tools::fail("offset joint regression leaves need joints in every frame");
@@ -107,7 +108,7 @@ void fit_votes_distributed(const TrainingSet& set, const std::vector<TrainingPix
   }
   writes.clear();
   const std::vector<std::vector<uint8_t>> all = comm.gather(message);
-  tree.votes.assign(leaves * joints * params.votes_per_joint, LeafVote{});
+  prepare_votes(tree, leaves, joints, params.votes_per_joint, comm.rank() == 0 ? first_leaf : 0);
   if (comm.rank() != 0) return;
 
   std::vector<std::vector<std::array<float, 3>>> reservoirs(leaves * joints);
@@ -131,10 +132,10 @@ void fit_votes_distributed(const TrainingSet& set, const std::vector<TrainingPix
       }
     }
   }
-  parallel_for(leaves, params.threads, [&](size_t l, int) {
+  for_leaf_blocks(first_leaf, leaves, params, [&](size_t l) {
     for (int j = 0; j < joints; ++j)
       fill_leaf_votes(reservoirs[l * joints + j], params, j, &tree.votes[(l * joints + j) * params.votes_per_joint]);
-  });
+  }, leaves_done);
 }
 
 }  // namespace dp::train

@@ -25,7 +25,10 @@ void fit_part_distributions_distributed(const std::vector<TrainingPixel>& pixels
 // rank order, which is the reservoir a single process would hold, and runs mean shift. Only rank 0
 // receives tree.votes (the others get zero votes of the right size: they do not write the forest).
 // Traffic: at most leaves × joints × N_res × 16 bytes per rank, independent of the data size.
+// first_leaf and leaves_done as in fit_votes, on rank 0 (the others ignore them; every rank passes
+// the same first_leaf).
 void fit_votes_distributed(const TrainingSet& set, const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,
-                           const LeafParams& params, int tree_index, TrainedTree& tree, Communicator& comm);
+                           const LeafParams& params, int tree_index, TrainedTree& tree, Communicator& comm,
+                           size_t first_leaf = 0, const LeavesDoneFn& leaves_done = {});
 
 }  // namespace dp::train

@@ -27,20 +27,34 @@ std::string forest_options_json(const ForestOptions& options, size_t trees) {
   j["seed"] = t.seed;
   j["pixels_per_image"] = options.pixels_per_image;
   j["images_per_tree"] = options.images_per_tree;
+  uint64_t h = 0xCBF29CE484222325ull;
+  auto mix = [&](int64_t v) { h = (h ^ static_cast<uint64_t>(v)) * 0x100000001B3ull; };
+  auto hex = [&] {
+    char b[20];
+    std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(h));
+    h = 0xCBF29CE484222325ull;
+    return std::string(b);
+  };
   if (t.proposal) {
-    uint64_t h = 0xCBF29CE484222325ull;
-    auto mix = [&](int64_t v) { h = (h ^ static_cast<uint64_t>(v)) * 0x100000001B3ull; };
     for (const auto* list : {&t.proposal->first, &t.proposal->second}) {
       mix(static_cast<int64_t>(list->size()));
       for (const auto& o : *list) mix(o[0] * 65536 + o[1]);
     }
     mix(static_cast<int64_t>(t.proposal->uniform_fraction * 1e9));
     mix(t.proposal->jitter_pxm);
-    char b[20];
-    std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(h));
-    j["proposal"] = b;
+    j["proposal"] = hex();
   } else {
     j["proposal"] = "uniform";
+  }
+  if (options.structure) {
+    for (const TrainedTree& tree : options.structure->trees) {
+      mix(static_cast<int64_t>(tree.nodes.size()));
+      for (const TrainedNode& n : tree.nodes)
+        for (int64_t v : {int64_t(n.heap_index), int64_t(n.leaf), int64_t(n.du1), int64_t(n.dv1), int64_t(n.du2),
+                          int64_t(n.dv2), int64_t(n.threshold_mm)})
+          mix(v);
+    }
+    j["structure"] = hex();
   }
   if (options.method == "ojr") {
     j["nres"] = options.leaf.reservoir;
@@ -80,15 +94,20 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
   Communicator* comm = options.tree.comm;
   const bool writes_files = !comm || comm->rank() == 0;
   TrainingCheckpoint checkpoint;
-  const bool checkpointing = !options.checkpoint_path.empty() && !options.structure;
+  const bool checkpointing = !options.checkpoint_path.empty();
   if (checkpointing) {
     checkpoint.options_json = forest_options_json(options, tree_count);
     checkpoint.data_digest = training_data_digest(set, comm);
     if (options.resume && std::ifstream(options.checkpoint_path).good()) {
       TrainingCheckpoint found = read_checkpoint(options.checkpoint_path);
       check_checkpoint_matches(found, checkpoint.options_json, checkpoint.data_digest, options.checkpoint_path);
-      if (found.trees.size() > tree_count) fail("checkpoint " + options.checkpoint_path + " holds more trees than the run");
+      if (found.trees.size() > tree_count || found.retrofit.size() > tree_count)
+        fail("checkpoint " + options.checkpoint_path + " holds more trees than the run");
+      if (options.structure ? !found.trees.empty() : !found.retrofit.empty())
+        fail("checkpoint " + options.checkpoint_path + " is of a " + (options.structure ? "grown forest" : "retro-fit") +
+             ", this run " + (options.structure ? "retro-fits leaves" : "grows a forest"));
       checkpoint.trees = std::move(found.trees);
+      checkpoint.retrofit = std::move(found.retrofit);
     }
   }
 
@@ -132,13 +151,45 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
     LeafParams lp = options.leaf;
     lp.threads = options.tree.threads;
     const int part_count = static_cast<int>(set.part_names.size());
+    // A retro-fit resumes its votes at the checkpoint's leaf (the votes before it are final) and
+    // checkpoints them after blocks of leaves.
+    size_t first_leaf = 0;
+    LeavesDoneFn leaves_done;
+    if (options.structure && ojr) {
+      const size_t per_leaf = set.joint_names.size() * size_t(lp.votes_per_joint);
+      if (checkpointing && t < checkpoint.retrofit.size()) {
+        RetrofitState& r = checkpoint.retrofit[t];
+        if (r.leaves_done > tree.leaf_count() || r.votes.size() != r.leaves_done * per_leaf ||
+            r.complete != (r.leaves_done == tree.leaf_count()))
+          fail("checkpoint " + options.checkpoint_path + ": retro-fit tree " + std::to_string(t) + " holds " +
+               std::to_string(r.votes.size()) + " votes for " + std::to_string(r.leaves_done) + " of " +
+               std::to_string(tree.leaf_count()) + " leaves");
+        first_leaf = r.leaves_done;
+        tree.votes = r.votes;
+        tree.votes.resize(tree.leaf_count() * per_leaf);
+      }
+      auto last_write = std::chrono::steady_clock::now();
+      leaves_done = [&, t, per_leaf](size_t done) {
+        if (options.retrofit_progress) options.retrofit_progress(static_cast<int>(t), done, tree.leaf_count());
+        const bool complete = done == tree.leaf_count();
+        const auto now = std::chrono::steady_clock::now();
+        if (!checkpointing ||
+            (!complete && std::chrono::duration<double>(now - last_write).count() < options.retrofit_checkpoint_seconds))
+          return;
+        checkpoint.retrofit.resize(t + 1);
+        checkpoint.retrofit[t] = {done, complete, std::vector<LeafVote>(tree.votes.begin(), tree.votes.begin() + done * per_leaf)};
+        if (writes_files) write_checkpoint(options.checkpoint_path, checkpoint);
+        last_write = std::chrono::steady_clock::now();
+        if (options.after_checkpoint) options.after_checkpoint(static_cast<int>(t), static_cast<int>(done));
+      };
+    }
     if (comm) {
       sum_leaf_pixel_counts(tree, *comm);
       if (forest.has_part_distributions) fit_part_distributions_distributed(pixels, ranges, part_count, tree, *comm);
-      if (ojr) fit_votes_distributed(set, pixels, ranges, lp, static_cast<int>(t), tree, *comm);
+      if (ojr) fit_votes_distributed(set, pixels, ranges, lp, static_cast<int>(t), tree, *comm, first_leaf, leaves_done);
     } else {
       if (forest.has_part_distributions) fit_part_distributions(pixels, ranges, part_count, tree);
-      if (ojr) fit_votes(set, pixels, ranges, lp, static_cast<int>(t), tree);
+      if (ojr) fit_votes(set, pixels, ranges, lp, static_cast<int>(t), tree, first_leaf, leaves_done);
     }
     const auto t2 = std::chrono::steady_clock::now();
     stats.structure_seconds += std::chrono::duration<double>(t1 - t0).count();

@@ -20,18 +20,24 @@ struct ForestOptions {
   const TrainedForest* structure = nullptr;  // retro-fit leaves onto this forest's trees
   int pixels_per_image = 0;            // recorded in the configuration only
   int images_per_tree = 0;             // recorded in the configuration only
-  // Checkpoints (checkpoint.h), for grown forests only (retro-fitting is not checkpointed):
-  // written after every level of every tree when checkpoint_path is set. With `resume` and an
-  // existing checkpoint, growth continues from it (refused when its options or data differ); a
-  // missing checkpoint starts from the beginning.
+  // Checkpoints (checkpoint.h), when checkpoint_path is set: a grown forest writes one after every
+  // level of every tree; a retro-fit after a block of leaves (LeafParams::leaf_block) once
+  // retrofit_checkpoint_seconds have passed since the last, and after every tree. With `resume` and
+  // an existing checkpoint, training continues from it (refused when its options, structure or data
+  // differ); a missing checkpoint starts from the beginning.
   std::string checkpoint_path;
   bool resume = false;
-  // Called after each checkpoint is written (tree, levels done). Tests throw from it to stop a run.
+  double retrofit_checkpoint_seconds = 60;  // seconds, ≥ 0: a 2^20-leaf tree's votes take ~0.5 GB to write
+  // Retro-fit progress: called after every block of leaves with the tree and its leaves done of all.
+  std::function<void(int tree, size_t leaves_done, size_t leaves)> retrofit_progress;
+  // Called after each checkpoint is written (tree, levels done; retro-fit: leaves done). Tests throw
+  // from it to stop a run.
   std::function<void(int tree, int levels_done)> after_checkpoint;
 };
 
 // The options that determine the forest, as a JSON object (what a checkpoint must match):
-// everything in ForestOptions except threads, checkpointing and hooks; the proposal by digest.
+// everything in ForestOptions except threads, checkpointing and hooks; the proposal and the
+// retro-fit structure by digest.
 std::string forest_options_json(const ForestOptions& options, size_t trees);
 
 struct ForestStats {

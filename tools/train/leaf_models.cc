@@ -104,14 +104,34 @@ void check_leaf_params(const LeafParams& params, int joints) {
                 std::to_string(params.vote_length_m.size()));
 }
 
+void prepare_votes(TrainedTree& tree, size_t leaves, int joints, int k, size_t first_leaf) {
+  const size_t vote_count = leaves * size_t(joints) * size_t(k);
+  if (first_leaf == 0)
+    tree.votes.assign(vote_count, LeafVote{});
+  else if (first_leaf > leaves || tree.votes.size() != vote_count)
+    tools::fail("resuming leaf votes at leaf " + std::to_string(first_leaf) + " of " + std::to_string(leaves) + " with " +
+                std::to_string(tree.votes.size()) + " votes (expected " + std::to_string(vote_count) + ")");
+}
+
+void for_leaf_blocks(size_t first_leaf, size_t leaves, const LeafParams& params, const std::function<void(size_t)>& fit,
+                     const LeavesDoneFn& leaves_done) {
+  const size_t block = std::max<size_t>(1, params.leaf_block);
+  for (size_t begin = first_leaf; begin < leaves; begin += block) {
+    const size_t end = std::min(leaves, begin + block);
+    parallel_for(end - begin, params.threads, [&](size_t i, int) { fit(begin + i); });
+    if (leaves_done) leaves_done(end);
+  }
+}
+
 void fit_votes(const TrainingSet& set, const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,
-               const LeafParams& params, int tree_index, TrainedTree& tree) {
+               const LeafParams& params, int tree_index, TrainedTree& tree, size_t first_leaf,
+               const LeavesDoneFn& leaves_done) {
   const int joints = static_cast<int>(set.joint_names.size());
   check_leaf_params(params, joints);
   if (!set.has_joints || joints == 0) tools::fail("offset joint regression leaves need joints in every frame");
   const int k = params.votes_per_joint;
-  tree.votes.assign(ranges.size() * joints * k, LeafVote{});
-  parallel_for(ranges.size(), params.threads, [&](size_t l, int) {
+  prepare_votes(tree, ranges.size(), joints, k, first_leaf);
+  for_leaf_blocks(first_leaf, ranges.size(), params, [&](size_t l) {
     std::vector<ReservoirSampler<std::array<float, 3>>> reservoirs(joints, ReservoirSampler<std::array<float, 3>>(params.reservoir));
     std::vector<Rng> rngs;
     for (int j = 0; j < joints; ++j) rngs.push_back(Rng::keyed(params.seed, 4, uint64_t(tree_index), l, uint64_t(j)));
@@ -120,7 +140,7 @@ void fit_votes(const TrainingSet& set, const std::vector<TrainingPixel>& pixels,
       for (int j = 0; j < joints; ++j) reservoirs[j].offer(joint_offset(set.images[p.image], p, j), rngs[j]);
     }
     for (int j = 0; j < joints; ++j) fill_leaf_votes(reservoirs[j].items(), params, j, &tree.votes[(l * joints + j) * k]);
-  });
+  }, leaves_done);
 }
 
 void fill_leaf_votes(const std::vector<std::array<float, 3>>& reservoir, const LeafParams& params, int joint,

@@ -6,6 +6,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -51,6 +52,13 @@ std::vector<Mode> mean_shift_modes(const std::vector<std::array<float, 3>>& poin
 // exactly K with zero-weight votes.
 std::vector<LeafVote> select_votes(const std::vector<Mode>& modes, float max_length_m, int k);
 
+// Leaves are fitted in blocks of LeafParams::leaf_block leaves (a block's leaves run in parallel):
+// after each block `LeavesDoneFn(leaves_done)` is called with the votes of leaves [0, leaves_done)
+// final, which is when a retro-fit checkpoint may be written. The block size bounds the work lost by
+// a kill and the hook's frequency; it does not change any vote.
+constexpr size_t kVoteLeafBlock = 4096;  // leaves; a depth-20 tree (≤ 2^20 leaves) makes ≤ 256 blocks
+using LeavesDoneFn = std::function<void(size_t leaves_done)>;
+
 struct LeafParams {
   int reservoir = 100;              // N_res
   float bandwidth_m = 0.05f;        // b*
@@ -58,6 +66,7 @@ struct LeafParams {
   std::vector<float> vote_length_m = {0.5f};  // λ_j per joint, or one for all; empty/0 = no limit
   uint64_t seed = 1;
   int threads = 1;
+  size_t leaf_block = kVoteLeafBlock;  // leaves per block (≥ 1): checkpoint granularity, not in the result
 };
 
 using LeafRanges = std::vector<std::pair<uint32_t, uint32_t>>;  // per leaf record: [begin, end)
@@ -71,8 +80,20 @@ void check_leaf_params(const LeafParams& params, int joints);
 
 // Fills tree.votes (leaf × joints × K) by Algorithm 3; the reservoir of (leaf, joint) is keyed by
 // (seed, tree_index, leaf, joint) and fed in pixel order, so the result is thread-count independent.
+// first_leaf > 0 continues a fit (a resumed retro-fit): tree.votes must then hold leaf × joints × K
+// votes whose first first_leaf leaves are final; only the later leaves are fitted.
 void fit_votes(const TrainingSet& set, const std::vector<TrainingPixel>& pixels, const LeafRanges& ranges,
-               const LeafParams& params, int tree_index, TrainedTree& tree);
+               const LeafParams& params, int tree_index, TrainedTree& tree, size_t first_leaf = 0,
+               const LeavesDoneFn& leaves_done = {});
+
+// Sizes tree.votes for `leaves` leaves (zeros) when first_leaf is 0; else checks that it holds
+// them (a resumed fit). Throws ToolError otherwise.
+void prepare_votes(TrainedTree& tree, size_t leaves, int joints, int k, size_t first_leaf);
+
+// Runs fit(l) for leaves l in [first_leaf, leaves) in blocks of params.leaf_block on params.threads
+// threads, calling leaves_done (if set) after each block.
+void for_leaf_blocks(size_t first_leaf, size_t leaves, const LeafParams& params, const std::function<void(size_t)>& fit,
+                     const LeavesDoneFn& leaves_done);
 
 // The K votes of one (leaf, joint) from its reservoir sample: mean shift, modes longer than the
 // joint's λ dropped, the K heaviest kept (the second half of Algorithm 3). Writes K votes.

@@ -1,4 +1,5 @@
 // `depthpose train`: command-line front end of forest_trainer.h. docs/training.md is the manual.
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -39,11 +40,12 @@ constexpr const char* kUsage =
     "  --proposal FILE        mixture proposal: offsets drawn near FILE's chosen ones (90%) or uniform (10%)\n"
     "  --seed S               random seed (default 1); the forest is the same for any --threads\n"
     "  --threads N            worker threads (default: all cores)\n"
-    "  --checkpoint FILE      checkpoint written after every level (default: --out FILE + .checkpoint;\n"
-    "                         removed once the forest is written)\n"
+    "  --checkpoint FILE      checkpoint written after every level (with --structure: every minute and\n"
+    "                         after every tree) (default: --out FILE + .checkpoint; removed once the\n"
+    "                         forest is written)\n"
     "  --resume               continue from the checkpoint (same options and data; none = start over)\n"
-    "  --stop-after L         stop with exit status 75 once this run has checkpointed L levels (over\n"
-    "                         all trees); --resume continues (e.g. within a batch system's time limit)\n"
+    "  --stop-after L         stop with exit status 75 once this run has written L checkpoints (levels\n"
+    "                         over all trees); --resume continues (e.g. within a batch system's time limit)\n"
     "  --quiet                no progress on stderr\n"
     "  --no-timings           leave the timings out of the file, so that runs compare byte for byte\n"
     "  --distributed          run as one rank of an MPI job even when no launcher is detected\n"
@@ -235,9 +237,9 @@ int train_main(int argc, char** argv, Communicator* comm) {
     fo.after_checkpoint = [&](int, int) {
       if (++levels_checkpointed == stop_after) throw StopRequested{};
     };
-  if (structure && (args.has("--checkpoint") || fo.resume))
-    tools::fail("--checkpoint/--resume apply to grown forests; retro-fitting (--structure) is not checkpointed");
-  if (!quiet && fo.resume && !structure)
+  // Only rank 0 fits (and checkpoints) retro-fitted votes, so only it could stop after a count.
+  if (structure && comm && stop_after > 0) tools::fail("--stop-after with --structure needs a one-process run");
+  if (!quiet && fo.resume)
     std::fprintf(stderr, "train: %s\n",
                  std::ifstream(fo.checkpoint_path).good()
                      ? ("resuming from checkpoint " + fo.checkpoint_path).c_str()
@@ -277,6 +279,20 @@ int train_main(int argc, char** argv, Communicator* comm) {
       ++done_trees;
     }
   };
+  // Retro-fit: one line per tree at most every 10 s, and at its end, with the time left for the
+  // forest (trees are assumed to cost alike).
+  const auto fit_start = std::chrono::steady_clock::now();
+  auto last_line = fit_start - std::chrono::hours(1);
+  if (structure && !quiet && root)
+    fo.retrofit_progress = [&](int tree, size_t done, size_t leaves) {
+      const auto now = std::chrono::steady_clock::now();
+      if (done < leaves && now - last_line < std::chrono::seconds(10)) return;
+      last_line = now;
+      const double spent = std::chrono::duration<double>(now - fit_start).count();
+      const double share = (tree + double(done) / double(leaves)) / trees;
+      std::fprintf(stderr, "train: tree %d/%d votes: %zu/%zu leaves, %s (ETA %s)\n", tree + 1, trees, done, leaves,
+                   format_duration(spent).c_str(), format_duration(share > 0 ? spent * (1 - share) / share : 0).c_str());
+    };
   ForestStats stats;
   TrainedForest forest;
   try {
@@ -291,7 +307,7 @@ int train_main(int argc, char** argv, Communicator* comm) {
   if (args.flag("--no-timings")) forest.timings_json = "{}";
   if (root) {
     write_forest(out_path, forest);
-    if (!structure) std::remove(fo.checkpoint_path.c_str());  // the forest supersedes it
+    std::remove(fo.checkpoint_path.c_str());  // the forest supersedes it
   }
   if (comm) {
     // One line per rank (rank order is not guaranteed on a shared terminal; each names its rank).
