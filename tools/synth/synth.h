@@ -36,6 +36,10 @@ struct SynthConfig {
   bool floor = false;                // render a floor plane behind the body (label 255)
   int people = 1;                    // bodies per frame, 1..8 (--people N); body 0 is `joints`
   int clutter = 0;                   // furniture on the floor per frame, 0..32 (--clutter N), label 255
+  // Room objects as tall as people per frame, 0..16 (--tall-clutter N), label 255: chairs,
+  // shelves, coat stands, doors (ClutterKind). Drawn after everything else in the frame's stream,
+  // so a dataset without them is byte-identical to one made before they existed.
+  int tall_clutter = 0;
   // --sequence: one scene (camera, bodies, shapes, placements, clutter) drawn from frame 0 of the
   // seed; frame i advances every body i steps through its clip (the pose library is then kept in
   // clip order, unpruned) and draws fresh sensor noise. A recording-like sequence for trackers.
