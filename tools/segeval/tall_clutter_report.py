@@ -2,6 +2,7 @@
 """People found and false users on synth datasets with and without --tall-clutter, with intervals.
 
 usage: tall_clutter_report.py DATASET [DATASET ...]
+       tall_clutter_report.py --paired SHORT TALL [SHORT TALL ...]
 Each DATASET is a `depthpose synth` output directory next to DATASET.perframe.jsonl written by
 `depthpose segeval --data DATASET --per-frame DATASET.perframe.jsonl` (docs/segmentation.md,
 "Tall clutter"). Per dataset and pooled: people found over all people / >= 8 visible joints /
@@ -12,6 +13,9 @@ two) or the clutter piece whose projected image box overlaps the user's box most
 depth within 0.5 m + half the piece's footprint), else "other". Per clutter kind: pieces in view
 (projected box meets the image, mean corner depth <= 8 m, the sensor range; approximate: a piece hidden behind
 another counts) and the share of them that some false user matched, with Wilson intervals.
+--paired takes pairs of datasets of the same seed without and with --tall-clutter (the same scenes
+plus tall pieces) and sorts the people found without them but missed with them: "hidden" (fewer
+than half of their pixels still in view) or "in view" (merged with a piece, or cut by one).
 """
 import json
 import math
@@ -152,9 +156,38 @@ def report(name, found, people, false_per_frame, causes, in_view, became_user):
           f"{frames_with} frames with any | {cause_text or '-'} | {'; '.join(kinds)} |")
 
 
+def people_by_frame(dataset):
+    return {r["id"]: r["people"] for r in map(json.loads, open(dataset + ".perframe.jsonl"))}
+
+
+def paired(pairs):
+    found_short = lost = hidden = hidden_but_shown = 0
+    for short, tall in pairs:
+        tall_people = people_by_frame(tall)
+        for frame, people in people_by_frame(short).items():
+            for a, b in zip(people, tall_people[frame]):
+                if a["user"] <= 0:
+                    continue
+                found_short += 1
+                if b["user"] > 0:
+                    continue
+                lost += 1
+                if b["pixels"] * 2 < a["pixels"]:
+                    hidden += 1
+                    hidden_but_shown += b["visible_area_m2"] >= 0.05
+    print(f"found without tall pieces: {found_short}; missed with them: {lost} "
+          f"(hidden: {hidden}, of them {hidden_but_shown} still with >= 0.05 m^2 in view; in view: {lost - hidden})")
+
+
 def main():
     if len(sys.argv) < 2:
         sys.exit(__doc__)
+    if sys.argv[1] == "--paired":
+        rest = sys.argv[2:]
+        if not rest or len(rest) % 2:
+            sys.exit("--paired needs SHORT TALL dataset pairs")
+        paired(list(zip(rest[0::2], rest[1::2])))
+        return
     pooled = ([0, 0, 0], [0, 0, 0], [], {}, {}, {})
     for dataset in sys.argv[1:]:
         found, people, fpf, causes, in_view, became_user = analyse(dataset)
