@@ -2,6 +2,7 @@
 """People found and false users on synth datasets with and without --tall-clutter, with intervals.
 
 usage: tall_clutter_report.py DATASET [DATASET ...]
+       tall_clutter_report.py --sequences DATASET [DATASET ...]
        tall_clutter_report.py --paired SHORT TALL [SHORT TALL ...]
 Each DATASET is a `depthpose synth` output directory next to DATASET.perframe.jsonl written by
 `depthpose segeval --data DATASET --per-frame DATASET.perframe.jsonl` (docs/segmentation.md,
@@ -13,6 +14,8 @@ two) or the clutter piece whose projected image box overlaps the user's box most
 depth within 0.5 m + half the piece's footprint), else "other". Per clutter kind: pieces in view
 (projected box meets the image, mean corner depth <= 8 m, the sensor range; approximate: a piece hidden behind
 another counts) and the share of them that some false user matched, with Wilson intervals.
+--sequences: the datasets are `synth --sequence` recordings (frames of one are not independent):
+the pooled line then gives 95 % bootstrap intervals over the datasets, for every rate alike.
 --paired takes pairs of datasets of the same seed without and with --tall-clutter (the same scenes
 plus tall pieces) and sorts the people found without them but missed with them: "hidden" (fewer
 than half of their pixels still in view) or "in view" (merged with a piece, or cut by one).
@@ -188,9 +191,13 @@ def main():
             sys.exit("--paired needs SHORT TALL dataset pairs")
         paired(list(zip(rest[0::2], rest[1::2])))
         return
+    sequences = sys.argv[1] == "--sequences"
+    datasets = sys.argv[2:] if sequences else sys.argv[1:]
     pooled = ([0, 0, 0], [0, 0, 0], [], {}, {}, {})
-    for dataset in sys.argv[1:]:
+    per_dataset = []
+    for dataset in datasets:
         found, people, fpf, causes, in_view, became_user = analyse(dataset)
+        per_dataset.append((found, people, fpf))
         report(dataset, found, people, fpf, causes, in_view, became_user)
         for i in range(3):
             pooled[0][i] += found[i]
@@ -199,8 +206,28 @@ def main():
         for into, counts in ((pooled[3], causes), (pooled[4], in_view), (pooled[5], became_user)):
             for k, v in counts.items():
                 into[k] = into.get(k, 0) + v
-    if len(sys.argv) > 2:
+    if len(datasets) > 1:
         report("pooled", *pooled)
+    if sequences:
+        sequence_bootstrap(per_dataset)
+
+
+def sequence_bootstrap(per_dataset, rounds=2000, seed=1):
+    """95 % bootstrap intervals over whole datasets: people found (3 sets) and false users per frame."""
+    rng = random.Random(seed)
+    n = len(per_dataset)
+    samples = [[] for _ in range(4)]
+    for _ in range(rounds):
+        pick = [per_dataset[rng.randrange(n)] for _ in range(n)]
+        for i in range(3):
+            people = sum(d[1][i] for d in pick)
+            samples[i].append(sum(d[0][i] for d in pick) / people if people else float("nan"))
+        samples[3].append(sum(sum(d[2]) for d in pick) / sum(len(d[2]) for d in pick))
+    names = ["people found (all)", "people found (>= 8 joints)", "people found (>= 0.05 m^2)", "false users per frame"]
+    for name, values in zip(names, samples):
+        values.sort()
+        print(f"  bootstrap over {n} sequences, {name}: [{values[int(0.025 * rounds)]:.4f}, "
+              f"{values[int(0.975 * rounds) - 1]:.4f}]")
 
 
 if __name__ == "__main__":
