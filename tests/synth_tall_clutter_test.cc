@@ -3,30 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <filesystem>
-#include <memory>
 #include <nlohmann/json.hpp>
 
 #include "tools/synth/synth.h"
-#include "tests/shared_data.h"
+#include "tests/synth_room_scene.h"
 
 using namespace dp::synth;
 
 namespace {
-
-std::unique_ptr<Synthesizer> make(int people, int clutter, int tall, bool sequence) {
-  const std::string assets = dp::test::shared_path("assets");
-  EXPECT_TRUE(std::filesystem::exists(assets + "/makehuman/3dobjs/base.obj"))
-      << "shared assets missing: expected " << assets << " (set DEPTHPOSE_SHARED or make test SHARED=DIR)";
-  SynthConfig c;
-  c.clips = {"02_01"};
-  c.floor = true;
-  c.people = people;
-  c.clutter = clutter;
-  c.tall_clutter = tall;
-  c.sequence = sequence;
-  return std::make_unique<Synthesizer>(assets, c);
-}
 
 // FNV-1a over everything a dataset stores for a frame: depth, parts, people ids, frames.jsonl extra.
 uint64_t frame_digest(const SynthFrame& f) {
@@ -47,7 +31,7 @@ uint64_t frame_digest(const SynthFrame& f) {
 // Digests of frames 0 and 1 of seed 7 (2 people, 4 short pieces, floor) rendered by the
 // synthesizer before tall clutter existed (a --sequence scene is drawn by the same code).
 TEST(SynthTallClutterSharedData, DatasetsWithoutTheOptionAreUnchanged) {
-  auto synth = make(2, 4, 0, false);
+  auto synth = dp::test::make_room_synth(2, 4);
   const uint64_t expected[2] = {0xd871695c9d903271ull, 0xff1f4d803e2be879ull};
   for (uint64_t i = 0; i < 2; ++i) {
     const uint64_t got = frame_digest(synth->render_frame(7, i));
@@ -58,7 +42,7 @@ TEST(SynthTallClutterSharedData, DatasetsWithoutTheOptionAreUnchanged) {
 // Tall pieces follow the short ones, each of its kind's size, clear of every body, named in
 // frames.jsonl; they are background (label 255, no body id) nearer than what they hide.
 TEST(SynthTallClutterSharedData, TallPiecesFollowTheShortOnesAndAreBackground) {
-  auto synth = make(2, 3, 8, false);
+  auto synth = dp::test::make_room_synth(2, 3, 8);
   int kinds[6] = {};
   for (uint64_t frame = 0; frame < 3; ++frame) {
     SCOPED_TRACE(frame);
