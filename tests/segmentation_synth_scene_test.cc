@@ -2,29 +2,18 @@
 // furniture; one-body frames without clutter are unchanged by the additions.
 #include <gtest/gtest.h>
 
-#include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "tools/common/body_model.h"
 #include "tools/synth/synth.h"
-#include "tests/shared_data.h"
+#include "tests/synth_room_scene.h"
 
 using namespace dp::synth;
 
 namespace {
 
-std::unique_ptr<Synthesizer> make(int people, int clutter) {
-  const std::string assets = dp::test::shared_path("assets");
-  EXPECT_TRUE(std::filesystem::exists(assets + "/makehuman/3dobjs/base.obj"))
-      << "shared assets missing: expected " << assets << " (set DEPTHPOSE_SHARED or make test SHARED=DIR)";
-  SynthConfig c;
-  c.clips = {"02_01"};
-  c.floor = true;
-  c.people = people;
-  c.clutter = clutter;
-  return std::make_unique<Synthesizer>(assets, c);
-}
+std::unique_ptr<Synthesizer> make(int people, int clutter) { return dp::test::make_room_synth(people, clutter); }
 
 }  // namespace
 

@@ -111,6 +111,8 @@ Synthesizer::Synthesizer(const std::string& assets_dir, const SynthConfig& confi
     fail("image size " + std::to_string(config_.width) + "x" + std::to_string(config_.height) + " out of range");
   if (config_.people < 1 || config_.people > 8) fail("--people must be 1..8, got " + std::to_string(config_.people));
   if (config_.clutter < 0 || config_.clutter > 32) fail("--clutter must be 0..32, got " + std::to_string(config_.clutter));
+  if (config_.tall_clutter < 0 || config_.tall_clutter > 16)
+    fail("--tall-clutter must be 0..16, got " + std::to_string(config_.tall_clutter));
   intrinsics_ = Intrinsics::kinect_like(config_.width, config_.height);
   intrinsics_.fx = intrinsics_.fy = config_.focal_640 * config_.width / 640.0;
   assets_ = load_human_assets(assets_dir);
@@ -158,6 +160,18 @@ Synthesizer::Synthesizer(const std::string& assets_dir, const SynthConfig& confi
                                &pool_report_);
   }
   if (library_.poses.empty()) fail("no poses from the selected clips");
+}
+
+const char* clutter_kind_name(ClutterKind kind) {
+  switch (kind) {
+    case ClutterKind::kBox: return "box";
+    case ClutterKind::kCylinder: return "cylinder";
+    case ClutterKind::kChair: return "chair";
+    case ClutterKind::kShelf: return "shelf";
+    case ClutterKind::kCoatStand: return "coat_stand";
+    case ClutterKind::kDoor: return "door";
+  }
+  return "unknown";
 }
 
 FrameParams Synthesizer::sample_frame_params(uint64_t seed, uint64_t frame_index) const {
@@ -219,14 +233,12 @@ FrameParams Synthesizer::sample_scene_params(uint64_t seed, uint64_t frame_index
     o.yaw_deg = rng.uniform(-rot, rot);
     p.others.push_back(o);
   }
-  for (int n = 0; n < c.clutter; ++n) {
+  // One piece: draw_shape draws its kind, size and yaw, then a floor point is drawn; up to 50
+  // tries for a point clear of every body and every piece placed before, else no piece.
+  auto place_clutter = [&](auto&& draw_shape) {
     for (int attempt = 0; attempt < 50; ++attempt) {
       ClutterItem item;
-      item.cylinder = rng.chance(0.4);
-      item.width = item.cylinder ? rng.uniform(0.3, 0.7) : rng.uniform(0.3, 1.0);
-      item.depth = item.cylinder ? item.width : rng.uniform(0.3, 0.8);
-      item.height = rng.uniform(0.3, 0.8);
-      item.yaw_deg = rng.uniform(0.0, 90.0);
+      draw_shape(item);
       double at[2];
       floor_point(rng.uniform(1.0, c.distance_max_m + 1.0), rng.uniform(0.0, 1.0), at);
       item.x = at[0];
@@ -238,14 +250,52 @@ FrameParams Synthesizer::sample_scene_params(uint64_t seed, uint64_t frame_index
         clear = clear && std::hypot(at[0] - q.x, at[1] - q.z) >= reach + 0.5 * std::hypot(q.width, q.depth);
       if (clear) {
         p.clutter.push_back(item);
-        break;
+        return;
       }
     }
+  };
+  for (int n = 0; n < c.clutter; ++n) {
+    place_clutter([&](ClutterItem& item) {
+      item.kind = rng.chance(0.4) ? ClutterKind::kCylinder : ClutterKind::kBox;
+      const bool cylinder = item.kind == ClutterKind::kCylinder;
+      item.width = cylinder ? rng.uniform(0.3, 0.7) : rng.uniform(0.3, 1.0);
+      item.depth = cylinder ? item.width : rng.uniform(0.3, 0.8);
+      item.height = rng.uniform(0.3, 0.8);
+      item.yaw_deg = rng.uniform(0.0, 90.0);
+    });
   }
   // Clothes draw last, and only when enabled, so bare-mesh datasets stay what they were.
   if (c.clothed_share > 0) {
     sample_outfit(rng, p.outfit);
     for (OtherPerson& o : p.others) sample_outfit(rng, o.outfit);
+  }
+  // Tall clutter draws after everything, and only when asked for, so other datasets stay as they were.
+  for (int n = 0; n < c.tall_clutter; ++n) {
+    place_clutter([&](ClutterItem& item) {
+      item.kind = ClutterKind(int(ClutterKind::kChair) + int(rng.below(4)));
+      switch (item.kind) {
+        case ClutterKind::kChair:
+          item.width = rng.uniform(0.4, 0.55);
+          item.depth = rng.uniform(0.4, 0.5);
+          item.height = rng.uniform(0.8, 1.1);
+          break;
+        case ClutterKind::kShelf:
+          item.width = rng.uniform(0.4, 1.0);
+          item.depth = rng.uniform(0.3, 0.45);
+          item.height = rng.uniform(1.2, 2.0);
+          break;
+        case ClutterKind::kCoatStand:
+          item.width = item.depth = rng.uniform(0.3, 0.45);
+          item.height = rng.uniform(1.6, 1.9);
+          break;
+        default:  // kDoor
+          item.width = rng.uniform(0.75, 0.95);
+          item.depth = 0.04;
+          item.height = rng.uniform(1.95, 2.1);
+          break;
+      }
+      item.yaw_deg = rng.uniform(0.0, 360.0);
+    });
   }
   return p;
 }
@@ -402,7 +452,8 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
     lap(&SynthStageTimes::raster);
   }
 
-  // Clutter: boxes (8 corners) and 16-sided cylinders, label kNoLabel.
+  // Clutter, label kNoLabel: each piece is one mesh of upright prisms (4-sided boxes, 16-sided
+  // cylinders) with their side walls, a top fan and, when raised off the floor, a bottom fan.
   for (const ClutterItem& item : p.clutter) {
     std::vector<Vec3f> verts;
     std::vector<std::array<uint32_t, 3>> tris;
@@ -412,26 +463,64 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
       const Vec3 q = cam.world_to_camera * (w - cam.position);
       verts.push_back({float(q.x), float(q.y), float(q.z)});
     };
-    const int sides = item.cylinder ? 16 : 4;
-    for (int i = 0; i < sides; ++i) {
-      double lx, lz;
-      if (item.cylinder) {
-        lx = 0.5 * item.width * std::cos(2 * M_PI * i / sides);
-        lz = 0.5 * item.width * std::sin(2 * M_PI * i / sides);
-      } else {
-        lx = (i == 1 || i == 2 ? 0.5 : -0.5) * item.width;
-        lz = (i >= 2 ? 0.5 : -0.5) * item.depth;
+    // A prism centred at (cx, cz) in the piece's frame, width × depth (a cylinder: diameter
+    // width), from y0 to y1 above the floor.
+    auto prism = [&](bool cylinder, double cx, double cz, double width, double depth, double y0, double y1) {
+      const uint32_t base = uint32_t(verts.size());
+      const int sides = cylinder ? 16 : 4;
+      for (int i = 0; i < sides; ++i) {
+        double lx, lz;
+        if (cylinder) {
+          lx = 0.5 * width * std::cos(2 * M_PI * i / sides);
+          lz = 0.5 * width * std::sin(2 * M_PI * i / sides);
+        } else {
+          lx = (i == 1 || i == 2 ? 0.5 : -0.5) * width;
+          lz = (i >= 2 ? 0.5 : -0.5) * depth;
+        }
+        add(lx + cx, y0, lz + cz);
+        add(lx + cx, y1, lz + cz);
       }
-      add(lx, 0.0, lz);
-      add(lx, item.height, lz);
-    }
-    add(0.0, item.height, 0.0);  // top centre
-    const uint32_t top = uint32_t(verts.size() - 1);
-    for (int i = 0; i < sides; ++i) {
-      const uint32_t a0 = uint32_t(2 * i), a1 = a0 + 1, b0 = uint32_t(2 * ((i + 1) % sides)), b1 = b0 + 1;
-      tris.push_back({a0, b0, a1});
-      tris.push_back({a1, b0, b1});
-      tris.push_back({a1, b1, top});
+      add(cx, y1, cz);  // top centre
+      const uint32_t top = uint32_t(verts.size() - 1);
+      for (int i = 0; i < sides; ++i) {
+        const uint32_t a0 = base + uint32_t(2 * i), a1 = a0 + 1, b0 = base + uint32_t(2 * ((i + 1) % sides)),
+                       b1 = b0 + 1;
+        tris.push_back({a0, b0, a1});
+        tris.push_back({a1, b0, b1});
+        tris.push_back({a1, b1, top});
+      }
+      if (y0 > 0) {
+        add(cx, y0, cz);  // bottom centre
+        const uint32_t bottom = uint32_t(verts.size() - 1);
+        for (int i = 0; i < sides; ++i)
+          tris.push_back({base + uint32_t(2 * i), base + uint32_t(2 * ((i + 1) % sides)), bottom});
+      }
+    };
+    const double w = item.width, d = item.depth, h = item.height;
+    switch (item.kind) {
+      case ClutterKind::kBox:
+      case ClutterKind::kShelf:
+      case ClutterKind::kDoor:
+        prism(false, 0.0, 0.0, w, d, 0.0, h);
+        break;
+      case ClutterKind::kCylinder:
+        prism(true, 0.0, 0.0, w, w, 0.0, h);
+        break;
+      case ClutterKind::kChair: {
+        // Seat top at 0.45 m (0.42–0.48 with the seat's size), legs at its corners, back at +z.
+        const double seat_top = 0.42 + 0.06 * (w - 0.4) / 0.15, leg = 0.04, panel = 0.04;
+        for (int corner = 0; corner < 4; ++corner)
+          prism(false, (corner & 1 ? 0.5 : -0.5) * (w - leg), (corner & 2 ? 0.5 : -0.5) * (d - leg), leg, leg, 0.0,
+                seat_top - 0.05);
+        prism(false, 0.0, 0.0, w, d, seat_top - 0.05, seat_top);
+        prism(false, 0.0, 0.5 * (d - panel), w, panel, seat_top, h);
+        break;
+      }
+      case ClutterKind::kCoatStand:
+        prism(true, 0.0, 0.0, 0.35, 0.35, 0.0, 0.03);
+        prism(true, 0.0, 0.0, 0.05, 0.05, 0.03, h - 0.25);
+        prism(true, 0.0, 0.0, w, w, h - 0.25, h);
+        break;
     }
     draw(verts, tris, std::vector<uint8_t>(verts.size(), kNoLabel), 0);
   }
@@ -515,7 +604,7 @@ SynthFrame Synthesizer::render(const FrameParams& p, SynthStageTimes* times) con
   if (!p.clutter.empty()) {
     nlohmann::json items = nlohmann::json::array();
     for (const ClutterItem& c : p.clutter)
-      items.push_back({{"shape", c.cylinder ? "cylinder" : "box"}, {"x", c.x}, {"z", c.z}, {"yaw", c.yaw_deg},
+      items.push_back({{"shape", clutter_kind_name(c.kind)}, {"x", c.x}, {"z", c.z}, {"yaw", c.yaw_deg},
                        {"width", c.width}, {"depth", c.depth}, {"height", c.height}});
     extra["clutter"] = items;
   }
@@ -542,6 +631,7 @@ dp::tools::DatasetMeta Synthesizer::dataset_meta() const {
   extra["noise"] = config_.noise.enabled;
   if (config_.people > 1) extra["people"] = config_.people;
   if (config_.clutter > 0) extra["clutter"] = config_.clutter;
+  if (config_.tall_clutter > 0) extra["tall_clutter"] = config_.tall_clutter;
   if (config_.sequence) extra["sequence"] = true;
   if (config_.clothed_share > 0)
     extra["clothing"] = {{"clothed_share", config_.clothed_share}, {"hat_probability", config_.hat_probability},

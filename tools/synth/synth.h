@@ -36,6 +36,10 @@ struct SynthConfig {
   bool floor = false;                // render a floor plane behind the body (label 255)
   int people = 1;                    // bodies per frame, 1..8 (--people N); body 0 is `joints`
   int clutter = 0;                   // furniture on the floor per frame, 0..32 (--clutter N), label 255
+  // Room objects as tall as people per frame, 0..16 (--tall-clutter N), label 255: chairs,
+  // shelves, coat stands, doors (ClutterKind). Drawn after everything else in the frame's stream,
+  // so a dataset without them is byte-identical to one made before they existed.
+  int tall_clutter = 0;
   // --sequence: one scene (camera, bodies, shapes, placements, clutter) drawn from frame 0 of the
   // seed; frame i advances every body i steps through its clip (the pose library is then kept in
   // clip order, unpruned) and draws fresh sensor noise. A recording-like sequence for trackers.
@@ -89,11 +93,24 @@ struct OtherPerson {
   Outfit outfit;
 };
 
-// A piece of --clutter furniture standing on the floor (world frame: floor y = 0, x = the
-// camera's left, z forward; see make_camera in synth.cc): a box (width × depth, turned by yaw) or
-// a vertical cylinder (width = diameter). Heights 0.3–0.8 m, kept clear of every body.
+// What a piece of clutter is. kBox and kCylinder are --clutter (0.3–0.8 m tall); the rest are
+// --tall-clutter, room objects whose heights and outlines overlap people's:
+//   kChair      seat (width × depth, top 0.42–0.48 m) on four 4 cm legs, a 4 cm back panel
+//               along the seat's +z edge up to `height` (0.8–1.1 m);
+//   kShelf      a solid box 1.2–2.0 m tall (shelf, cabinet, wardrobe);
+//   kCoatStand  a 5 cm pole up to `height` (1.6–1.9 m) on a 0.35 m base disc, with a crown of
+//               diameter `width` (0.3–0.45 m) over its top 0.25 m (hooks, hanging coats);
+//   kDoor       a 4 cm slab 0.75–0.95 m wide and 1.95–2.1 m tall (a door or room divider).
+enum class ClutterKind : uint8_t { kBox, kCylinder, kChair, kShelf, kCoatStand, kDoor };
+const char* clutter_kind_name(ClutterKind kind);  // "box", "cylinder", "chair", "shelf", "coat_stand", "door"
+
+// A piece of clutter standing on the floor (world frame: floor y = 0, x = the camera's left,
+// z forward; see make_camera in synth.cc), turned by yaw about its centre (x, z). width × depth is
+// its footprint (a cylinder's or coat stand's: the diameter), height its top above the floor
+// (metres). Kept clear of every body (0.55 m + half its footprint's diagonal from each body's
+// placement point) and of the other pieces.
 struct ClutterItem {
-  bool cylinder = false;
+  ClutterKind kind = ClutterKind::kBox;
   double x = 0, z = 0, yaw_deg = 0, width = 0.5, depth = 0.5, height = 0.5;
 };
 
@@ -110,7 +127,7 @@ struct FrameParams {
   double distance_m = 2.5;          // along the floor, camera to hips
   double image_x = 0.5;             // where the hips project horizontally, fraction of width
   std::vector<OtherPerson> others;  // config.people − 1 further bodies
-  std::vector<ClutterItem> clutter; // config.clutter items
+  std::vector<ClutterItem> clutter; // config.clutter items, then config.tall_clutter items
   Outfit outfit;                    // body 0's clothes and hair
 };
 

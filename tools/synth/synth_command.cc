@@ -49,6 +49,9 @@ const char* kUsage =
     "  --people N          N bodies per frame (1..8, default 1): frames.jsonl gets \"people\", and\n"
     "                      people/NNNNNN.png (1 + body index per pixel) is written\n"
     "  --clutter N         N furniture-sized boxes/cylinders on the floor per frame (0..32, label 255)\n"
+    "  --tall-clutter N    N room objects as tall as people per frame (0..16, label 255): chairs with\n"
+    "                      backs, shelves 1.2-2.0 m, coat stands 1.6-1.9 m, doors ~2 m; drawn after\n"
+    "                      everything else, so frames without it are unchanged (docs/synthetic_data.md)\n"
     "  --sequence          one scene for all frames (camera, bodies, clutter from frame 0); each body\n"
     "                      steps through its clip frame by frame (no pose pruning), fresh noise per\n"
     "                      frame: a recording-like sequence (e.g. for depthpose record, run, segeval --live)\n"
@@ -117,7 +120,7 @@ int synth_main(int argc, char** argv, dp::train::Communicator* comm) {
   dp::tools::Args args(argc, argv, kUsage,
                        {"--assets", "--out", "--frames", "--seed", "--width", "--height", "--clips", "--threads",
                         "--preview", "--rotation", "--pose-distance", "--pose-stride", "--ages", "--parts-figure",
-                        "--pose-sheet", "--people", "--clutter", "--splits", "--pose-pool", "--pose-seed", "--pool-sheet",
+                        "--pose-sheet", "--people", "--clutter", "--tall-clutter", "--splits", "--pose-pool", "--pose-seed", "--pool-sheet",
                         "--clothed", "--hat", "--hair", "--wardrobe-sheet", "--bodies", "--camera-height",
                         "--camera-pitch", "--camera-roll", "--pose-cache"},
                        {"--floor", "--no-noise", "--sequence", "--pool-report", "--distributed"});
@@ -132,6 +135,7 @@ int synth_main(int argc, char** argv, dp::train::Communicator* comm) {
   config.floor = args.flag("--floor");
   config.people = int(args.get_int("--people", 1));
   config.clutter = int(args.get_int("--clutter", 0));
+  config.tall_clutter = int(args.get_int("--tall-clutter", 0));
   config.sequence = args.flag("--sequence");
   config.noise.enabled = !args.flag("--no-noise");
   config.pose_min_distance_m = args.get_double("--pose-distance", 0.05);
