@@ -122,14 +122,14 @@ TEST(ConvertForest, CommandWritesByteIdenticalBlobs) {
   TempDir dir;
   const std::string forest = dir.path + "/f.forest";
   train::write_forest(forest, random_trained_forest(4, "bpc", 2, 8, 0.85));
-  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/a.blob", "--check-frames", "3"}), 0);
-  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/b.blob", "--check-frames", "3"}), 0);
+  ASSERT_EQ(run_cli({"convert", forest, "--out", dir.path + "/a.blob", "--check-frames", "3"}), 0);
+  ASSERT_EQ(run_cli({"convert", forest, "--out", dir.path + "/b.blob", "--check-frames", "3"}), 0);
   const std::vector<uint8_t> a = blob::read_blob_file(dir.path + "/a.blob");
   EXPECT_EQ(a, blob::read_blob_file(dir.path + "/b.blob"));
   blob::LoadedBlob b;
   EXPECT_EQ(blob::load_blob(a.data(), a.size(), &b), blob::BlobStatus::kOk);
-  EXPECT_THROW(run_command({"convert", dir.path + "/missing.forest", "--out", dir.path + "/c.blob"}), tools::ToolError);
-  EXPECT_THROW(run_command({"convert", forest, "--out", dir.path + "/c.blob", "--max-size", "0x9"}), tools::ToolError);
+  EXPECT_THROW(run_cli({"convert", dir.path + "/missing.forest", "--out", dir.path + "/c.blob"}), tools::ToolError);
+  EXPECT_THROW(run_cli({"convert", forest, "--out", dir.path + "/c.blob", "--max-size", "0x9"}), tools::ToolError);
 }
 
 TEST(ConvertForest, RefusesWhatABlobCannotHold) {
@@ -168,7 +168,7 @@ TEST(ConvertPcl, ReadsTheTreeFormatAndWritesABlob) {
   EXPECT_EQ(t.nodes[0].threshold_mm, -229);
   EXPECT_EQ(t.nodes[2].du1, 74);
   EXPECT_EQ(t.leaf_labels, (std::vector<uint8_t>{19, 3, 10, 24}));
-  ASSERT_EQ(run_command({"convert", "--from-pcl", dir.path + "/t1.bz2", dir.path + "/t2.bz2", "--out",
+  ASSERT_EQ(run_cli({"convert", "--from-pcl", dir.path + "/t1.bz2", dir.path + "/t2.bz2", "--out",
                          dir.path + "/p.blob"}),
             0);
   const std::vector<uint8_t> bytes = blob::read_blob_file(dir.path + "/p.blob");
@@ -283,11 +283,11 @@ TEST(ConvertForest, CommandAppliesAndChecksTheOjrCompactionOptions) {
     EXPECT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
     return std::pair{b.meta->entry_count, b.config->joints[0].vote_length_mm};
   };
-  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/all.blob", "--check-frames", "0", "--ojr-max-length",
+  ASSERT_EQ(run_cli({"convert", forest, "--out", dir.path + "/all.blob", "--check-frames", "0", "--ojr-max-length",
                          "0"}),
             0);
-  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/cut.blob", "--check-frames", "0"}), 0);
-  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/one.blob", "--check-frames", "0", "--ojr-max-votes",
+  ASSERT_EQ(run_cli({"convert", forest, "--out", dir.path + "/cut.blob", "--check-frames", "0"}), 0);
+  ASSERT_EQ(run_cli({"convert", forest, "--out", dir.path + "/one.blob", "--check-frames", "0", "--ojr-max-votes",
                          "1", "--ojr-max-length", "0"}),
             0);
   const auto [all, all_len] = entries("all.blob");
@@ -300,7 +300,7 @@ TEST(ConvertForest, CommandAppliesAndChecksTheOjrCompactionOptions) {
   for (const char* bad : {"--ojr-max-votes=5", "--ojr-max-length=4.5", "--ojr-min-share=-0.1", "--ojr-min-share=x"}) {
     const std::string option(bad);
     const size_t eq = option.find('=');
-    EXPECT_THROW(run_command({"convert", forest, "--out", dir.path + "/bad.blob", option.substr(0, eq),
+    EXPECT_THROW(run_cli({"convert", forest, "--out", dir.path + "/bad.blob", option.substr(0, eq),
                               option.substr(eq + 1)}),
                  tools::ToolError)
         << bad;

@@ -212,10 +212,10 @@ TEST(ConvertPrune, CommandPrunesToTheBudgetAndRefusesBadValues) {
   const train::TrainedForest f = random_counted_forest(15, 2, 11);
   train::write_forest(forest, f);
   const size_t budget = blob_bytes_at(f, 0) * 2 / 3;
-  ASSERT_EQ(run_command({"convert", forest, "--out", out, "--max-bytes", std::to_string(budget), "--check-frames", "2"}),
+  ASSERT_EQ(run_cli({"convert", forest, "--out", out, "--max-bytes", std::to_string(budget), "--check-frames", "2"}),
             0);
   EXPECT_LE(blob::read_blob_file(out).size(), budget);
-  ASSERT_EQ(run_command({"convert", forest, "--out", out, "--min-leaf-pixels", "200", "--check-frames", "2"}), 0);
+  ASSERT_EQ(run_cli({"convert", forest, "--out", out, "--min-leaf-pixels", "200", "--check-frames", "2"}), 0);
   EXPECT_EQ(blob::read_blob_file(out).size(), blob_bytes_at(f, 200));
   for (const std::vector<std::string>& bad :
        {std::vector<std::string>{"--max-bytes", "0"}, {"--max-bytes", "-3"}, {"--max-bytes", "16MB"},
@@ -223,7 +223,7 @@ TEST(ConvertPrune, CommandPrunesToTheBudgetAndRefusesBadValues) {
         {"--max-bytes", "10"}}) {
     std::vector<std::string> args = {"convert", forest, "--out", dir.path + "/bad.blob"};
     args.insert(args.end(), bad.begin(), bad.end());
-    EXPECT_THROW(run_command(args), tools::ToolError) << bad[0] << " " << bad[1];
+    EXPECT_THROW(run_cli(args), tools::ToolError) << bad[0] << " " << bad[1];
   }
   EXPECT_FALSE(std::filesystem::exists(dir.path + "/bad.blob"));
 }

@@ -1,6 +1,6 @@
 // Shared by the converter's tests (tests/convert_*_test.cc): a random trained forest (our 31 parts
 // and 16 joints, random features, nodes split with a given probability down to a depth), a temporary
-// directory and the `depthpose convert` command line.
+// directory.
 #pragma once
 #include <stdlib.h>
 
@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "tools/cli/command.h"
+#include "tests/cli_test_support.h"
 #include "tools/common/body_model.h"
 #include "tools/train/forest_file.h"
 
@@ -100,10 +100,6 @@ struct TempDir {
   ~TempDir() { std::filesystem::remove_all(path); }
 };
 
-inline int run_command(std::vector<std::string> args) {
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  return cli::find_command("convert")->run(int(argv.size()), argv.data());
-}
+using testsupport::run_cli;  // `depthpose convert ...` in-process: run_cli({"convert", ...})
 
 }  // namespace dp
