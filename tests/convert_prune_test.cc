@@ -225,5 +225,12 @@ TEST(ConvertPrune, CommandPrunesToTheBudgetAndRefusesBadValues) {
     args.insert(args.end(), bad.begin(), bad.end());
     EXPECT_THROW(run_cli(args), tools::ToolError) << bad[0] << " " << bad[1];
   }
+  // Blobs carry no pixel counts: the options are refused with --upgrade-blob.
+  try {
+    run_cli({"convert", "--upgrade-blob", out, "--out", dir.path + "/bad.blob", "--max-bytes", "1000"});
+    ADD_FAILURE() << "--max-bytes with --upgrade-blob was accepted";
+  } catch (const tools::ToolError& e) {
+    EXPECT_NE(std::string(e.what()).find("prune a trained FOREST"), std::string::npos) << e.what();
+  }
   EXPECT_FALSE(std::filesystem::exists(dir.path + "/bad.blob"));
 }

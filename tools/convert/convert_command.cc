@@ -212,6 +212,9 @@ int convert_main(int argc, char** argv) {
     std::printf("%s", args.usage().c_str());
     return 0;
   }
+  if ((args.flag("--from-pcl") || args.has("--upgrade-blob")) && (args.has("--min-leaf-pixels") || args.has("--max-bytes")))
+    fail("convert: --min-leaf-pixels and --max-bytes prune a trained FOREST (by its leaves' training pixel counts, "
+         "which blobs and PCL trees do not carry)");
   if (args.flag("--from-pcl")) return convert_from_pcl(args);
   if (args.has("--upgrade-blob")) return convert_upgrade(args);
   return convert_trained(args);
