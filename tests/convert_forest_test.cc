@@ -22,100 +22,11 @@
 #include "tools/convert/pcl_import.h"
 #include "tools/demo/fixtures.h"
 #include "tools/train/forest_file.h"
+#include "tests/convert_test_support.h"
 
 using namespace dp;
 
 namespace {
-
-// A random trained forest: nodes split with probability `split_p` down to `depth`, so leaves end at
-// every level (the blob must pad them).
-train::TrainedForest random_trained_forest(uint32_t seed, const std::string& method, int trees, int depth,
-                                           double split_p, int k_votes = 2) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::uniform_int_distribution<int> off(-120, 120), thr(-300, 300);
-  train::TrainedForest f;
-  f.method = method;
-  f.reference_focal_px = 525.0f;
-  f.depth = depth;
-  f.part_names.assign(tools::kPartNames.begin(), tools::kPartNames.end());
-  f.joint_names.assign(tools::kJointNames.begin(), tools::kJointNames.end());
-  f.has_part_distributions = method == "bpc";
-  f.has_votes = method == "ojr";
-  f.votes_per_joint = f.has_votes ? k_votes : 0;
-  for (int t = 0; t < trees; ++t) {
-    train::TrainedTree tree;
-    std::vector<uint32_t> frontier = {0};
-    std::vector<uint32_t> all;
-    std::vector<bool> split;
-    while (!frontier.empty()) {  // breadth first keeps heap indices increasing
-      std::vector<uint32_t> next;
-      for (uint32_t h : frontier) {
-        const bool s = train::heap_level(h) < depth && (h == 0 || unit(rng) < split_p);
-        all.push_back(h);
-        split.push_back(s);
-        if (s) {
-          next.push_back(2 * h + 1);
-          next.push_back(2 * h + 2);
-        }
-      }
-      frontier = next;
-    }
-    std::vector<size_t> order(all.size());
-    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return all[a] < all[b]; });
-    int32_t leaves = 0;
-    for (size_t i : order) {
-      train::TrainedNode n;
-      n.heap_index = all[i];
-      if (split[i]) {
-        n.du1 = int16_t(off(rng));
-        n.dv1 = int16_t(off(rng));
-        n.du2 = int16_t(off(rng));
-        n.dv2 = int16_t(off(rng));
-        n.threshold_mm = float(thr(rng));
-      } else {
-        n.leaf = leaves++;
-      }
-      tree.nodes.push_back(n);
-    }
-    tree.leaf_pixel_counts.assign(size_t(leaves), 10);
-    for (int32_t l = 0; l < leaves; ++l) {
-      if (f.has_part_distributions) {
-        std::vector<double> raw(tools::kPartCount);
-        double sum = 0;
-        for (double& r : raw) sum += (r = unit(rng) < 0.6 ? 0.0 : unit(rng));
-        if (sum == 0) raw[0] = sum = 1;
-        for (double r : raw) tree.part_probabilities.push_back(float(r / sum));
-      }
-      if (f.has_votes)
-        for (int j = 0; j < tools::kJointCount; ++j)
-          for (int k = 0; k < k_votes; ++k) {
-            const bool none = unit(rng) < 0.1;
-            tree.votes.push_back(train::LeafVote{float(unit(rng) * 5 - 2.5), float(unit(rng) * 1.2 - 0.6),
-                                                 float(unit(rng) * 0.8 - 0.4), none ? 0.0f : float(unit(rng) * 300)});
-          }
-    }
-    f.trees.push_back(std::move(tree));
-  }
-  train::link_and_validate(f, "random forest");
-  return f;
-}
-
-struct TempDir {
-  std::string path;
-  TempDir() {
-    char tmpl[] = "/tmp/dp_convert_test_XXXXXX";
-    path = mkdtemp(tmpl);
-  }
-  ~TempDir() { std::filesystem::remove_all(path); }
-};
-
-int run_command(std::vector<std::string> args) {
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  return cli::find_command("convert")->run(int(argv.size()), argv.data());
-}
 
 }  // namespace
 
@@ -211,14 +122,14 @@ TEST(ConvertForest, CommandWritesByteIdenticalBlobs) {
   TempDir dir;
   const std::string forest = dir.path + "/f.forest";
   train::write_forest(forest, random_trained_forest(4, "bpc", 2, 8, 0.85));
-  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/a.blob", "--check-frames", "3"}), 0);
-  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/b.blob", "--check-frames", "3"}), 0);
+  ASSERT_EQ(run_cli({"convert", forest, "--out", dir.path + "/a.blob", "--check-frames", "3"}), 0);
+  ASSERT_EQ(run_cli({"convert", forest, "--out", dir.path + "/b.blob", "--check-frames", "3"}), 0);
   const std::vector<uint8_t> a = blob::read_blob_file(dir.path + "/a.blob");
   EXPECT_EQ(a, blob::read_blob_file(dir.path + "/b.blob"));
   blob::LoadedBlob b;
   EXPECT_EQ(blob::load_blob(a.data(), a.size(), &b), blob::BlobStatus::kOk);
-  EXPECT_THROW(run_command({"convert", dir.path + "/missing.forest", "--out", dir.path + "/c.blob"}), tools::ToolError);
-  EXPECT_THROW(run_command({"convert", forest, "--out", dir.path + "/c.blob", "--max-size", "0x9"}), tools::ToolError);
+  EXPECT_THROW(run_cli({"convert", dir.path + "/missing.forest", "--out", dir.path + "/c.blob"}), tools::ToolError);
+  EXPECT_THROW(run_cli({"convert", forest, "--out", dir.path + "/c.blob", "--max-size", "0x9"}), tools::ToolError);
 }
 
 TEST(ConvertForest, RefusesWhatABlobCannotHold) {
@@ -257,7 +168,7 @@ TEST(ConvertPcl, ReadsTheTreeFormatAndWritesABlob) {
   EXPECT_EQ(t.nodes[0].threshold_mm, -229);
   EXPECT_EQ(t.nodes[2].du1, 74);
   EXPECT_EQ(t.leaf_labels, (std::vector<uint8_t>{19, 3, 10, 24}));
-  ASSERT_EQ(run_command({"convert", "--from-pcl", dir.path + "/t1.bz2", dir.path + "/t2.bz2", "--out",
+  ASSERT_EQ(run_cli({"convert", "--from-pcl", dir.path + "/t1.bz2", dir.path + "/t2.bz2", "--out",
                          dir.path + "/p.blob"}),
             0);
   const std::vector<uint8_t> bytes = blob::read_blob_file(dir.path + "/p.blob");
@@ -372,11 +283,11 @@ TEST(ConvertForest, CommandAppliesAndChecksTheOjrCompactionOptions) {
     EXPECT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
     return std::pair{b.meta->entry_count, b.config->joints[0].vote_length_mm};
   };
-  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/all.blob", "--check-frames", "0", "--ojr-max-length",
+  ASSERT_EQ(run_cli({"convert", forest, "--out", dir.path + "/all.blob", "--check-frames", "0", "--ojr-max-length",
                          "0"}),
             0);
-  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/cut.blob", "--check-frames", "0"}), 0);
-  ASSERT_EQ(run_command({"convert", forest, "--out", dir.path + "/one.blob", "--check-frames", "0", "--ojr-max-votes",
+  ASSERT_EQ(run_cli({"convert", forest, "--out", dir.path + "/cut.blob", "--check-frames", "0"}), 0);
+  ASSERT_EQ(run_cli({"convert", forest, "--out", dir.path + "/one.blob", "--check-frames", "0", "--ojr-max-votes",
                          "1", "--ojr-max-length", "0"}),
             0);
   const auto [all, all_len] = entries("all.blob");
@@ -389,7 +300,7 @@ TEST(ConvertForest, CommandAppliesAndChecksTheOjrCompactionOptions) {
   for (const char* bad : {"--ojr-max-votes=5", "--ojr-max-length=4.5", "--ojr-min-share=-0.1", "--ojr-min-share=x"}) {
     const std::string option(bad);
     const size_t eq = option.find('=');
-    EXPECT_THROW(run_command({"convert", forest, "--out", dir.path + "/bad.blob", option.substr(0, eq),
+    EXPECT_THROW(run_cli({"convert", forest, "--out", dir.path + "/bad.blob", option.substr(0, eq),
                               option.substr(eq + 1)}),
                  tools::ToolError)
         << bad;

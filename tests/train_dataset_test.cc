@@ -13,6 +13,7 @@
 #include "tools/cli/command.h"
 #include "tools/common/error.h"
 #include "tools/train/forest_file.h"
+#include "tools/train/forest_truncate.h"
 #include "tools/train/training_set.h"
 
 namespace dp::train {
@@ -235,6 +236,29 @@ TEST(TrainCommand, TrainsBpcAndOjrForestFiles) {
   const TrainedForest refit = read_forest(tmp.path + "/refit.forest");
   ASSERT_EQ(refit.trees.size(), 2u);
   EXPECT_EQ(refit.trees[1].nodes.size(), bpc.trees[1].nodes.size());
+  // Retro-fit onto the structure pruned where it holds few pixels: the pruned structure's shape.
+  const uint64_t min_pixels = 200;
+  ASSERT_EQ(0, run_cli({"train", "--data", data, "--method", "ojr", "--structure", tmp.path + "/bpc.forest",
+                        "--structure-min-pixels", std::to_string(min_pixels), "--pixels-per-image", "300", "--quiet",
+                        "--out", tmp.path + "/pruned.forest"}));
+  const TrainedForest pruned = read_forest(tmp.path + "/pruned.forest");
+  const TrainedForest pruned_structure = prune_structure(bpc, min_pixels);
+  ASSERT_EQ(pruned.trees.size(), 2u);
+  for (size_t t = 0; t < 2; ++t) {
+    EXPECT_LT(pruned.trees[t].leaf_count(), bpc.trees[t].leaf_count()) << "tree " << t;
+    ASSERT_EQ(pruned.trees[t].nodes.size(), pruned_structure.trees[t].nodes.size());
+    for (size_t i = 0; i < pruned.trees[t].nodes.size(); ++i)
+      EXPECT_EQ(pruned.trees[t].nodes[i].heap_index, pruned_structure.trees[t].nodes[i].heap_index);
+  }
+  EXPECT_TRUE(pruned.has_votes);
+  for (const char* bad : {"0", "-4", "many"})
+    EXPECT_THROW(run_cli({"train", "--data", data, "--method", "ojr", "--structure", tmp.path + "/bpc.forest",
+                          "--structure-min-pixels", bad, "--quiet", "--out", tmp.path + "/x.forest"}),
+                 tools::ToolError)
+        << bad;
+  EXPECT_THROW(run_cli({"train", "--data", data, "--method", "ojr", "--structure-min-pixels", "10", "--quiet", "--out",
+                        tmp.path + "/x.forest"}),
+               tools::ToolError);
   ASSERT_EQ(0, run_cli({"train", "--data", data, "--method", "bpc", "--trees", "1", "--depth", "4", "--offsets", "20",
                         "--proposal", tmp.path + "/bpc.forest", "--quiet", "--out", tmp.path + "/mix.forest"}));
   EXPECT_NE(read_forest(tmp.path + "/mix.forest").training_json.find("mixture"), std::string::npos);

@@ -1,6 +1,7 @@
 // `depthpose convert`: model files → forest blob (docs/convert.md).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <cstdio>
 #include <string>
@@ -22,6 +23,7 @@ namespace {
 
 const char* const kUsage =
     "usage: depthpose convert FOREST --out BLOB [--max-size 640x480] [--check-frames 12]\n"
+    "                         [--min-leaf-pixels N] [--max-bytes B]\n"
     "       depthpose convert --from-pcl TREE.txt.bz2 [TREE2 ...] --out BLOB\n"
     "       depthpose convert --upgrade-blob OLD.blob --out BLOB\n"
     "  FOREST: a trained forest (depthpose train) quantized to fixed point (docs/convert.md); reports the\n"
@@ -33,6 +35,10 @@ const char* const kUsage =
     "  --out BLOB       blob to write (byte-identical for identical input)\n"
     "  --max-size WxH   largest frame the blob's arena size is computed for (default 640x480)\n"
     "  --check-frames N sample frames for the leaf check (default 12, 0 = skip, at most 256)\n"
+    "  --min-leaf-pixels N        BPC: collapse every subtree with fewer than N training pixels into one leaf\n"
+    "                             (its pixels' merged part distribution; docs/convert.md, pruning)\n"
+    "  --max-bytes B              the blob must fit B bytes: BPC is pruned at the smallest N (>= --min-leaf-pixels)\n"
+    "                             whose blob fits, refused if one leaf per tree does not; OJR is refused above B\n"
     "  --bpc-max-parts N          BPC leaves keep their N most probable parts (1..32, default %d)\n"
     "  --bpc-min-probability P    BPC leaves drop parts below P (0..1, default %.4f); dropped mass is\n"
     "                             not renormalized (docs/convert.md). 32 and 0: lossless\n"
@@ -111,11 +117,26 @@ int convert_trained(const Args& args) {
   if (check_frames < 0 || check_frames > limits::kMaxCheckFrames)
     fail("convert: --check-frames " + std::to_string(check_frames) + " is outside 0.." +
          std::to_string(limits::kMaxCheckFrames) + " sample frames (docs/limits.md)");
-  const train::TrainedForest forest = train::read_forest(in);
-  QuantizationReport rep;
-  const std::vector<uint8_t> bytes = blob::write_blob(convert_forest(forest, options, in, &rep));
+  PruneBudget budget;
+  const long long min_leaf_pixels = args.get_int("--min-leaf-pixels", 0);
+  if (min_leaf_pixels < 0 || min_leaf_pixels > UINT32_MAX)
+    fail("convert: --min-leaf-pixels " + std::to_string(min_leaf_pixels) + " is outside 0..4294967295 training pixels");
+  budget.min_leaf_pixels = uint64_t(min_leaf_pixels);
+  const long long max_bytes = args.get_int("--max-bytes", 0);
+  if (args.has("--max-bytes") && max_bytes < 1)
+    fail("convert: --max-bytes " + std::to_string(max_bytes) + " is not a positive number of bytes");
+  budget.max_bytes = uint64_t(max_bytes);
+  const BudgetedBlob converted = convert_within_budget(train::read_forest(in), options, budget, in);
+  const train::TrainedForest& forest = converted.forest;
+  const QuantizationReport& rep = converted.quantization;
+  const std::vector<uint8_t>& bytes = converted.bytes;
   std::printf("%s: %s forest, %zu trees, blob depth %d (%llu leaf nodes)\n", in.c_str(), forest.method.c_str(),
               forest.trees.size(), rep.blob_depth, (unsigned long long)rep.leaf_nodes);
+  if (converted.min_leaf_pixels > 0)
+    std::printf("pruned at %llu training pixels per subtree (%d blobs built): %llu -> %llu leaves, depth %d -> %d\n",
+                (unsigned long long)converted.min_leaf_pixels, converted.conversions,
+                (unsigned long long)converted.prune.leaves_before, (unsigned long long)converted.prune.leaves_after,
+                converted.prune.depth_before, converted.prune.depth_after);
   std::printf("quantization: thresholds and offsets exact; worst probability error %.3g (bound 2^-15 = %.3g)",
               rep.worst_probability_error, 1.0 / 32768.0);
   if (forest.method == "ojr")
@@ -185,12 +206,15 @@ int convert_main(int argc, char** argv) {
   }();
   Args args(argc, argv, usage.c_str(),
             {"--out", "--max-size", "--check-frames", "--upgrade-blob", "--bpc-max-parts", "--bpc-min-probability",
-             "--ojr-max-votes", "--ojr-max-length", "--ojr-min-share"},
+             "--ojr-max-votes", "--ojr-max-length", "--ojr-min-share", "--min-leaf-pixels", "--max-bytes"},
             {"--from-pcl"});
   if (args.help_requested()) {
     std::printf("%s", args.usage().c_str());
     return 0;
   }
+  if ((args.flag("--from-pcl") || args.has("--upgrade-blob")) && (args.has("--min-leaf-pixels") || args.has("--max-bytes")))
+    fail("convert: --min-leaf-pixels and --max-bytes prune a trained FOREST (by its leaves' training pixel counts, "
+         "which blobs and PCL trees do not carry)");
   if (args.flag("--from-pcl")) return convert_from_pcl(args);
   if (args.has("--upgrade-blob")) return convert_upgrade(args);
   return convert_trained(args);

@@ -293,6 +293,58 @@ std::vector<std::vector<uint16_t>> sample_frames(int width, int height, int coun
   return frames;
 }
 
+BudgetedBlob convert_within_budget(const train::TrainedForest& forest, const ConvertOptions& options,
+                                   const PruneBudget& budget, const std::string& what) {
+  auto build = [&](uint64_t min_pixels) {
+    BudgetedBlob b;
+    b.min_leaf_pixels = min_pixels;
+    b.forest = min_pixels > 0 ? train::prune_forest(forest, min_pixels, &b.prune) : forest;
+    if (min_pixels == 0) {
+      for (const auto& t : forest.trees) {
+        b.prune.leaves_before += t.leaf_count();
+        b.prune.depth_before = std::max(b.prune.depth_before, t.max_leaf_level());
+      }
+      b.prune.leaves_after = b.prune.leaves_before;
+      b.prune.depth_after = b.prune.depth_before;
+    }
+    b.bytes = blob::write_blob(convert_forest(b.forest, options, what, &b.quantization));
+    return b;
+  };
+  if (budget.min_leaf_pixels > 0 && forest.has_votes)
+    fail(what + ": --min-leaf-pixels prunes BPC forests only: OJR votes are mean-shift modes that do not merge; "
+                "prune the structure before retro-fitting (depthpose train --structure F --structure-min-pixels N)");
+  int conversions = 1;
+  BudgetedBlob best = build(budget.min_leaf_pixels);
+  const auto fits = [&](const BudgetedBlob& b) { return budget.max_bytes == 0 || b.bytes.size() <= budget.max_bytes; };
+  if (!fits(best)) {
+    if (forest.has_votes)
+      fail(what + ": the OJR blob is " + std::to_string(best.bytes.size()) + " bytes, above --max-bytes " +
+           std::to_string(budget.max_bytes) + "; OJR votes do not merge, so prune the structure before retro-fitting " +
+           "(depthpose train --structure F --structure-min-pixels N) or cut more votes (--ojr-max-length)");
+    // Invariant: the blob at `low` exceeds the budget, the one at `high` fits.
+    uint64_t low = budget.min_leaf_pixels, high = train::prune_everything_threshold(forest);
+    BudgetedBlob fitting = build(high);
+    ++conversions;
+    if (!fits(fitting))
+      fail(what + ": --max-bytes " + std::to_string(budget.max_bytes) + " cannot be met: with every tree pruned to " +
+           "its root the blob is still " + std::to_string(fitting.bytes.size()) + " bytes");
+    while (high - low > 1) {
+      const uint64_t mid = low + (high - low) / 2;
+      BudgetedBlob b = build(mid);
+      ++conversions;
+      if (fits(b)) {
+        high = mid;
+        fitting = std::move(b);
+      } else {
+        low = mid;
+      }
+    }
+    best = std::move(fitting);
+  }
+  best.conversions = conversions;
+  return best;
+}
+
 LeafCheck check_leaves(const train::TrainedForest& forest, const std::vector<uint8_t>& blob_bytes,
                        const std::vector<std::vector<uint16_t>>& frames, int width, int height, float focal_px) {
   blob::LoadedBlob b;

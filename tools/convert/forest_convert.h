@@ -25,6 +25,7 @@
 
 #include "forest_blob/blob_writer.h"
 #include "tools/train/forest_file.h"
+#include "tools/train/forest_truncate.h"
 
 namespace dp::tools {
 
@@ -118,6 +119,35 @@ blob::BlobContents convert_forest(const train::TrainedForest& forest, const Conv
 // a part name. Returns joint names and masks (same length, ≥ 1) or throws ToolError.
 void bpc_joint_masks(const std::vector<std::string>& part_names, std::vector<std::string>* joint_names,
                      std::vector<uint32_t>* masks, const std::string& what);
+
+// Pruning to a size budget (docs/convert.md "Pruning to a size budget"): a BPC forest is trained
+// deep once and pruned at conversion (train::prune_forest: subtrees with fewer than N training
+// pixels become leaves holding their pixels' merged part distribution).
+//   min_leaf_pixels N   prune at N (0 = no pruning)
+//   max_bytes B         then, if the blob exceeds B bytes, raise N to the smallest value whose blob
+//                       fits (binary search; the blob never grows with N: a collapse removes two
+//                       nodes and a record, and the merged record keeps no more parts than its
+//                       leaves together under the same compaction). 0 = no budget.
+struct PruneBudget {
+  uint64_t min_leaf_pixels = 0;
+  uint64_t max_bytes = 0;
+};
+
+struct BudgetedBlob {
+  train::TrainedForest forest;  // the pruned forest the blob was converted from
+  std::vector<uint8_t> bytes;   // the blob (write_blob)
+  uint64_t min_leaf_pixels = 0; // N used (0: not pruned)
+  train::PruneReport prune;     // leaves and depth before / after
+  QuantizationReport quantization;
+  int conversions = 0;          // blobs built by the search
+};
+
+// Converts `forest` pruned as `budget` asks. Deterministic (same input, same N, same bytes). Throws
+// ToolError naming `what` when the budget cannot be met: for BPC, when even every tree collapsed to
+// its root exceeds it (that size is named); for OJR (votes do not merge), when the lossless blob
+// exceeds it (the message names --structure-min-pixels at training), or when min_leaf_pixels is set.
+BudgetedBlob convert_within_budget(const train::TrainedForest& forest, const ConvertOptions& options,
+                                   const PruneBudget& budget, const std::string& what);
 
 struct LeafCheck {
   uint64_t pixels = 0;      // pixel × tree evaluations compared

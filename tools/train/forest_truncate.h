@@ -1,6 +1,10 @@
-// Cutting a trained structure back to a smaller depth, so OJR vote leaves can be retro-fitted at a
-// depth whose leaf table fits the size budget while reusing a deeper classification structure.
+// Cutting a trained forest back: to a smaller depth (truncate_structure), or where its training data
+// is sparse (prune_forest), so a deep forest's blob fits a size budget. A forest is trained deep once
+// and its size is chosen afterwards: `depthpose convert --min-leaf-pixels/--max-bytes` prunes a BPC
+// forest, `depthpose train --structure F --structure-min-pixels/--structure-depth` an OJR structure.
 #pragma once
+#include <cstdint>
+
 #include "tools/train/forest_file.h"
 
 namespace dp::train {
@@ -10,5 +14,33 @@ namespace dp::train {
 // distributions, no votes): the result is a structure for retro-fitting. Throws ToolError when
 // depth < 1. A depth at or beyond the forest's own returns the structure unchanged (data dropped).
 TrainedForest truncate_structure(const TrainedForest& forest, int depth);
+
+struct PruneReport {
+  uint64_t collapsed_splits = 0;     // split nodes turned into leaves (their descendants dropped)
+  uint64_t leaves_before = 0, leaves_after = 0;  // over all trees
+  int depth_before = 0, depth_after = 0;         // deepest leaf's level over all trees
+};
+
+// Returns `forest` with every split node whose subtree holds fewer than `min_pixels` training
+// pixels (the sum of its leaves' leaf_pixel_counts) turned into a leaf and its descendants dropped;
+// splits at or above the threshold stay as trained, so a pixel whose path crosses no collapsed node
+// reaches the same leaf. min_pixels ≤ 1 changes nothing but empty subtrees. The collapsed leaf gets
+// the subtree's pixel count and, when the forest has part distributions, the pixel-count-weighted
+// mean of its leaves' distributions: distributions are normalized counts (leaf_models.cc
+// fit_part_distributions), so this is the distribution of the subtree's pixels, exact up to float
+// rounding (a subtree without pixels gets the zero distribution its empty leaves had). Leaf records
+// are renumbered in heap order; `depth` (the requested depth) is kept. Deterministic.
+// Throws ToolError for a forest with votes: OJR votes are mean-shift modes that cannot be merged
+// (retro-fit them on a pruned structure instead: train --structure-min-pixels).
+TrainedForest prune_forest(const TrainedForest& forest, uint64_t min_pixels, PruneReport* report = nullptr);
+
+// prune_forest on a retro-fitting structure: the votes of an OJR forest are ignored (its pixel
+// counts decide), and the result carries no leaf data, like truncate_structure's. Throws ToolError
+// when min_pixels < 1.
+TrainedForest prune_structure(const TrainedForest& forest, uint64_t min_pixels, PruneReport* report = nullptr);
+
+// The largest subtree pixel count of any split node (+1: the min_pixels that collapses every tree
+// to its root), i.e. the upper end of a search over prune_forest's min_pixels.
+uint64_t prune_everything_threshold(const TrainedForest& forest);
 
 }  // namespace dp::train

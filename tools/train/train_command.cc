@@ -36,6 +36,9 @@ constexpr const char* kUsage =
     "  --votes-per-leaf K     OJR votes kept per leaf and joint (default 2)\n"
     "  --vote-length L[,..]   OJR max vote length lambda_j, metres: one value or one per joint (default 0.5)\n"
     "  --structure FILE       retro-fit leaves onto this forest's trees instead of growing new ones\n"
+    "  --structure-min-pixels N  first collapse every --structure subtree with fewer than N training pixels\n"
+    "                         into a leaf (smaller OJR leaf tables, depth kept where the data is dense;\n"
+    "                         docs/convert.md \"Pruning to a size budget\")\n"
     "  --structure-depth D    cut the --structure trees back to depth D first (smaller OJR leaf tables)\n"
     "  --proposal FILE        mixture proposal: offsets drawn near FILE's chosen ones (90%) or uniform (10%)\n"
     "  --seed S               random seed (default 1); the forest is the same for any --threads\n"
@@ -137,7 +140,7 @@ int train_main(int argc, char** argv, Communicator* comm) {
                    {"--data", "--method", "--trees", "--depth", "--out", "--objective", "--pixels-per-image",
                     "--images-per-tree", "--offsets", "--thresholds", "--max-offset", "--reference-focal",
                     "--min-samples", "--rho", "--nres", "--bandwidth", "--votes-per-leaf", "--vote-length",
-                    "--structure", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint", "--stop-after"},
+                    "--structure", "--structure-min-pixels", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint", "--stop-after"},
                    {"--quiet", "--resume", "--distributed", "--no-timings"});
   if (args.help_requested()) {
     std::cout << kUsage;
@@ -159,6 +162,17 @@ int train_main(int argc, char** argv, Communicator* comm) {
 
   std::unique_ptr<TrainedForest> structure, proposal_forest;
   if (args.has("--structure")) structure = std::make_unique<TrainedForest>(read_forest(args.get("--structure")));
+  if (args.has("--structure-min-pixels")) {
+    if (!structure) tools::fail("--structure-min-pixels needs --structure");
+    const long long min_pixels = args.get_int("--structure-min-pixels", 0);
+    if (min_pixels < 1) tools::fail("--structure-min-pixels must be >= 1, got " + std::to_string(min_pixels));
+    PruneReport pruned;
+    *structure = prune_structure(*structure, static_cast<uint64_t>(min_pixels), &pruned);
+    if (!quiet)
+      std::fprintf(stderr, "train: structure pruned at %lld pixels: %llu -> %llu leaves, depth %d -> %d\n", min_pixels,
+                   (unsigned long long)pruned.leaves_before, (unsigned long long)pruned.leaves_after,
+                   pruned.depth_before, pruned.depth_after);
+  }
   if (args.has("--structure-depth")) {
     if (!structure) tools::fail("--structure-depth needs --structure");
     *structure = truncate_structure(*structure, static_cast<int>(args.get_int("--structure-depth", 0)));
