@@ -14,7 +14,8 @@ W=${MODEL_W:-320}; H=${MODEL_H:-240}
 TRAIN_FRAMES=${TRAIN_FRAMES:-120000}; SHARD_FRAMES=${SHARD_FRAMES:-5000}
 PIXELS=${TRAIN_PIXELS:-1000}; OFFSETS=${TRAIN_OFFSETS:-400}; THRESHOLDS=${TRAIN_THRESHOLDS:-20}
 MIN_SAMPLES=${TRAIN_MIN_SAMPLES:-10}; IMAGES_PER_TREE=${TRAIN_IMAGES_PER_TREE:-0}
-OJR_DEPTH=${OJR_STRUCTURE_DEPTH:-13}
+OJR_DEPTH=${OJR_STRUCTURE_DEPTH:-20}; OJR_MIN_PIXELS=${OJR_MIN_PIXELS:-0}
+MAX_BYTES=${MODEL_MAX_BYTES:-16000000}
 SEED0=${TRAIN_SEED:-1000}
 [ "$SHARD_FRAMES" -ge 1 ] && [ "$TRAIN_FRAMES" -ge 1 ] || { echo "make_model: TRAIN_FRAMES and SHARD_FRAMES must be >= 1" >&2; exit 2; }
 SHARDS=$(( (TRAIN_FRAMES + SHARD_FRAMES - 1) / SHARD_FRAMES ))
@@ -102,10 +103,12 @@ if made "$D/bpc.forest" "${bpc_train[@]}"; then skip train_bpc "$D/bpc.forest"; 
   rm -f "$D/ojr.forest.cmd" "$D/bpc.blob" "$D/ojr.blob"  # everything made from the old forest
   make_file train_bpc "$D/bpc.forest" "${bpc_train[@]}"
 fi
-# OJR: the BPC structure cut back to OJR_STRUCTURE_DEPTH, vote leaves retro-fitted (paper 3.5.2);
-# not checkpointed: a killed retro-fit starts again.
+# OJR: the BPC structure cut back to OJR_STRUCTURE_DEPTH and pruned to subtrees of at least
+# OJR_MIN_PIXELS training pixels, vote leaves retro-fitted (paper 3.5.2); the retro-fit checkpoints
+# blocks of leaves and continues from its checkpoint (`--resume`).
+prune=(); [ "$OJR_MIN_PIXELS" -gt 0 ] && prune=(--structure-min-pixels "$OJR_MIN_PIXELS")
 ojr_train=("$CLI" train --data "$train_dirs" --method ojr --structure "$D/bpc.forest" --structure-depth "$OJR_DEPTH"
-  --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --seed 1 --out "$D/ojr.forest")
+  "${prune[@]}" --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --seed 1 --out "$D/ojr.forest" --resume)
 if made "$D/ojr.forest" "${ojr_train[@]}"; then skip train_ojr "$D/ojr.forest"; else
   rm -f "$D/ojr.blob"
   make_file train_ojr "$D/ojr.forest" "${ojr_train[@]}"
@@ -113,7 +116,10 @@ fi
 for m in bpc ojr; do
   # The tuned blob stands while its forest does (a retrained forest removes it, above).
   if [ -f "$D/$m.blob" ]; then skip "tune_$m" "$D/$m.blob"; else
-    step "convert_$m" "$CLI" convert "$D/$m.forest" --out "$D/${m}_untuned.blob"
+    # BPC: the grown trees pruned to the byte budget (convert --max-bytes picks the smallest
+    # --min-leaf-pixels that fits); OJR's size is set by its pruned structure (OJR_MIN_PIXELS).
+    size=(); [ "$m" = bpc ] && size=(--max-bytes "$MAX_BYTES")
+    step "convert_$m" "$CLI" convert "$D/$m.forest" --out "$D/${m}_untuned.blob" "${size[@]}"
     step "tune_$m" "$CLI" tune --blob "$D/${m}_untuned.blob" --data "$D/val" --out "$D/$m.blob.tmp" --json "$D/tune_$m.json"
     mv "$D/$m.blob.tmp" "$D/$m.blob"
   fi

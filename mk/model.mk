@@ -19,6 +19,7 @@ VAL_FRAMES    ?= 150
 TEST_FRAMES   ?= 300
 MODEL_DEPTH   ?= 12
 OJR_STRUCTURE_DEPTH ?= 12
+OJR_MIN_PIXELS ?= 0
 TRAIN_PIXELS  ?= 500
 TRAIN_OFFSETS ?= 100
 TRAIN_THRESHOLDS ?= 10
@@ -39,7 +40,11 @@ VAL_FRAMES    ?= 1000              # tune's validation set
 TEST_FRAMES   ?= 3000              # the held-out test set the report scores
 MODEL_TREES   ?= 3
 MODEL_DEPTH   ?= 20                # BPC tree depth
-OJR_STRUCTURE_DEPTH ?= 13          # OJR reuses the BPC trees cut to this depth (leaf votes are retro-fitted)
+OJR_STRUCTURE_DEPTH ?= 20          # OJR reuses the BPC trees cut to this depth (leaf votes are retro-fitted)
+OJR_MIN_PIXELS ?= 6000             # ...and pruned to subtrees of >= this many training pixels (0 = none):
+                                   # ~150 B per OJR leaf, a leaf holds ~0.59 N pixels, so 6000 keeps a
+                                   # 1.2e8-pixel tree near 34k leaves, ~16 MB for 3 trees (docs/convert.md)
+MODEL_MAX_BYTES ?= 16000000        # BPC blob budget: convert --max-bytes prunes the grown trees to fit
 TRAIN_PIXELS  ?= 1000              # training pixels per image
 TRAIN_OFFSETS ?= 400               # candidate offset pairs per node (paper: 2000)
 TRAIN_THRESHOLDS ?= 20             # candidate thresholds per offset pair (paper: 50)
@@ -60,7 +65,7 @@ DEMO_FRAMES   ?= 45
 DEMO_CLIPS    ?= 02_06
 
 MODEL_VARS := ASSETS MODEL_DIR MODEL_OUT OLD_MODELS MODEL_W MODEL_H TRAIN_FRAMES SHARD_FRAMES VAL_FRAMES TEST_FRAMES \
-  MODEL_TREES MODEL_DEPTH OJR_STRUCTURE_DEPTH TRAIN_PIXELS TRAIN_OFFSETS TRAIN_THRESHOLDS TRAIN_MIN_SAMPLES \
+  MODEL_TREES MODEL_DEPTH OJR_STRUCTURE_DEPTH OJR_MIN_PIXELS MODEL_MAX_BYTES TRAIN_PIXELS TRAIN_OFFSETS TRAIN_THRESHOLDS TRAIN_MIN_SAMPLES \
   TRAIN_IMAGES_PER_TREE POSE_STRIDE POSE_POOL BODIES CLOTHED CAMERA_HEIGHT CAMERA_PITCH CAMERA_ROLL \
   TRAIN_CLIPS VAL_CLIPS TEST_CLIPS TRAIN_SEED DEMO_FRAMES DEMO_CLIPS
 
