@@ -155,6 +155,8 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
     // checkpoints them after blocks of leaves.
     size_t first_leaf = 0;
     LeavesDoneFn leaves_done;
+    // Declared beside leaves_done, which refers to it after the block below.
+    auto last_write = std::chrono::steady_clock::now();
     if (options.structure && ojr) {
       const size_t per_leaf = set.joint_names.size() * size_t(lp.votes_per_joint);
       if (checkpointing && t < checkpoint.retrofit.size()) {
@@ -168,7 +170,7 @@ TrainedForest train_forest(const TrainingSet& set, const ForestOptions& options,
         tree.votes = r.votes;
         tree.votes.resize(tree.leaf_count() * per_leaf);
       }
-      auto last_write = std::chrono::steady_clock::now();
+      last_write = std::chrono::steady_clock::now();
       leaves_done = [&, t, per_leaf](size_t done) {
         if (options.retrofit_progress) options.retrofit_progress(static_cast<int>(t), done, tree.leaf_count());
         const bool complete = done == tree.leaf_count();
