@@ -145,9 +145,8 @@ constexpr size_t kRangeHistogramEntries = 262144;
 
 struct Candidate {
   int32_t du1, dv1, du2, dv2;
-  int thresholds;        // unique, sorted
-  int search_top;        // half the padded table size
-  int32_t table[kMaxThresholds + 1];  // thresholds, then INT32_MAX
+  int thresholds;                     // unique, sorted
+  int32_t table[kMaxThresholds + 1];  // thresholds [0, thresholds)
 };
 
 // A node's threshold sample, decoded (structure of arrays).
@@ -430,6 +429,37 @@ __attribute__((target("avx2"))) void score_lanes_avx2(const uint32_t* counts, in
   }
 }
 
+// Batcher's odd–even merge sort network for n elements as comparator pairs (lower, higher index)
+// after network[0] = n. Generated for n rounded up to a power of two with the missing elements
+// taken as +∞: a comparator touching one of them never moves anything and is left out.
+void batcher_network(int n, std::vector<uint16_t>& network) {
+  if (!network.empty() && network[0] == n) return;
+  network.assign(1, static_cast<uint16_t>(n));
+  for (int p = 1; p < n; p <<= 1)
+    for (int k = p; k >= 1; k >>= 1)
+      for (int j = k % p; j + k < n; j += 2 * k)
+        for (int i = 0; i < std::min(k, n - j - k); ++i)
+          if ((i + j) / (2 * p) == (i + j + k) / (2 * p)) {
+            network.push_back(static_cast<uint16_t>(i + j));
+            network.push_back(static_cast<uint16_t>(i + j + k));
+          }
+}
+
+__attribute__((target("avx2"))) void sort_columns_avx2(int16_t* rows, size_t stride, int lanes,
+                                                       const std::vector<uint16_t>& network) {
+  // Comparator-major: the 16-lane blocks of one comparator are independent of each other.
+  for (size_t k = 1; k + 1 < network.size(); k += 2) {
+    int16_t* a = rows + network[k] * stride;
+    int16_t* b = rows + network[k + 1] * stride;
+    for (int c = 0; c < lanes; c += 16) {
+      const __m256i x = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(a + c));
+      const __m256i y = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(b + c));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(a + c), _mm256_min_epi16(x, y));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(b + c), _mm256_max_epi16(x, y));
+    }
+  }
+}
+
 struct NodeInfo {
   uint32_t heap = 0;
   uint32_t begin = 0, end = 0;  // this process's pixels of the node
@@ -474,6 +504,7 @@ struct Scratch {
   std::vector<int16_t> feature, bin;  // one pixel's features and bins per lane (pixel_features)
   std::vector<int16_t> sample_features;  // threshold sample × lanes (prepare_group)
   std::vector<int16_t> node_features;    // a small node's pixels × lanes (prepare_stored_group)
+  std::vector<uint16_t> network;         // sort_int16_columns' comparators
   std::vector<uint32_t> counts;   // classification histograms
   std::vector<int64_t> sums;      // regression histograms (fixed point, pixel_offsets)
   std::vector<int32_t> offsets;   // regression: one pixel's joints × {w, dx, dy, dz}
@@ -642,10 +673,38 @@ class Grower {
     for (int i = 0; i < count; ++i) c.table[i] = sample_features[i];
     std::sort(c.table, c.table + count);
     c.thresholds = static_cast<int>(std::unique(c.table, c.table + count) - c.table);
-    int padded = 1;
-    while (padded < c.thresholds + 1) padded *= 2;
-    for (int i = c.thresholds; i < padded; ++i) c.table[i] = INT32_MAX;
-    c.search_top = padded / 2;
+  }
+  // The thresholds of every candidate of `g` (offset lanes made) from its threshold sample's
+  // features, `rows` = n × padded (row i: sample pixel i, by lane), which it overwrites: the
+  // columns are sorted together (sort_int16_columns) instead of one std::sort per candidate (deep
+  // in a tree that sort cost a fifth of a level). Each candidate's sorted unique values are what
+  // set_thresholds gives; the SIMD table is the sorted columns with every repeated value replaced
+  // by kNoThreshold. Binning counts the thresholds below a feature, which does not depend on their
+  // order, so a value's copies and the padding count nothing and a bin is the value's rank among
+  // the unique thresholds, as with make_lanes.
+  void set_lane_thresholds(CandidateGroup& g, int16_t* rows, int n, int thread) {
+    CandidateLanes& l = g.lanes;
+    const size_t padded = size_t(l.padded);
+    sort_int16_columns(rows, n, padded, l.padded, scratch_[thread].network);
+    l.thresholds = n;
+    l.table.resize(size_t(n) * padded);
+    int16_t* table = l.table.data();
+    for (size_t k = 0; k < padded; ++k) table[k] = rows[k];
+    for (size_t i = padded; i < size_t(n) * padded; ++i) table[i] = rows[i] == rows[i - padded] ? kNoThreshold : rows[i];
+    for (int t = 0; t < n; ++t)
+      for (size_t k = size_t(l.count); k < padded; ++k) table[t * padded + k] = kNoThreshold;
+    g.bins = 1;
+    for (int c = 0; c < l.count; ++c) {
+      Candidate& cand = g.candidates[c];
+      const int16_t* column = rows + l.lane[c];
+      int unique = 0;
+      for (int t = 0; t < n; ++t) {
+        const int32_t value = column[t * padded];
+        if (unique == 0 || value != cand.table[unique - 1]) cand.table[unique++] = value;
+      }
+      cand.thresholds = unique;
+      g.bins = std::max(g.bins, unique + 1);
+    }
   }
   void make_candidate(const NodeInfo& node, int index, Block& sample, Candidate& c) const {
     draw_offsets(node, index, c);
@@ -684,12 +743,7 @@ class Grower {
     for (int i = 0; i < n; ++i)
       features_avx2(g.lanes, {s.sample.image[i], s.sample.width[i], s.sample.height[i]}, s.sample.u[i], s.sample.v[i],
                     s.sample.scale[i], s.sample_features.data() + i * padded);
-    for (int c = 0; c < c1 - c0; ++c) {
-      const int lane = g.lanes.lane[c];
-      for (int i = 0; i < n; ++i) s.sample.feature[i] = s.sample_features[i * padded + lane];
-      set_thresholds(g.candidates[c], s.sample.feature, n);
-    }
-    finish_group(g);
+    set_lane_thresholds(g, s.sample_features.data(), n, thread);
   }
   // Whether prepare_stored_group applies to candidates [c0, c1) of `node`: the AVX2 kernel, all of
   // the node's pixels in this process, and their features within kStoredFeatureBytes.
@@ -718,12 +772,10 @@ class Grower {
     }
     uint32_t positions[kBlock];
     const int n = sample_positions(node, positions);
-    for (int c = 0; c < c1 - c0; ++c) {
-      const int lane = g.lanes.lane[c];
-      for (int i = 0; i < n; ++i) s.sample.feature[i] = rows[positions[i] * padded + lane];
-      set_thresholds(g.candidates[c], s.sample.feature, n);
-    }
-    finish_group(g);
+    s.sample_features.resize(size_t(n) * padded);
+    for (int i = 0; i < n; ++i)
+      std::memcpy(s.sample_features.data() + i * padded, rows + positions[i] * padded, padded * sizeof(int16_t));
+    set_lane_thresholds(g, s.sample_features.data(), n, thread);
     return rows;
   }
   // The same group when the sample's features come from all ranks: `features` holds
@@ -1130,6 +1182,23 @@ struct GrowNode {
 };
 
 }  // namespace
+
+void sort_int16_columns(int16_t* rows, int n, size_t stride, int lanes, std::vector<uint16_t>& network) {
+  if (n < 2) return;
+  batcher_network(n, network);
+  if (__builtin_cpu_supports("avx2")) {
+    sort_columns_avx2(rows, stride, (lanes + 15) / 16 * 16, network);
+    return;
+  }
+  for (size_t k = 1; k + 1 < network.size(); k += 2)
+    for (int c = 0; c < lanes; ++c) {
+      int16_t& x = rows[network[k] * stride + c];
+      int16_t& y = rows[network[k + 1] * stride + c];
+      const int16_t low = std::min(x, y), high = std::max(x, y);
+      x = low;
+      y = high;
+    }
+}
 
 GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, int tree_index,
                     const TreeParams& params, const ProgressFn& progress, const GrowthState* resume,
