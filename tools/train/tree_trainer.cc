@@ -292,8 +292,9 @@ struct ProbeAvx2 {
   __m256i vs, vu, vv, w, w1, h1, half, background;
   const uint16_t* base;
 };
-__attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const ProbeAvx2& q, const int32_t* du,
-                                                                          const int32_t* dv) {
+// The element indices of one probe for 8 lanes (0 for off-image lanes, which `outside` marks).
+__attribute__((target("avx2"), always_inline)) inline __m256i probe_index_avx2(const ProbeAvx2& q, const int32_t* du,
+                                                                                const int32_t* dv, __m256i& outside) {
   const __m256i pu = _mm256_add_epi32(
       q.vu, _mm256_srai_epi32(
                 _mm256_add_epi32(_mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(du)), q.vs), q.half),
@@ -302,11 +303,15 @@ __attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const P
       q.vv, _mm256_srai_epi32(
                 _mm256_add_epi32(_mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(dv)), q.vs), q.half),
                 kScaleShift));
-  const __m256i outside = _mm256_srai_epi32(
+  outside = _mm256_srai_epi32(
       _mm256_or_si256(_mm256_or_si256(pu, pv), _mm256_or_si256(_mm256_sub_epi32(q.w1, pu), _mm256_sub_epi32(q.h1, pv))), 31);
-  const __m256i index = _mm256_andnot_si256(outside, _mm256_add_epi32(_mm256_mullo_epi32(pv, q.w), pu));
+  return _mm256_andnot_si256(outside, _mm256_add_epi32(_mm256_mullo_epi32(pv, q.w), pu));
+}
+__attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const ProbeAvx2& q, const int32_t* du,
+                                                                          const int32_t* dv) {
+  __m256i outside;
   alignas(32) int32_t at[8];
-  _mm256_store_si256(reinterpret_cast<__m256i*>(at), index);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(at), probe_index_avx2(q, du, dv, outside));
   const uint16_t* p = q.base;
   const __m256i g = _mm256_setr_epi32(p[at[0]], p[at[1]], p[at[2]], p[at[3]], p[at[4]], p[at[5]], p[at[6]], p[at[7]]);
   return _mm256_or_si256(g, _mm256_and_si256(outside, q.background));
@@ -336,10 +341,8 @@ __attribute__((target("avx2"), always_inline)) inline void bin_features(const Ca
   }
 }
 
-// feature[lane] for every lane of `l` (its offsets only: thresholds are not read), 8 lanes per
-// AVX2 instruction for the offsets and bounds (probe_avx2).
-__attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v,
-                                                   int32_t s, int16_t* feature) {
+__attribute__((target("avx2"), always_inline)) inline ProbeAvx2 probe_setup_avx2(const ImageRef& im, int32_t u,
+                                                                                   int32_t v, int32_t s) {
   ProbeAvx2 q;
   q.vs = _mm256_set1_epi32(s);
   q.vu = _mm256_set1_epi32(u);
@@ -350,6 +353,31 @@ __attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, cons
   q.half = _mm256_set1_epi32(kScaleOneQ13 >> 1);
   q.background = _mm256_set1_epi32(kBackgroundDepthMm);
   q.base = im.probe;
+  return q;
+}
+
+// Prefetches into L2 every element that features_avx2 will load for this pixel. Deep in a tree
+// consecutive pixels of a node come from different images, whose probe neighbourhoods are not in
+// cache: issued one pixel ahead, the misses of the next pixel overlap the current one's work.
+__attribute__((target("avx2"))) void prefetch_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
+                                                            int32_t v, int32_t s) {
+  const ProbeAvx2 q = probe_setup_avx2(im, u, v, s);
+  alignas(32) int32_t at[8];
+  __m256i outside;
+  for (int c = 0; c < l.padded; c += 8) {
+    _mm256_store_si256(reinterpret_cast<__m256i*>(at), probe_index_avx2(q, &l.du1[c], &l.dv1[c], outside));
+    for (int i = 0; i < 8; ++i) _mm_prefetch(reinterpret_cast<const char*>(q.base + at[i]), _MM_HINT_T1);
+    if (c + 8 <= l.unary) continue;
+    _mm256_store_si256(reinterpret_cast<__m256i*>(at), probe_index_avx2(q, &l.du2[c], &l.dv2[c], outside));
+    for (int i = 0; i < 8; ++i) _mm_prefetch(reinterpret_cast<const char*>(q.base + at[i]), _MM_HINT_T1);
+  }
+}
+
+// feature[lane] for every lane of `l` (its offsets only: thresholds are not read), 8 lanes per
+// AVX2 instruction for the offsets and bounds (probe_avx2).
+__attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v,
+                                                   int32_t s, int16_t* feature) {
+  const ProbeAvx2 q = probe_setup_avx2(im, u, v, s);
   // A unary lane's second probe is at offset 0: the pixel itself, always inside the image.
   const __m256i own = _mm256_set1_epi32(im.probe[v * im.width + u]);
   // Two loops: the features of every lane first, then the bins. Each block's chain (offsets →
@@ -390,7 +418,8 @@ PixelFeaturesFn pick_pixel_features() {
 // the threshold (nothing left of it, nothing right of it, or an empty bin). Every lane runs the
 // scalar code's operations in its order — nlogn(left) − Σ_j nlogn(left_j), the same for the right,
 // (wl + wr) / n, no fused multiply-add — so the scores are bit-identical; four lanes per
-// instruction and no branch per class. Needs n < kNLogNTable (every count is a table lookup).
+// instruction and no branch per class; a threshold that all four lanes skip costs only its
+// counts. Needs n < kNLogNTable (every count is a table lookup).
 // nlogn of four counts < kNLogNTable. (The masked form with an explicit source: the plain
 // _mm256_i32gather_pd leaves GCC 12 warning about its undefined source operand.)
 __attribute__((target("avx2"), always_inline)) inline __m256d nlogn4(__m128i counts) {
@@ -416,13 +445,18 @@ __attribute__((target("avx2"))) void score_lanes_avx2(const uint32_t* counts, in
     }
     left = _mm_add_epi32(left, in_bin);
     const __m128i right = _mm_sub_epi32(all, left);
+    const __m128i skip = _mm_or_si128(_mm_or_si128(_mm_cmpeq_epi32(left, zero), _mm_cmpeq_epi32(right, zero)),
+                                      _mm_cmpeq_epi32(in_bin, zero));
+    if (_mm_movemask_ps(_mm_castsi128_ps(skip)) == 0xF) {
+      // All four skipped (deep nodes: few pixels, so most bins of most lanes are empty).
+      for (int i = 0; i < 4; ++i) out[size_t(lane + i) * bins + t] = HUGE_VAL;
+      continue;
+    }
     __m256d wl = nlogn4(left), wr = nlogn4(right);
     for (int j = 0; j < classes; ++j) {
       wl = _mm256_sub_pd(wl, nlogn4(cum[j]));
       wr = _mm256_sub_pd(wr, nlogn4(_mm_sub_epi32(_mm_set1_epi32(int32_t(totals[j])), cum[j])));
     }
-    const __m128i skip = _mm_or_si128(_mm_or_si128(_mm_cmpeq_epi32(left, zero), _mm_cmpeq_epi32(right, zero)),
-                                      _mm_cmpeq_epi32(in_bin, zero));
     _mm256_store_pd(score, _mm256_blendv_pd(_mm256_div_pd(_mm256_add_pd(wl, wr), vn), skipped,
                                             _mm256_castsi256_pd(_mm256_cvtepi32_epi64(skip))));
     for (int i = 0; i < 4; ++i) out[size_t(lane + i) * bins + t] = score[i];
@@ -768,6 +802,10 @@ class Grower {
     int16_t* rows = s.node_features.data();
     for (uint32_t i = node.begin; i < node.end; ++i) {
       const TrainingPixel& p = px_[i];
+      if (i + 1 < node.end && px_[i + 1].image != p.image) {
+        const TrainingPixel& n = px_[i + 1];
+        prefetch_features_avx2(g.lanes, images_[n.image], n.u, n.v, n.scale_q13);
+      }
       features_avx2(g.lanes, images_[p.image], p.u, p.v, p.scale_q13, rows + (i - node.begin) * padded);
     }
     uint32_t positions[kBlock];
@@ -832,8 +870,13 @@ class Grower {
     s.feature.resize(l.padded);
     s.bin.resize(l.padded);
     int16_t* bin = s.bin.data();
+    const bool prefetch = !stored && features_ == pixel_features_avx2;
     for (uint32_t i = begin; i < end; ++i) {
       const TrainingPixel& p = px_[i];
+      if (prefetch && i + 1 < end && px_[i + 1].image != p.image) {
+        const TrainingPixel& n = px_[i + 1];
+        prefetch_features_avx2(l, images_[n.image], n.u, n.v, n.scale_q13);
+      }
       if (stored)
         bins_avx2(l, stored + size_t(i - node.begin) * l.padded, bin);
       else
