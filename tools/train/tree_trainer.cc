@@ -356,23 +356,6 @@ __attribute__((target("avx2"), always_inline)) inline ProbeAvx2 probe_setup_avx2
   return q;
 }
 
-// Prefetches into L2 every element that features_avx2 will load for this pixel. Deep in a tree
-// consecutive pixels of a node come from different images, whose probe neighbourhoods are not in
-// cache: issued one pixel ahead, the misses of the next pixel overlap the current one's work.
-__attribute__((target("avx2"))) void prefetch_features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u,
-                                                            int32_t v, int32_t s) {
-  const ProbeAvx2 q = probe_setup_avx2(im, u, v, s);
-  alignas(32) int32_t at[8];
-  __m256i outside;
-  for (int c = 0; c < l.padded; c += 8) {
-    _mm256_store_si256(reinterpret_cast<__m256i*>(at), probe_index_avx2(q, &l.du1[c], &l.dv1[c], outside));
-    for (int i = 0; i < 8; ++i) _mm_prefetch(reinterpret_cast<const char*>(q.base + at[i]), _MM_HINT_T1);
-    if (c + 8 <= l.unary) continue;
-    _mm256_store_si256(reinterpret_cast<__m256i*>(at), probe_index_avx2(q, &l.du2[c], &l.dv2[c], outside));
-    for (int i = 0; i < 8; ++i) _mm_prefetch(reinterpret_cast<const char*>(q.base + at[i]), _MM_HINT_T1);
-  }
-}
-
 // feature[lane] for every lane of `l` (its offsets only: thresholds are not read), 8 lanes per
 // AVX2 instruction for the offsets and bounds (probe_avx2).
 __attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v,
@@ -802,10 +785,6 @@ class Grower {
     int16_t* rows = s.node_features.data();
     for (uint32_t i = node.begin; i < node.end; ++i) {
       const TrainingPixel& p = px_[i];
-      if (i + 1 < node.end && px_[i + 1].image != p.image) {
-        const TrainingPixel& n = px_[i + 1];
-        prefetch_features_avx2(g.lanes, images_[n.image], n.u, n.v, n.scale_q13);
-      }
       features_avx2(g.lanes, images_[p.image], p.u, p.v, p.scale_q13, rows + (i - node.begin) * padded);
     }
     uint32_t positions[kBlock];
@@ -870,13 +849,8 @@ class Grower {
     s.feature.resize(l.padded);
     s.bin.resize(l.padded);
     int16_t* bin = s.bin.data();
-    const bool prefetch = !stored && features_ == pixel_features_avx2;
     for (uint32_t i = begin; i < end; ++i) {
       const TrainingPixel& p = px_[i];
-      if (prefetch && i + 1 < end && px_[i + 1].image != p.image) {
-        const TrainingPixel& n = px_[i + 1];
-        prefetch_features_avx2(l, images_[n.image], n.u, n.v, n.scale_q13);
-      }
       if (stored)
         bins_avx2(l, stored + size_t(i - node.begin) * l.padded, bin);
       else
