@@ -201,11 +201,12 @@ inline int32_t feature_of_pixel(const TrainingSet& set, const TrainingPixel& p, 
 // per lane, thresholds transposed ([threshold][lane]) and padded with kNoThreshold (make_lanes:
 // each column's unique thresholds in order, then padding; set_lane_thresholds: the sorted sample
 // with repeats replaced by kNoThreshold; a bin counts the thresholds below a feature, the same in
-// both), the count padded to a multiple of kLanes with inert lanes (zero offsets, no
-// thresholds). Lanes hold the unary candidates (δ2 = 0) first, then the others, each part in candidate order: the AVX2 kernel
-// reads the pixel's own depth instead of a second probe for every 8-lane block that is all unary
-// (about half the candidates). lane[c] is candidate c's lane; kernels write bins by lane and
-// histograms are indexed by lane, while scoring walks candidates in their order (ties: lowest).
+// both), the count padded to a multiple of kLanes with inert lanes (zero offsets, no thresholds).
+// Lanes hold the unary candidates (δ2 = 0) first, then the others, each part in candidate order:
+// the AVX2 kernel reads the pixel's own depth instead of a second probe for every 8-lane block that
+// is all unary (about half the candidates). lane[c] is candidate c's lane; kernels write bins by
+// lane and histograms are indexed by lane, while scoring walks candidates in their order (ties:
+// lowest).
 constexpr int kLanes = 16;                    // int16 lanes of an AVX2 register
 constexpr int16_t kNoThreshold = 32767;       // above every feature (|feature| ≤ 32766)
 struct CandidateLanes {
