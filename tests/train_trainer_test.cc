@@ -78,6 +78,35 @@ TreeParams toy_params(int depth) {
   return p;
 }
 
+// The threshold samples' column sort (every size a node's sample can have, with many ties, odd
+// column counts whose padding columns are sorted too) equals std::sort of each column.
+TEST(TrainThresholds, ColumnSortEqualsStdSortOfEachColumn) {
+  std::vector<uint16_t> network;
+  uint32_t state = 12345;
+  auto next = [&] { return state = state * 1664525u + 1013904223u; };
+  for (int n = 1; n <= 255; n += (n < 40 ? 1 : 23)) {
+    for (int lanes : {1, 16, 37}) {
+      const size_t stride = size_t(lanes + 15) / 16 * 16;
+      std::vector<int16_t> rows(size_t(n) * stride);
+      // Values from a narrow range (many ties) in odd columns, the full int16 range in even ones.
+      for (size_t i = 0; i < rows.size(); ++i)
+        rows[i] = static_cast<int16_t>(i % 2 ? int(next() >> 28) - 8 : int(next() >> 16) - 32768);
+      std::vector<int16_t> expected = rows;
+      for (size_t c = 0; c < stride; ++c) {
+        std::vector<int16_t> column(n);
+        for (int r = 0; r < n; ++r) column[r] = expected[r * stride + c];
+        std::sort(column.begin(), column.end());
+        for (int r = 0; r < n; ++r) expected[r * stride + c] = column[r];
+      }
+      sort_int16_columns(rows.data(), n, stride, lanes, network);
+      for (int c = 0; c < lanes; ++c)
+        for (int r = 0; r < n; ++r)
+          ASSERT_EQ(rows[r * stride + c], expected[r * stride + c]) << "n " << n << " lanes " << lanes << " column " << c
+                                                                    << " row " << r;
+    }
+  }
+}
+
 TEST(TrainTree, RecoversTheDepthStepSplitExactly) {
   TempDir tmp;
   write_toy_dataset(tmp.path + "/toy");

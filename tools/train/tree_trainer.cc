@@ -145,9 +145,8 @@ constexpr size_t kRangeHistogramEntries = 262144;
 
 struct Candidate {
   int32_t du1, dv1, du2, dv2;
-  int thresholds;        // unique, sorted
-  int search_top;        // half the padded table size
-  int32_t table[kMaxThresholds + 1];  // thresholds, then INT32_MAX
+  int thresholds;                     // unique, sorted
+  int32_t table[kMaxThresholds + 1];  // thresholds [0, thresholds)
 };
 
 // A node's threshold sample, decoded (structure of arrays).
@@ -199,16 +198,19 @@ inline int32_t feature_of_pixel(const TrainingSet& set, const TrainingPixel& p, 
 }
 
 // The candidates of one work item in structure-of-arrays form for the pixel-major kernel: offsets
-// per lane, thresholds transposed ([threshold][lane]) and padded with kNoThreshold, the count
-// padded to a multiple of kLanes with inert lanes (zero offsets, no thresholds). Lanes hold the
-// unary candidates (δ2 = 0) first, then the others, each part in candidate order: the AVX2 kernel
-// reads the pixel's own depth instead of a second probe for every 8-lane block that is all unary
-// (about half the candidates). lane[c] is candidate c's lane; kernels write bins by lane and
-// histograms are indexed by lane, while scoring walks candidates in their order (ties: lowest).
+// per lane, thresholds transposed ([threshold][lane]) and padded with kNoThreshold (make_lanes:
+// each column's unique thresholds in order, then padding; set_lane_thresholds: the sorted sample
+// with repeats replaced by kNoThreshold; a bin counts the thresholds below a feature, the same in
+// both), the count padded to a multiple of kLanes with inert lanes (zero offsets, no thresholds).
+// Lanes hold the unary candidates (δ2 = 0) first, then the others, each part in candidate order:
+// the AVX2 kernel reads the pixel's own depth instead of a second probe for every 8-lane block that
+// is all unary (about half the candidates). lane[c] is candidate c's lane; kernels write bins by
+// lane and histograms are indexed by lane, while scoring walks candidates in their order (ties:
+// lowest).
 constexpr int kLanes = 16;                    // int16 lanes of an AVX2 register
 constexpr int16_t kNoThreshold = 32767;       // above every feature (|feature| ≤ 32766)
 struct CandidateLanes {
-  int count = 0, padded = 0, thresholds = 0;  // thresholds = the most any candidate has
+  int count = 0, padded = 0, thresholds = 0;  // thresholds = rows of the table
   int unary = 0;                              // lanes [0, unary) are unary candidates
   std::vector<int32_t> du1, dv1, du2, dv2;
   std::vector<int16_t> table;                 // thresholds × padded
@@ -293,8 +295,9 @@ struct ProbeAvx2 {
   __m256i vs, vu, vv, w, w1, h1, half, background;
   const uint16_t* base;
 };
-__attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const ProbeAvx2& q, const int32_t* du,
-                                                                          const int32_t* dv) {
+// The element indices of one probe for 8 lanes (0 for off-image lanes, which `outside` marks).
+__attribute__((target("avx2"), always_inline)) inline __m256i probe_index_avx2(const ProbeAvx2& q, const int32_t* du,
+                                                                                const int32_t* dv, __m256i& outside) {
   const __m256i pu = _mm256_add_epi32(
       q.vu, _mm256_srai_epi32(
                 _mm256_add_epi32(_mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(du)), q.vs), q.half),
@@ -303,11 +306,15 @@ __attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const P
       q.vv, _mm256_srai_epi32(
                 _mm256_add_epi32(_mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(dv)), q.vs), q.half),
                 kScaleShift));
-  const __m256i outside = _mm256_srai_epi32(
+  outside = _mm256_srai_epi32(
       _mm256_or_si256(_mm256_or_si256(pu, pv), _mm256_or_si256(_mm256_sub_epi32(q.w1, pu), _mm256_sub_epi32(q.h1, pv))), 31);
-  const __m256i index = _mm256_andnot_si256(outside, _mm256_add_epi32(_mm256_mullo_epi32(pv, q.w), pu));
+  return _mm256_andnot_si256(outside, _mm256_add_epi32(_mm256_mullo_epi32(pv, q.w), pu));
+}
+__attribute__((target("avx2"), always_inline)) inline __m256i probe_avx2(const ProbeAvx2& q, const int32_t* du,
+                                                                          const int32_t* dv) {
+  __m256i outside;
   alignas(32) int32_t at[8];
-  _mm256_store_si256(reinterpret_cast<__m256i*>(at), index);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(at), probe_index_avx2(q, du, dv, outside));
   const uint16_t* p = q.base;
   const __m256i g = _mm256_setr_epi32(p[at[0]], p[at[1]], p[at[2]], p[at[3]], p[at[4]], p[at[5]], p[at[6]], p[at[7]]);
   return _mm256_or_si256(g, _mm256_and_si256(outside, q.background));
@@ -337,10 +344,8 @@ __attribute__((target("avx2"), always_inline)) inline void bin_features(const Ca
   }
 }
 
-// feature[lane] for every lane of `l` (its offsets only: thresholds are not read), 8 lanes per
-// AVX2 instruction for the offsets and bounds (probe_avx2).
-__attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v,
-                                                   int32_t s, int16_t* feature) {
+__attribute__((target("avx2"), always_inline)) inline ProbeAvx2 probe_setup_avx2(const ImageRef& im, int32_t u,
+                                                                                   int32_t v, int32_t s) {
   ProbeAvx2 q;
   q.vs = _mm256_set1_epi32(s);
   q.vu = _mm256_set1_epi32(u);
@@ -351,6 +356,14 @@ __attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, cons
   q.half = _mm256_set1_epi32(kScaleOneQ13 >> 1);
   q.background = _mm256_set1_epi32(kBackgroundDepthMm);
   q.base = im.probe;
+  return q;
+}
+
+// feature[lane] for every lane of `l` (its offsets only: thresholds are not read), 8 lanes per
+// AVX2 instruction for the offsets and bounds (probe_avx2).
+__attribute__((target("avx2"))) void features_avx2(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v,
+                                                   int32_t s, int16_t* feature) {
+  const ProbeAvx2 q = probe_setup_avx2(im, u, v, s);
   // A unary lane's second probe is at offset 0: the pixel itself, always inside the image.
   const __m256i own = _mm256_set1_epi32(im.probe[v * im.width + u]);
   // Two loops: the features of every lane first, then the bins. Each block's chain (offsets →
@@ -391,7 +404,8 @@ PixelFeaturesFn pick_pixel_features() {
 // the threshold (nothing left of it, nothing right of it, or an empty bin). Every lane runs the
 // scalar code's operations in its order — nlogn(left) − Σ_j nlogn(left_j), the same for the right,
 // (wl + wr) / n, no fused multiply-add — so the scores are bit-identical; four lanes per
-// instruction and no branch per class. Needs n < kNLogNTable (every count is a table lookup).
+// instruction and no branch per class; a threshold that all four lanes skip costs only its
+// counts. Needs n < kNLogNTable (every count is a table lookup).
 // nlogn of four counts < kNLogNTable. (The masked form with an explicit source: the plain
 // _mm256_i32gather_pd leaves GCC 12 warning about its undefined source operand.)
 __attribute__((target("avx2"), always_inline)) inline __m256d nlogn4(__m128i counts) {
@@ -417,16 +431,65 @@ __attribute__((target("avx2"))) void score_lanes_avx2(const uint32_t* counts, in
     }
     left = _mm_add_epi32(left, in_bin);
     const __m128i right = _mm_sub_epi32(all, left);
+    const __m128i skip = _mm_or_si128(_mm_or_si128(_mm_cmpeq_epi32(left, zero), _mm_cmpeq_epi32(right, zero)),
+                                      _mm_cmpeq_epi32(in_bin, zero));
+    if (_mm_movemask_ps(_mm_castsi128_ps(skip)) == 0xF) {
+      // All four skipped (deep nodes: few pixels, so most bins of most lanes are empty).
+      for (int i = 0; i < 4; ++i) out[size_t(lane + i) * bins + t] = HUGE_VAL;
+      continue;
+    }
     __m256d wl = nlogn4(left), wr = nlogn4(right);
     for (int j = 0; j < classes; ++j) {
       wl = _mm256_sub_pd(wl, nlogn4(cum[j]));
       wr = _mm256_sub_pd(wr, nlogn4(_mm_sub_epi32(_mm_set1_epi32(int32_t(totals[j])), cum[j])));
     }
-    const __m128i skip = _mm_or_si128(_mm_or_si128(_mm_cmpeq_epi32(left, zero), _mm_cmpeq_epi32(right, zero)),
-                                      _mm_cmpeq_epi32(in_bin, zero));
     _mm256_store_pd(score, _mm256_blendv_pd(_mm256_div_pd(_mm256_add_pd(wl, wr), vn), skipped,
                                             _mm256_castsi256_pd(_mm256_cvtepi32_epi64(skip))));
     for (int i = 0; i < 4; ++i) out[size_t(lane + i) * bins + t] = score[i];
+  }
+}
+
+// Batcher's odd–even merge sort network for n elements as comparator pairs (lower, higher index)
+// after network[0] = n. Generated for n rounded up to a power of two with the missing elements
+// taken as +∞: a comparator touching one of them never moves anything and is left out.
+void batcher_network(int n, std::vector<uint16_t>& network) {
+  if (!network.empty() && network[0] == n) return;
+  network.assign(1, static_cast<uint16_t>(n));
+  for (int p = 1; p < n; p <<= 1)
+    for (int k = p; k >= 1; k >>= 1)
+      for (int j = k % p; j + k < n; j += 2 * k)
+        for (int i = 0; i < std::min(k, n - j - k); ++i)
+          if ((i + j) / (2 * p) == (i + j + k) / (2 * p)) {
+            network.push_back(static_cast<uint16_t>(i + j));
+            network.push_back(static_cast<uint16_t>(i + j + k));
+          }
+}
+
+__attribute__((target("avx2"))) void sort_columns_avx2(int16_t* rows, size_t stride, int lanes,
+                                                       const std::vector<uint16_t>& network) {
+  // Comparator-major: the 16-lane blocks of one comparator are independent of each other.
+  for (size_t k = 1; k + 1 < network.size(); k += 2) {
+    int16_t* a = rows + network[k] * stride;
+    int16_t* b = rows + network[k + 1] * stride;
+    for (int c = 0; c < lanes; c += 16) {
+      const __m256i x = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(a + c));
+      const __m256i y = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(b + c));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(a + c), _mm256_min_epi16(x, y));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(b + c), _mm256_max_epi16(x, y));
+    }
+  }
+}
+
+// table = rows (n × padded, each column sorted) with every value equal to the one above it
+// replaced by kNoThreshold: the SIMD threshold table of set_lane_thresholds.
+__attribute__((target("avx2"))) void mark_repeats_avx2(const int16_t* rows, int n, size_t padded, int16_t* table) {
+  std::memcpy(table, rows, padded * sizeof(int16_t));
+  const __m256i none = _mm256_set1_epi16(kNoThreshold);
+  for (size_t i = padded; i < size_t(n) * padded; i += 16) {
+    const __m256i value = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(rows + i));
+    const __m256i above = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(rows + i - padded));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(table + i),
+                        _mm256_blendv_epi8(value, none, _mm256_cmpeq_epi16(value, above)));
   }
 }
 
@@ -474,6 +537,9 @@ struct Scratch {
   std::vector<int16_t> feature, bin;  // one pixel's features and bins per lane (pixel_features)
   std::vector<int16_t> sample_features;  // threshold sample × lanes (prepare_group)
   std::vector<int16_t> node_features;    // a small node's pixels × lanes (prepare_stored_group)
+  std::vector<uint16_t> network;         // sort_int16_columns' comparators
+  std::vector<int> unique_of_lane;       // set_lane_thresholds: thresholds so far per lane
+  std::vector<int32_t*> table_of_lane;   // set_lane_thresholds: the lane's Candidate::table
   std::vector<uint32_t> counts;   // classification histograms
   std::vector<int64_t> sums;      // regression histograms (fixed point, pixel_offsets)
   std::vector<int32_t> offsets;   // regression: one pixel's joints × {w, dx, dy, dz}
@@ -642,10 +708,45 @@ class Grower {
     for (int i = 0; i < count; ++i) c.table[i] = sample_features[i];
     std::sort(c.table, c.table + count);
     c.thresholds = static_cast<int>(std::unique(c.table, c.table + count) - c.table);
-    int padded = 1;
-    while (padded < c.thresholds + 1) padded *= 2;
-    for (int i = c.thresholds; i < padded; ++i) c.table[i] = INT32_MAX;
-    c.search_top = padded / 2;
+  }
+  // The thresholds of every candidate of `g` (offset lanes made) from its threshold sample's
+  // features, `rows` = n × padded (row i: sample pixel i, by lane), which it overwrites: the
+  // columns are sorted together (sort_int16_columns) instead of one std::sort per candidate (deep
+  // in a tree that sort cost a fifth of a level). Each candidate's sorted unique values are what
+  // set_thresholds gives; the SIMD table is the sorted columns with every repeated value replaced
+  // by kNoThreshold. Binning counts the thresholds below a feature, which does not depend on their
+  // order, so a value's copies and the padding count nothing and a bin is the value's rank among
+  // the unique thresholds, as with make_lanes.
+  // The inert lanes' columns are set to kNoThreshold first, so they bin nothing.
+  void set_lane_thresholds(CandidateGroup& g, int16_t* rows, int n, int thread) {
+    CandidateLanes& l = g.lanes;
+    Scratch& s = scratch_[thread];
+    const size_t padded = size_t(l.padded);
+    for (int t = 0; t < n; ++t)
+      for (size_t k = size_t(l.count); k < padded; ++k) rows[t * padded + k] = kNoThreshold;
+    sort_int16_columns(rows, n, padded, l.padded, s.network);
+    l.thresholds = n;
+    l.table.resize(size_t(n) * padded);
+    mark_repeats_avx2(rows, n, padded, l.table.data());
+    // Each candidate's unique values in order: row by row, all lanes at once, without a branch
+    // (one per value mispredicted half the time and cost a tenth of a deep level).
+    s.unique_of_lane.assign(padded, 0);
+    s.table_of_lane.resize(padded);
+    for (int c = 0; c < l.count; ++c) s.table_of_lane[l.lane[c]] = g.candidates[c].table;
+    int* unique = s.unique_of_lane.data();
+    int32_t* const* out = s.table_of_lane.data();
+    for (int t = 0; t < n; ++t) {
+      const int16_t* row = l.table.data() + t * padded;
+      for (int k = 0; k < l.count; ++k) {
+        out[k][unique[k]] = row[k];
+        unique[k] += row[k] != kNoThreshold;
+      }
+    }
+    g.bins = 1;
+    for (int c = 0; c < l.count; ++c) {
+      g.candidates[c].thresholds = unique[l.lane[c]];
+      g.bins = std::max(g.bins, unique[l.lane[c]] + 1);
+    }
   }
   void make_candidate(const NodeInfo& node, int index, Block& sample, Candidate& c) const {
     draw_offsets(node, index, c);
@@ -684,12 +785,7 @@ class Grower {
     for (int i = 0; i < n; ++i)
       features_avx2(g.lanes, {s.sample.image[i], s.sample.width[i], s.sample.height[i]}, s.sample.u[i], s.sample.v[i],
                     s.sample.scale[i], s.sample_features.data() + i * padded);
-    for (int c = 0; c < c1 - c0; ++c) {
-      const int lane = g.lanes.lane[c];
-      for (int i = 0; i < n; ++i) s.sample.feature[i] = s.sample_features[i * padded + lane];
-      set_thresholds(g.candidates[c], s.sample.feature, n);
-    }
-    finish_group(g);
+    set_lane_thresholds(g, s.sample_features.data(), n, thread);
   }
   // Whether prepare_stored_group applies to candidates [c0, c1) of `node`: the AVX2 kernel, all of
   // the node's pixels in this process, and their features within kStoredFeatureBytes.
@@ -718,12 +814,10 @@ class Grower {
     }
     uint32_t positions[kBlock];
     const int n = sample_positions(node, positions);
-    for (int c = 0; c < c1 - c0; ++c) {
-      const int lane = g.lanes.lane[c];
-      for (int i = 0; i < n; ++i) s.sample.feature[i] = rows[positions[i] * padded + lane];
-      set_thresholds(g.candidates[c], s.sample.feature, n);
-    }
-    finish_group(g);
+    s.sample_features.resize(size_t(n) * padded);
+    for (int i = 0; i < n; ++i)
+      std::memcpy(s.sample_features.data() + i * padded, rows + positions[i] * padded, padded * sizeof(int16_t));
+    set_lane_thresholds(g, s.sample_features.data(), n, thread);
     return rows;
   }
   // The same group when the sample's features come from all ranks: `features` holds
@@ -1130,6 +1224,23 @@ struct GrowNode {
 };
 
 }  // namespace
+
+void sort_int16_columns(int16_t* rows, int n, size_t stride, int lanes, std::vector<uint16_t>& network) {
+  if (n < 2) return;
+  batcher_network(n, network);
+  if (__builtin_cpu_supports("avx2")) {
+    sort_columns_avx2(rows, stride, (lanes + 15) / 16 * 16, network);
+    return;
+  }
+  for (size_t k = 1; k + 1 < network.size(); k += 2)
+    for (int c = 0; c < lanes; ++c) {
+      int16_t& x = rows[network[k] * stride + c];
+      int16_t& y = rows[network[k + 1] * stride + c];
+      const int16_t low = std::min(x, y), high = std::max(x, y);
+      x = low;
+      y = high;
+    }
+}
 
 GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, int tree_index,
                     const TreeParams& params, const ProgressFn& progress, const GrowthState* resume,

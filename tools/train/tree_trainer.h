@@ -123,6 +123,14 @@ double sum_squared_deviation(const JointOffsetStats* stats, int joints);
 double regression_objective(const JointOffsetStats* left, const JointOffsetStats* right, int joints,
                             double left_pixels, double right_pixels);
 
+// Sorts the `lanes` columns of an int16 table with `n` rows (row r at rows + r × stride) each
+// ascending, independently: the threshold samples of a candidate group, 16 columns per AVX2
+// instruction with AVX2 (Batcher's odd–even merge network, the same comparators for every
+// column; one column at a time without AVX2). Needs stride ≥ lanes rounded up to a multiple of 16
+// (the AVX2 sweep sorts those padding columns too) and n ≤ 255.
+// `network` is the caller's scratch for the comparator pairs (kept between calls of one n).
+void sort_int16_columns(int16_t* rows, int n, size_t stride, int lanes, std::vector<uint16_t>& network);
+
 // Runs fn(i, thread) for i in [0, n) on `threads` threads (thread 0 is the caller), items taken in
 // increasing order. An exception stops the loop and the one of the lowest item is rethrown.
 void parallel_for(size_t n, int threads, const std::function<void(size_t, int)>& fn);
