@@ -663,4 +663,78 @@ int32_t PersonTests::split_pair(const DepthFrame& f, int32_t n, int32_t k) {
   return n;
 }
 
+// Tall furniture: a door, a shelf, a cabinet or a chair is a vertical prism (a slab, a box, a
+// seat on legs under a back panel), so its extent along the floor's horizontal axis (FloorGrid's
+// a) is nearly the same from one height to the next: the front legs span the seat, the faces span
+// the box, and only where one part ends and another begins (the seat under a narrower back) does
+// it jump. A body's changes all the way up: feet, shins, knees, thighs, hips, waist, arms,
+// shoulders, neck and head each differ from the next by more than the depth noise. A coat stand is
+// a pole: most of its height is a few centimetres wide, where a body's narrowest parts (a leg, a
+// body seen from the side) are 0.1 m and more.
+// The component's pixels (its merged pieces) are profiled in kFurnitureBandM bands of height above
+// the floor, each with its extent along a. From its lowest to its highest band with pixels (at
+// least kFurnitureMinBands of them: someone lying or crouching is lower and never judged):
+//   - furniture (1) when at least furniture_smooth_min_share of the pairs of neighbouring bands
+//     both hold pixels and differ in width by at most furniture_smooth_step_m +
+//     furniture_smooth_step_per_m2 · z̄² (z̄ its mean depth: a pixel's width and the depth noise
+//     move a band's ends more far away);
+//   - a pole (2) when at least furniture_pole_min_share of the bands hold pixels and are at most
+//     furniture_pole_max_width_m wide.
+// Something in front hiding part of a piece of furniture empties or narrows the bands it hides, so
+// such a piece may stay a user: the rule only drops what it is sure of. Tuned on tall-clutter
+// scenes of seeds 101–106 and short-clutter ones of 101–103 (validation clips), docs/segmentation.md.
+int32_t PersonTests::furniture(const DepthFrame& f, int32_t k) const {
+  const SegmenterConfig& cfg = *config_;
+  if ((cfg.furniture_smooth_min_share <= 0.0f && cfg.furniture_pole_max_width_m <= 0.0f) || floor_->valid == 0)
+    return 0;
+  const Candidate& c = candidates_[k];
+  if (c.pixels == 0) return 0;
+  // 0.1 m bands: a head (0.2–0.25 m tall) fills two of them, a thigh or a shin four. 32 bands reach
+  // 3.2 m, above anyone; higher points count in the last one.
+  constexpr float kFurnitureBandM = 0.1f;
+  constexpr int32_t kFurnitureBands = 32;
+  // 0.6 m of height: shorter components (someone lying, a box) are not profiled.
+  constexpr int32_t kFurnitureMinBands = 6;
+  FloorGrid grid;
+  if (!grid.init_at(*floor_, f.intrinsics, c, kFurnitureBandM)) return 0;
+  const float ax = grid.ax, ay = grid.ay, az = grid.az;
+  const float inv_fx = 1.0f / f.intrinsics.fx, inv_fy = 1.0f / f.intrinsics.fy;
+  float lo[kFurnitureBands], hi[kFurnitureBands];
+  for (int32_t b = 0; b < kFurnitureBands; ++b) { lo[b] = 1e30f; hi[b] = -1e30f; }
+  for_each_pixel_of(f, k, [&](int32_t u, int32_t v, int32_t, uint16_t z_mm) {
+    const float z = float(z_mm) * 0.001f;
+    const float x = (float(u) - f.intrinsics.cx) * z * inv_fx;
+    const float y = -(float(v) - f.intrinsics.cy) * z * inv_fy;
+    const float up = floor_->nx * x + floor_->ny * y + floor_->nz * z + floor_->d;
+    int32_t b = int32_t(up / kFurnitureBandM);
+    b = b < 0 ? 0 : b >= kFurnitureBands ? kFurnitureBands - 1 : b;
+    const float a = x * ax + y * ay + z * az;
+    if (a < lo[b]) lo[b] = a;
+    if (a > hi[b]) hi[b] = a;
+  });
+  int32_t first = -1, last = -1;
+  for (int32_t b = 0; b < kFurnitureBands; ++b)
+    if (hi[b] >= lo[b]) {
+      if (first < 0) first = b;
+      last = b;
+    }
+  const int32_t bands = last - first + 1;
+  if (first < 0 || bands < kFurnitureMinBands) return 0;
+  auto held = [&](int32_t b) { return hi[b] >= lo[b]; };
+  if (cfg.furniture_smooth_min_share > 0.0f) {
+    const float z = float(c.sz / c.pixels);
+    const float step = cfg.furniture_smooth_step_m + cfg.furniture_smooth_step_per_m2 * z * z;
+    int32_t smooth = 0;
+    for (int32_t b = first; b < last; ++b)
+      smooth += held(b) && held(b + 1) && fabsf((hi[b + 1] - lo[b + 1]) - (hi[b] - lo[b])) <= step;
+    if (float(smooth) >= cfg.furniture_smooth_min_share * float(bands - 1)) return 1;
+  }
+  if (cfg.furniture_pole_max_width_m > 0.0f) {
+    int32_t thin = 0;
+    for (int32_t b = first; b <= last; ++b) thin += held(b) && hi[b] - lo[b] <= cfg.furniture_pole_max_width_m;
+    if (float(thin) >= cfg.furniture_pole_min_share * float(bands)) return 2;
+  }
+  return 0;
+}
+
 }  // namespace dp::seg

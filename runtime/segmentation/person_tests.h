@@ -46,6 +46,12 @@ struct PersonTests : ComponentStage {
   // box_reject_min_share). low_outline: the component qualified only as low by its outline
   // (low_max_solidity): judged although low, and a lid apart from the rest makes it no user.
   int32_t split_box(const DepthFrame& frame, int32_t k, bool low_outline = false);
+  // Tall furniture (furniture_smooth_min_share, furniture_pole_max_width_m): 0 = not furniture (or
+  // the rules off, or no floor), 1 = a prism (a door, shelf or chair: its width along the floor
+  // nearly the same from one 0.1 m height band to the next), 2 = a pole (a coat stand: most bands
+  // a pole's width). One sweep over candidate k's image box (its merged pieces), two arrays of
+  // kFurnitureBands floats on the stack.
+  int32_t furniture(const DepthFrame& frame, int32_t k) const;
   // pair_bridge_max_m: cuts candidate k in two at a bridge; returns the index of the new
   // candidate (candidate_count, which the caller then counts) or −1 when k is kept whole.
   int32_t split_pair(const DepthFrame& frame, int32_t candidate_count, int32_t k);

@@ -111,7 +111,13 @@ constexpr double kConfigIntUnbounded = double(INT32_MAX);
   X(float, cut_gap_min_share, 0.05f, 0, 1, kRangeClosed, "of the rows", "legs together cut by the top border qualify with this share of gap rows; 0 = off") \
   X(float, cut_gap_max_fill, 0.8f, 0, 1, kRangeClosed, "of the image box", "... filling at most this") \
   X(float, cut_hidden_floor_contact_m, 0.6f, 0, kConfigUnbounded, kRangeClosed, "m", "a top-border cut with hidden feet stands on the floor up to this; 0 = off") \
-  X(float, pair_bridge_max_m, 0.4f, 0, kConfigUnbounded, kRangeClosed, "m", "thickest arm that bridges two people; 0 = off")
+  X(float, pair_bridge_max_m, 0.4f, 0, kConfigUnbounded, kRangeClosed, "m", "thickest arm that bridges two people; 0 = off") \
+  /* Tall furniture */ \
+  X(float, furniture_smooth_min_share, 0.75f, 0, 1, kRangeClosed, "of its band pairs", "a new user this share of whose neighbouring 0.1 m height bands differ in width by at most the step (below) is furniture; 0 = off") \
+  X(float, furniture_smooth_step_m, 0.015f, 0, kConfigUnbounded, kRangeClosed, "m", "... the step") \
+  X(float, furniture_smooth_step_per_m2, 0.001f, 0, kConfigUnbounded, kRangeClosed, "m/m^2", "growth of the step with the component's mean depth squared") \
+  X(float, furniture_pole_max_width_m, 0.06f, 0, kConfigUnbounded, kRangeClosed, "m", "a new user with furniture_pole_min_share of its height bands at most this wide is a pole (coat stand); 0 = off") \
+  X(float, furniture_pole_min_share, 0.5f, 0, 1, kRangeOpenMin, "of its height bands", "... that share")
 
 // Constraints between fields: X(name, relation, other) means `name relation other` must hold.
 #define DP_SEGMENTER_CONFIG_RELATIONS(X) \

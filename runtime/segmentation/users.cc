@@ -111,6 +111,10 @@ int32_t UserStage::admit_new_users(const DepthFrame& f, int32_t n, Verdicts* v, 
       v->strict[pair] = true;
       v->relaxed[pair] = false;
     }
+    if (furniture(f, best_k) != 0) {  // a door, shelf, chair or coat stand (furniture_smooth_min_share, furniture_pole_max_width_m)
+      v->strict[best_k] = false;
+      continue;
+    }
     const int32_t into = absorbing_user(f, n, best_k, v->cx, v->cy, v->cz);
     if (into >= 0) {  // a piece of that user's body behind a depth jump (absorb_radius_m, head_radius_m)
       v->strict[best_k] = false;
