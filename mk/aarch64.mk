@@ -22,7 +22,7 @@ A64_TEST_SRCS := tests/runtime_kernel_test.cc tests/runtime_pipeline_test.cc for
                  tools/demo/fixtures.cc
 A64_TEST_OBJS := $(A64_TEST_SRCS:%.cc=$(A64)/testobj/%.o)
 A64_GTEST_OBJS := $(A64)/gtest/gtest-all.o $(A64)/gtest/gtest_main.o
-A64_CXXFLAGS := $(CXXSTD) $(OPT) -g $(WARN) -I. $(DEBUGFLAGS) -ffp-contract=off -pthread -DDP_NO_BZIP2=1 $(EXTRA_CXXFLAGS)
+A64_CXXFLAGS := $(CXXSTD) $(OPT) $(DEBUGINFO) $(WARN) -I. $(DEBUGFLAGS) -ffp-contract=off -pthread -DDP_NO_BZIP2=1 $(EXTRA_CXXFLAGS)
 
 .PHONY: aarch64 test-aarch64 check-runtime-aarch64 FORCE_A64
 aarch64: $(A64_LIB) $(A64_TEST_BIN)
