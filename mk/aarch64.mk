@@ -36,9 +36,11 @@ FORCE_A64:
 $(A64)/testobj/%.o: %.cc
 	@mkdir -p $(@D)
 	$(A64_CCACHE)$(A64_CXX) $(A64_CXXFLAGS) -MMD -MP -c $< -o $@
+# GoogleTest itself at -O1: 15.6 CPU-s for gtest-all.cc instead of 22.0 at -O2 (the time under qemu
+# goes to the runtime's code, not to the framework's).
 $(A64)/gtest/%.o: $(GTEST_SRC)/src/%.cc
 	@mkdir -p $(@D)
-	$(A64_CCACHE)$(A64_CXX) $(CXXSTD) -O2 -pthread -I$(GTEST_SRC) -I$(GTEST_SRC)/include -c $< -o $@
+	$(A64_CCACHE)$(A64_CXX) $(CXXSTD) -O1 -pthread -I$(GTEST_SRC) -I$(GTEST_SRC)/include -c $< -o $@
 
 $(A64_TEST_BIN): $(A64_TEST_OBJS) $(A64_GTEST_OBJS) $(A64_LIB)
 	@mkdir -p $(@D)
