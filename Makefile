@@ -95,7 +95,8 @@ TEST_OBJS    := $(TEST_SRCS:%.cc=$(BUILD)/obj/%.o)
 # UNITY=1 (the ASan+UBSan build of `make test`): the tools compile as one translation unit per
 # folder ($(BUILD)/unity/<folder>.cc includes the folder's sources), so the headers and the templates
 # most of them instantiate (nlohmann::json's parser and serializer, above all) are compiled and
-# instrumented once per folder instead of once per file. The code and flags are those of the
+# instrumented once per folder instead of once per file (ASan+UBSan, CPU seconds: tools/app 77.1 as
+# 10 files, 35.8 as one unit; tools/common 51.4 → 33.6). The code and flags are those of the
 # per-file build. Files listed in UNITY_SOLO compile on their own: they define a file-local name
 # that another file of their folder defines too (kUsage of the *_command.cc files, lower, put) or
 # take their own flags (mpi_communicator.cc). A new file whose local name clashes in its folder's
