@@ -18,14 +18,20 @@ check() {  # check NAME command...
   check MakeModel env CLI="$CLI" MODEL_DIR="$ROOT/model" MODEL_OUT="$ROOT/models" \
     MODEL_W=160 MODEL_H=120 TRAIN_FRAMES=60 SHARD_FRAMES=30 VAL_FRAMES=20 TEST_FRAMES=20 DEMO_FRAMES=5 \
     MODEL_DEPTH=8 MODEL_TREES=2 TRAIN_IMAGES_PER_TREE=60 TRAIN_PIXELS=200 TRAIN_OFFSETS=50 TRAIN_THRESHOLDS=10 \
-    OJR_STRUCTURE_DEPTH=6 ASSETS="${ASSETS:-../shared/assets}" \
+    OJR_STRUCTURE_DEPTH=6 ASSETS="${ASSETS:-../shared/assets}" SYNTH_LANES=2 \
     TRAIN_CLIPS=01_01,01_02,02_01 VAL_CLIPS=01_12 TEST_CLIPS=01_13 DEMO_CLIPS=02_06 \
     mk/make_model.sh
-  # The second training shard read the pose cache the first one wrote; rendered again from its
-  # recorded command (which has no cache), it must be the same dataset byte for byte.
-  check PoseCacheChangesNoByte bash -c "grep -q 'pose_cache/train.bin: real poses read' '$LOG.steps' &&
+  # The second training shard read the pose cache the first one wrote and rendered in a background
+  # lane with one thread; rendered again from its recorded command (no cache, every core), it must
+  # be the same dataset byte for byte.
+  check PoseCacheChangesNoByte bash -c "grep -q 'pose_cache/train.bin: real poses read' '$ROOT/model/log_train_001.txt' &&
     cmd=\$(sed 's| --out [^ ]*| --out $ROOT/train_001_uncached|' '$ROOT/model/train_001/frames.jsonl.cmd') &&
     \$cmd && diff -r -x frames.jsonl.cmd '$ROOT/model/train_001' '$ROOT/train_001_uncached'"
+  # A render that fails in a background lane ends the run with its name and log (here every
+  # render fails: the pose cache exists, so both shards go to lanes, and the CLI is `false`).
+  check LaneFailureNamed bash -c "mkdir -p '$ROOT/failing/pose_cache' && touch '$ROOT/failing/pose_cache/train.bin' &&
+    ! env CLI=false MODEL_DIR='$ROOT/failing' MODEL_OUT='$ROOT/failing/models' TRAIN_FRAMES=2 SHARD_FRAMES=1 SYNTH_LANES=2 \
+      mk/make_model.sh 2> '$ROOT/failing.err' && grep -q 'rendering train_001 failed; its log: $ROOT/failing/log_train_001.txt' '$ROOT/failing.err'"
   check BlobsDescribed bash -c "'$CLI' info '$ROOT/models/bpc.blob' && '$CLI' info '$ROOT/models/ojr.blob'"
   # A chain that lost the labels or joints on the way scores ~0; even this tiny forest scores > 0.1.
   check EvalScores bash -c "grep -qE '^  \"mAP\": *0\.[1-9]' '$ROOT/model/eval_bpc.json' && grep -qE '^  \"mAP\": *0\.[1-9]' '$ROOT/model/eval_ojr.json'"

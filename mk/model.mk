@@ -51,6 +51,7 @@ TRAIN_THRESHOLDS ?= 20             # candidate thresholds per offset pair (paper
 TRAIN_MIN_SAMPLES ?= 10            # nodes with fewer pixels become leaves
 TRAIN_IMAGES_PER_TREE ?= 0         # 0 = every training image in every tree
 POSE_STRIDE   ?= 4                 # every N-th mocap frame enters the pose pool
+SYNTH_LANES   ?=                   # datasets rendered at once, one thread each (empty = one per core)
 POSE_POOL     ?= varied            # real poses plus mirrored, noisy and recombined ones
 BODIES        ?= wide              # every macro control, ages 6-80
 CLOTHED       ?= 0.8               # share of clothed bodies (the rest bare)
@@ -66,7 +67,7 @@ DEMO_CLIPS    ?= 02_06
 
 MODEL_VARS := ASSETS MODEL_DIR MODEL_OUT OLD_MODELS MODEL_W MODEL_H TRAIN_FRAMES SHARD_FRAMES VAL_FRAMES TEST_FRAMES \
   MODEL_TREES MODEL_DEPTH OJR_STRUCTURE_DEPTH OJR_MIN_PIXELS MODEL_MAX_BYTES TRAIN_PIXELS TRAIN_OFFSETS TRAIN_THRESHOLDS TRAIN_MIN_SAMPLES \
-  TRAIN_IMAGES_PER_TREE POSE_STRIDE POSE_POOL BODIES CLOTHED CAMERA_HEIGHT CAMERA_PITCH CAMERA_ROLL \
+  TRAIN_IMAGES_PER_TREE POSE_STRIDE SYNTH_LANES POSE_POOL BODIES CLOTHED CAMERA_HEIGHT CAMERA_PITCH CAMERA_ROLL \
   TRAIN_CLIPS VAL_CLIPS TEST_CLIPS TRAIN_SEED DEMO_FRAMES DEMO_CLIPS
 
 model: all
