@@ -71,6 +71,17 @@ constexpr float kCoincideCost = 4.0f;
 constexpr float kMirrorCost = 1.0f;       // taking the mirror joint's proposal
 constexpr float kPredictedCost = 3.0f;     // choosing the last position instead of any proposal
 constexpr float kAbsentCost = 8.0f;        // choosing nothing
+// A proposal whose parent is an "absent" neck or shoulder: the bone to it is unmeasured, and this
+// is its cost. Without it (0) an absent neck or shoulder cut every bone to its children (and the
+// torso's side and facing terms) for the one kAbsentCost, so a torso joint went absent whenever
+// furniture left its children's proposals scattered, and good first proposals of the neck and
+// shoulders were lost. Range 0–kMaxBoneCost; on validation sequences with tall clutter (seeds
+// 191–196, models/ojr.blob), applied to every parent, cost 0 / 1 / 2 / 4 / 6 / 8 gave 0.527 / 0.527
+// / 0.529 / 0.533 / 0.541 / 0.541 within 0.1 m and 47.3 / 48.8 / 50.3 / 43.7 / 37.1 / 38.3 swaps ‰;
+// applied under every parent it also reported scattered limb proposals that used to be missing
+// (still-joint jitter 25.2 → 30.5 mm), so it applies under the torso joints only (6: 0.534, 44.8 ‰,
+// jitter 22.6 mm; models/bpc.blob 0.531 → 0.553, swaps 51.1 → 42.0 ‰).
+constexpr float kOrphanCost = 6.0f;
 constexpr int32_t kMaxPredictedFrames = 10;  // a joint unseen longer than this is missing
 
 // Calibration of the confidence (probability of being within 0.1 m of the truth) per evidence
@@ -503,7 +514,8 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
     for (int k = 0; k < c.count[j]; ++k)
       for (int q = 0; q < c.count[p]; ++q) {
         if (c.kind[j][k] == kKindAbsent || c.kind[p][q] == kKindAbsent) {
-          c.pair[j][k][q] = 0.0f;
+          const bool orphan = (p == kNeck || is_shoulder(p)) && c.kind[p][q] == kKindAbsent && c.kind[j][k] != kKindAbsent;
+          c.pair[j][k][q] = orphan ? kOrphanCost : 0.0f;
           continue;
         }
         const float n = (distance(c.pos[j][k], c.pos[p][q]) - length) / tolerance;
@@ -558,7 +570,7 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
       continue;
     }
     const int32_t p = kParent[j];
-    const float bone = p >= 0 ? c.pair[j][k][choice[p]] : 0.0f;
+    const float bone = p >= 0 && c.kind[p][choice[p]] != kKindAbsent ? c.pair[j][k][choice[p]] : 0.0f;
     int evidence;
     if (kind == kKindPredicted) {
       const int frames = u.missed[j] + 1;

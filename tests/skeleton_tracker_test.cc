@@ -186,6 +186,30 @@ TEST(SkeletonTracker, AJointWithoutProposalsIsInferredThenMissing) {
   EXPECT_EQ(s.frames_tracked, 1);
 }
 
+TEST(SkeletonTracker, AnAbsentNeckDoesNotBuyOffItsChildrensBones) {
+  // A new user whose torso proposals sit at the truth while both legs' proposals lie 2 m behind
+  // (what a body half hidden by furniture can give). Dropping the neck must not be cheaper than
+  // dropping the two knees: an absent parent leaves each child's bone unmeasured at a cost.
+  auto tracker = std::make_unique<SkeletonTracker>();
+  ASSERT_EQ(tracker->init(skeleton_meta(), unfiltered()), Status::kOk);
+  float truth[kSkeletonJoints][3];
+  body(0.0f, truth);
+  auto r = clean_frame(truth);
+  for (int j : {kKneeL, kKneeR, kAnkleL, kAnkleR, kFootL, kFootR}) {
+    const float behind[3] = {truth[j][0], truth[j][1], truth[j][2] + 2.0f};
+    set_proposal(r.get(), j, 0, behind, 100.0f);
+  }
+  Skeleton s;
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *r, &s), Status::kOk);
+  for (int j : {kHead, kNeck, kShoulderL, kShoulderR}) {
+    EXPECT_EQ(s.joints[j].state, JointState::kTracked) << skeleton_joint_name(j);
+    EXPECT_LT(distance(s.joints[j], truth[j]), 1e-5f) << skeleton_joint_name(j);
+  }
+  EXPECT_NE(s.joints[kKneeL].state, JointState::kTracked) << "a knee 2 m off its neck does not fit";
+  EXPECT_NE(s.joints[kKneeR].state, JointState::kTracked);
+}
+
 TEST(SkeletonTracker, AUserUnseenForForgetFramesStartsAfresh) {
   auto tracker = std::make_unique<SkeletonTracker>();
   SkeletonConfig c = unfiltered();
