@@ -32,6 +32,11 @@ check() {  # check NAME command...
   check LaneFailureNamed bash -c "mkdir -p '$ROOT/failing/pose_cache' && touch '$ROOT/failing/pose_cache/train.bin' &&
     ! env CLI=false MODEL_DIR='$ROOT/failing' MODEL_OUT='$ROOT/failing/models' TRAIN_FRAMES=2 SHARD_FRAMES=1 SYNTH_LANES=2 \
       mk/make_model.sh 2> '$ROOT/failing.err' && grep -q 'rendering train_001 failed; its log: $ROOT/failing/log_train_001.txt' '$ROOT/failing.err'"
+  # The accuracy-vs-cost table on the tiny corpus: two trained points and the recipe's forest, each
+  # scored on validation; a rerun trains nothing again.
+  check CostCurve bash -c "env CLI='$CLI' MODEL_DIR='$ROOT/model' CURVE_POINTS='20:6:50:10 0:8:50:10' CURVE_SHIPPED=1 \
+      mk/cost_curve.sh > '$ROOT/curve.md' && [ \$(grep -cE '\| 0\.[0-9]{3} \| 0\.[0-9]{3} \|\$' '$ROOT/curve.md') -eq 3 ] &&
+    env CLI='$CLI' MODEL_DIR='$ROOT/model' CURVE_POINTS='20:6:50:10' mk/cost_curve.sh 2>&1 >/dev/null | grep -q 'i20_d6_o50_t10 trained already'"
   check BlobsDescribed bash -c "'$CLI' info '$ROOT/models/bpc.blob' && '$CLI' info '$ROOT/models/ojr.blob'"
   # A chain that lost the labels or joints on the way scores ~0; even this tiny forest scores > 0.1.
   check EvalScores bash -c "grep -qE '^  \"mAP\": *0\.[1-9]' '$ROOT/model/eval_bpc.json' && grep -qE '^  \"mAP\": *0\.[1-9]' '$ROOT/model/eval_ojr.json'"

@@ -72,3 +72,13 @@ MODEL_VARS := ASSETS MODEL_DIR MODEL_OUT OLD_MODELS MODEL_W MODEL_H TRAIN_FRAMES
 
 model: all
 	env $(foreach v,$(MODEL_VARS),$(v)='$(strip $($(v)))') CLI=$(CLI) mk/make_model.sh
+
+# Accuracy against training cost on the corpus `make model` rendered (mk/cost_curve.sh): BPC
+# forests with fewer images per tree, other depths and candidate counts, scored on validation.
+CURVE_POINTS  ?= 1000:20:400:20 3000:20:400:20 10000:20:400:20 3000:12:400:20 3000:16:400:20 3000:20:100:20 3000:20:1000:20
+CURVE_SHIPPED ?= 1                 # also score make model's own forest the same way
+.PHONY: cost-curve
+cost-curve: all
+	env MODEL_DIR='$(strip $(MODEL_DIR))' MODEL_TREES='$(strip $(MODEL_TREES))' MODEL_DEPTH='$(strip $(MODEL_DEPTH))' \
+	  TRAIN_PIXELS='$(strip $(TRAIN_PIXELS))' TRAIN_MIN_SAMPLES='$(strip $(TRAIN_MIN_SAMPLES))' \
+	  CURVE_POINTS='$(strip $(CURVE_POINTS))' CURVE_SHIPPED='$(strip $(CURVE_SHIPPED))' CLI=$(CLI) mk/cost_curve.sh
