@@ -1,5 +1,9 @@
 #include "tools/train/training_set.h"
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -145,6 +149,19 @@ std::string hex64(uint64_t v) {
   return b;
 }
 
+// Pixels (16 B each) copied between two returns of freed heap memory while the per-tree lists are
+// assembled: 4 M pixels = 64 MB, so the resident set exceeds its final size by at most that much,
+// and a trim (a walk over the heap's free chunks) runs ~100 times for a 120 000-image corpus.
+constexpr size_t kTrimEveryPixels = size_t(4) << 20;
+
+// Hands the heap's free pages back to the system (glibc keeps small freed blocks resident
+// otherwise); a no-op where the C library has no such call.
+void return_free_memory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
+}
+
 }  // namespace
 
 TrainingSet load_training_set(const std::vector<std::string>& dataset_dirs, const SamplingOptions& options) {
@@ -276,15 +293,34 @@ TrainingSet load_training_set(const std::vector<std::string>& dataset_dirs, cons
   for (auto& t : pool) t.join();
   if (error_at != SIZE_MAX) fail(error_text);
 
+  // Each tree's list is allocated once at its final size and every image's share is released as
+  // soon as it is copied, with the freed heap pages handed back to the system as the copy goes:
+  // the per-image lists would otherwise stay resident beside the trees' lists for the whole
+  // training (measured on the 120 000-image corpus: 18.0 GB resident, of which 5.7 GB were these
+  // copies).
   set.tree_pixels.resize(trees);
   for (int t = 0; t < trees; ++t) {
+    auto share = [&](uint32_t index) -> std::vector<TrainingPixel>& {
+      const auto& owners = trees_of_image[index];
+      return per_image[index][std::find(owners.begin(), owners.end(), t) - owners.begin()];
+    };
+    size_t total = 0;
+    for (uint32_t index : tree_images[t])
+      if (index >= shard_begin && index < shard_end) total += share(index).size();
+    set.tree_pixels[t].reserve(total);
+    size_t released = 0;
     for (uint32_t index : tree_images[t]) {
       if (index < shard_begin || index >= shard_end) continue;
-      const auto& owners = trees_of_image[index];
-      const size_t j = std::find(owners.begin(), owners.end(), t) - owners.begin();
-      const auto& px = per_image[index][j];
+      std::vector<TrainingPixel>& px = share(index);
       set.tree_pixels[t].insert(set.tree_pixels[t].end(), px.begin(), px.end());
+      released += px.size();
+      std::vector<TrainingPixel>().swap(px);
+      if (released >= kTrimEveryPixels) {
+        return_free_memory();
+        released = 0;
+      }
     }
+    return_free_memory();
     if (set.tree_pixels[t].empty() && options.shards == 1) fail("tree " + std::to_string(t) + " has no foreground training pixels");
   }
   set.load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
