@@ -104,5 +104,19 @@ TEST(TrainGolden, StoredFeaturesOfSmallNodesGrowTheSameForest) {
   }
 }
 
+// Deep levels walk their nodes' pixels in image order, in batches of nodes whose features fit a
+// byte budget (1 GiB by default, so the forests above take one batch per level). With a budget of
+// a few dozen pixels, every deep level takes many batches (and nodes larger than the budget a
+// batch of their own): the forest must still be the recorded one, with 1 and 2 threads.
+TEST(TrainGolden, SmallFeatureBatchesGrowTheSameForest) {
+  const TrainingSet set = testing_bodies::stick_body_set(24, 400, 2, 3);
+  const GoldenCase& c = kGoldenCases[0];
+  for (int threads : {1, 2}) {
+    ForestOptions fo = golden_options(c.method, c.objective, threads);
+    fo.tree.level_feature_bytes = 40 * 48 * sizeof(int16_t);
+    EXPECT_EQ(hex(forest_digest(train_forest(set, fo, {}))), c.digest) << threads << " thread(s)";
+  }
+}
+
 }  // namespace
 }  // namespace dp::train

@@ -800,25 +800,55 @@ class Grower {
   // Returns node_features for accumulate.
   const int16_t* prepare_stored_group(const NodeInfo& node, int c0, int c1, CandidateGroup& g, int thread) {
     Scratch& s = scratch_[thread];
+    draw_group_offsets(node, c0, c1, g);
+    const size_t padded = size_t(g.lanes.padded);
+    s.node_features.resize(size_t(node.count) * padded);
+    int16_t* rows = s.node_features.data();
+    for (uint32_t i = node.begin; i < node.end; ++i) pixel_feature_row(g.lanes, i, rows + (i - node.begin) * padded);
+    thresholds_from_rows(node, g, rows, thread);
+    return rows;
+  }
+  // Candidates [c0, c1) of `node` with their offset lanes (no thresholds yet).
+  void draw_group_offsets(const NodeInfo& node, int c0, int c1, CandidateGroup& g) const {
     g.c0 = c0;
     g.c1 = c1;
     g.candidates.resize(c1 - c0);
     for (int c = 0; c < c1 - c0; ++c) draw_offsets(node, c0 + c, g.candidates[c]);
     make_offset_lanes(g.candidates, g.lanes);
+  }
+  // The features of every lane of `l` at pixel i (AVX2 kernel), into row[0, l.padded).
+  void pixel_feature_row(const CandidateLanes& l, uint32_t i, int16_t* row) const {
+    const TrainingPixel& p = px_[i];
+    features_avx2(l, images_[p.image], p.u, p.v, p.scale_q13, row);
+  }
+  bool has_avx2_kernel() const { return features_ == pixel_features_avx2; }
+  // The offset lanes of all candidates of `node` (what pixel_feature_row reads).
+  void offset_lanes(const NodeInfo& node, CandidateLanes& l, int thread) {
+    std::vector<Candidate>& c = scratch_[thread].candidates;
+    c.resize(p_.offset_candidates);
+    for (int k = 0; k < p_.offset_candidates; ++k) draw_offsets(node, k, c[k]);
+    make_offset_lanes(c, l);
+  }
+  uint32_t image_of(uint32_t i) const { return px_[i].image; }
+  size_t image_count() const { return images_.size(); }
+  // evaluate() for a node whose pixels' features for all candidates (lanes of
+  // draw_group_offsets(node, 0, offset_candidates)) are already in `rows`, pixel-major.
+  Best evaluate_rows(const NodeInfo& node, const int16_t* rows, int thread) {
+    CandidateGroup& g = groups_[thread];
+    draw_group_offsets(node, 0, p_.offset_candidates, g);
+    thresholds_from_rows(node, g, rows, thread);
+    return search_group(node, g, rows, thread);
+  }
+  // The thresholds of `g` from the node's sample pixels' rows of `rows` (the node's features).
+  void thresholds_from_rows(const NodeInfo& node, CandidateGroup& g, const int16_t* rows, int thread) {
+    Scratch& s = scratch_[thread];
     const size_t padded = size_t(g.lanes.padded);
-    s.node_features.resize(size_t(node.count) * padded);
-    int16_t* rows = s.node_features.data();
-    for (uint32_t i = node.begin; i < node.end; ++i) {
-      const TrainingPixel& p = px_[i];
-      features_avx2(g.lanes, images_[p.image], p.u, p.v, p.scale_q13, rows + (i - node.begin) * padded);
-    }
     uint32_t positions[kBlock];
     const int n = sample_positions(node, positions);
     s.sample_features.resize(size_t(n) * padded);
     for (int i = 0; i < n; ++i)
       std::memcpy(s.sample_features.data() + i * padded, rows + positions[i] * padded, padded * sizeof(int16_t));
     set_lane_thresholds(g, s.sample_features.data(), n, thread);
-    return rows;
   }
   // The same group when the sample's features come from all ranks: `features` holds
   // (c1 − c0) × sample_count values, candidate-major (sample_features()).
@@ -1012,13 +1042,19 @@ class Grower {
 
   // Evaluates candidates [c0, c1) of `node` over all its pixels; returns the best.
   Best evaluate(const NodeInfo& node, int c0, int c1, int thread) {
-    Scratch& s = scratch_[thread];
     CandidateGroup& g = groups_[thread];
     const int16_t* stored = nullptr;
     if (stores_features(node, c0, c1))
       stored = prepare_stored_group(node, c0, c1, g, thread);
     else
       prepare_group(node, c0, c1, g, thread);
+    return search_group(node, g, stored, thread);
+  }
+  // The histogram of a prepared group over all the node's pixels (features from `stored` when
+  // given, else evaluated) and its best split.
+  Best search_group(const NodeInfo& node, CandidateGroup& g, const int16_t* stored, int thread) {
+    Scratch& s = scratch_[thread];
+    const int c0 = g.c0, c1 = g.c1;
     if (p_.objective == Objective::kClassification) {
       s.counts.assign(g.histogram_cells(node), 0);
       accumulate(node, g, node.begin, node.end, s.counts.data(), thread, stored);
@@ -1216,6 +1252,78 @@ void search_distributed(Grower& grower, const std::vector<NodeInfo>& info, const
   }
 }
 
+// Upper bound on the features one batch of a deep level holds (int16, pixels × lanes): 1 GiB,
+// 1.3 M pixels at 400 candidates (TreeParams::level_feature_bytes overrides it). See
+// search_image_major.
+constexpr size_t kLevelFeatureBytes = size_t(1) << 30;
+
+// One process's split search over a level's work items when every item is a whole node (all
+// candidates, no pixel ranges) and the AVX2 kernel runs: deep in a tree. A deep node's pixels come
+// from as many images, so the node-major walk loads a new image's probe neighbourhood (hundreds of
+// cache lines, from memory: a corpus's images are gigabytes) for every pixel. Here consecutive
+// nodes form batches whose features fit kLevelFeatureBytes; a batch's pixels are walked in image
+// order (a counting sort by image), each with its own node's candidate lanes, so an image is
+// loaded once for all of its pixels in the batch, and the features land in each node's rows. Then
+// every node's thresholds, histogram and best split come from its rows exactly as for a small
+// node's stored features (evaluate_rows): the same values, hence the same splits.
+// `finished(n)` reports n items done.
+void search_image_major(Grower& grower, const std::vector<NodeInfo>& info, const std::vector<Item>& items,
+                        std::vector<Best>& results, int padded, int threads, size_t batch_bytes,
+                        std::vector<int16_t>& rows, const std::function<void(size_t)>& finished) {
+  const size_t max_rows = std::max<size_t>(1, batch_bytes / (size_t(padded) * sizeof(int16_t)));
+  struct Entry {
+    uint32_t pixel, item;  // item: index within the batch
+  };
+  std::vector<CandidateLanes> lanes;
+  std::vector<size_t> first_row;
+  std::vector<uint32_t> slot(grower.image_count() + 1);
+  std::vector<Entry> order;
+  for (size_t b0 = 0; b0 < items.size();) {
+    size_t b1 = b0, total = 0;
+    while (b1 < items.size()) {
+      const NodeInfo& node = info[items[b1].node];
+      const size_t n = node.end - node.begin;
+      if (b1 > b0 && total + n > max_rows) break;
+      total += n;
+      ++b1;
+    }
+    const size_t m = b1 - b0;
+    if (lanes.size() < m) lanes.resize(m);
+    first_row.assign(m + 1, 0);
+    for (size_t k = 0; k < m; ++k) {
+      const NodeInfo& node = info[items[b0 + k].node];
+      first_row[k + 1] = first_row[k] + (node.end - node.begin);
+    }
+    if (rows.size() < total * padded) rows.resize(total * padded);
+    parallel_for(m, threads, [&](size_t k, int thread) { grower.offset_lanes(info[items[b0 + k].node], lanes[k], thread); });
+    // Counting sort of the batch's pixels by image (stable: within an image, in item then pixel order).
+    std::fill(slot.begin(), slot.end(), 0u);
+    for (size_t k = 0; k < m; ++k) {
+      const NodeInfo& node = info[items[b0 + k].node];
+      for (uint32_t i = node.begin; i < node.end; ++i) ++slot[grower.image_of(i) + 1];
+    }
+    for (size_t j = 1; j < slot.size(); ++j) slot[j] += slot[j - 1];
+    order.resize(total);
+    for (size_t k = 0; k < m; ++k) {
+      const NodeInfo& node = info[items[b0 + k].node];
+      for (uint32_t i = node.begin; i < node.end; ++i) order[slot[grower.image_of(i)]++] = {i, uint32_t(k)};
+    }
+    const size_t chunks = std::min(total, size_t(64) * std::max(1, threads));
+    parallel_for(chunks, threads, [&](size_t c, int) {
+      for (size_t e = total * c / chunks; e < total * (c + 1) / chunks; ++e) {
+        const Entry& x = order[e];
+        const size_t row = first_row[x.item] + (x.pixel - info[items[b0 + x.item].node].begin);
+        grower.pixel_feature_row(lanes[x.item], x.pixel, rows.data() + row * padded);
+      }
+    });
+    parallel_for(m, threads, [&](size_t k, int thread) {
+      results[b0 + k] = grower.evaluate_rows(info[items[b0 + k].node], rows.data() + first_row[k] * padded, thread);
+    });
+    b0 = b1;
+    finished(b0);
+  }
+}
+
 struct GrowNode {
   uint32_t heap;
   uint32_t begin, end;
@@ -1275,6 +1383,7 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
   const int threads = std::max(1, params.threads);
   const int replay_levels = resume ? resume->levels_done : 0;
   size_t range_peak_bytes = 0;  // candidate groups and partial histograms of the range levels
+  std::vector<int16_t> level_rows;  // deep levels' features (search_image_major)
   size_t replay_next = 0;  // next decision of resume->nodes (heap order = breadth-first order)
   if (resume) out.feature_evaluations = resume->feature_evaluations;
   for (int level = 0; !frontier.empty(); ++level) {
@@ -1364,7 +1473,27 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       range_peak_bytes = std::max(range_peak_bytes, level_bytes);
     }
     if (comm) search_distributed(grower, info, items, results, *comm, threads);
-    const size_t work = comm ? 0 : by_ranges ? ranges.size() : items.size();
+    const bool image_major =
+        !comm && !by_ranges && !items.empty() && level >= replay_levels && grower.has_avx2_kernel() &&
+        std::all_of(items.begin(), items.end(),
+                    [&](const Item& it) { return it.c0 == 0 && it.c1 == params.offset_candidates; });
+    if (image_major)
+      search_image_major(grower, info, items, results, (params.offset_candidates + kLanes - 1) / kLanes * kLanes,
+                         threads, params.level_feature_bytes ? params.level_feature_bytes : kLevelFeatureBytes,
+                         level_rows, [&](size_t done) {
+                           const auto now = std::chrono::steady_clock::now();
+                           if (!progress || now - last_beat <= std::chrono::seconds(10)) return;
+                           last_beat = now;
+                           LevelReport r;
+                           r.tree = tree_index;
+                           r.level = level;
+                           r.partial = true;
+                           r.done = double(done) / items.size();
+                           r.seconds = std::chrono::duration<double>(now - level_start).count();
+                           r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
+                           progress(r);
+                         });
+    const size_t work = comm || image_major ? 0 : by_ranges ? ranges.size() : items.size();
     parallel_for(work, threads, [&](size_t i, int thread) {
       if (by_ranges) {
         const RangeItem& r = ranges[i];
@@ -1531,7 +1660,7 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
     n.right = position(2 * n.heap_index + 2);
   }
   out.peak_bytes = pixels.size() * sizeof(TrainingPixel) * 2 + grower.scratch_bytes() + range_peak_bytes +
-                   nodes.size() * sizeof(GrowNode);
+                   level_rows.capacity() * sizeof(int16_t) + nodes.size() * sizeof(GrowNode);
   out.pixels = std::move(pixels);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tree_start).count();
   return out;

@@ -45,6 +45,10 @@ struct TreeParams {
   uint64_t seed = 1;
   int threads = 1;
   const OffsetProposal* proposal = nullptr;
+  // Deep levels search their nodes in batches whose features (int16, pixels × candidates padded
+  // to 16) take at most this many bytes; 0 = the default, 1 GiB (tree_trainer.cc,
+  // kLevelFeatureBytes). Memory only: the forest is the same for any value.
+  size_t level_feature_bytes = 0;
   // Data-parallel growth over the ranks of `comm` (docs/training.md "Distributed training"): the
   // pixels given to grow_tree are this rank's share (its images' pixels, a contiguous range of
   // the tree's global pixel list, ranks in order); every rank grows the same tree. Null: one
