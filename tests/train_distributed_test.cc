@@ -20,7 +20,7 @@ namespace {
 
 // Shared state of the thread ranks: a reusable barrier and the buffers the collectives fill.
 struct ThreadGroup {
-  explicit ThreadGroup(int n) : size(n), gathered(n) {}
+  explicit ThreadGroup(int n) : size(n), gathered(n), outbox(n) {}
   void barrier() {
     std::unique_lock<std::mutex> lock(mutex);
     const uint64_t generation = generation_;
@@ -39,6 +39,7 @@ struct ThreadGroup {
   uint64_t generation_ = 0;
   std::vector<int64_t> sums;
   std::vector<std::vector<uint8_t>> gathered;
+  std::vector<std::vector<std::vector<uint8_t>>> outbox;  // [sender][receiver] of exchange()
 };
 
 class ThreadCommunicator final : public Communicator {
@@ -61,6 +62,17 @@ class ThreadCommunicator final : public Communicator {
     group_.barrier();
     if (rank_ != 0) data = group_.gathered[0];
     group_.barrier();
+  }
+  std::vector<std::vector<uint8_t>> exchange(const std::vector<std::vector<uint8_t>>& parts) override {
+    if (parts.size() != size_t(group_.size)) throw std::runtime_error("exchange: one part per rank expected");
+    for (int r = 0; r < group_.size; ++r)
+      if (r != rank_) bytes_exchanged_ += parts[r].size();
+    group_.outbox[rank_] = parts;
+    group_.barrier();
+    std::vector<std::vector<uint8_t>> out(group_.size);
+    for (int r = 0; r < group_.size; ++r) out[r] = group_.outbox[r][rank_];
+    group_.barrier();
+    return out;
   }
   void barrier() override { group_.barrier(); }
   [[noreturn]] void abort(const std::string& message) override {
