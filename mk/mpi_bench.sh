@@ -25,7 +25,7 @@ fi
 TRAIN=(train --data "$ROOT/data-$FRAMES" --method bpc --trees 1 --depth "${BENCH_DEPTH:-12}" --pixels-per-image "${BENCH_PIXELS:-1000}"
        --offsets "${BENCH_OFFSETS:-200}" --thresholds "${BENCH_THRESHOLDS:-20}" --no-timings)
 SWEEP=(${BENCH_NODE_PARALLEL:-0 300 1000 3000 10000 30000})
-DEFAULT=$("$CLI" train --help 2>&1 | sed -nE 's/.*\(default ([0-9]+), 0 = never.*/\1/p')
+DEFAULT=$("$CLI" train --help 2>&1 | sed -nE 's/.*\(default ([0-9]+), 0 = never\).*/\1/p')
 [ -n "$DEFAULT" ] || { echo "bench-mpi: no default of --node-parallel-below in 'depthpose train --help'"; exit 1; }
 measure() {  # measure NAME RANKS THREADS [train options]: wall and CPU seconds (user + system, all processes)
   local name=$1 ranks=$2 threads=$3 log=$ROOT/$1.log t

@@ -53,8 +53,8 @@ const std::string kUsage = std::string() +
     "  --no-timings           leave the timings out of the file, so that runs compare byte for byte\n"
     "  --node-parallel-below N  distributed: nodes with fewer than N pixels are searched by one rank\n"
     "                         each from their pixels' features instead of by summing histograms over\n"
-    "                         the ranks (default " + std::to_string(kDefaultNodeParallelPixels) + ", 0 = never; same forest\n"
-    "                         either way; docs/training.md \"Node-parallel deep levels\")\n"
+    "                         the ranks (default " + std::to_string(kDefaultNodeParallelPixels) + ", 0 = never); the same forest\n"
+    "                         either way (docs/training.md \"What is communicated per level\")\n"
     "  --distributed          run as one rank of an MPI job even when no launcher is detected\n"
     "                         (mpirun/srun are detected; docs/training.md \"Distributed training\")\n";
 

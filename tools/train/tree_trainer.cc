@@ -1344,7 +1344,7 @@ void search_distributed(Grower& grower, const std::vector<NodeInfo>& info, const
   }
 }
 
-// Node-parallel split search (docs/training.md "Node-parallel deep levels") of the work items of
+// Node-parallel split search (docs/training.md "What is communicated per level") of the work items of
 // nodes with few pixels, `items` grouped by node in frontier order. Each node is owned by one rank
 // (the least loaded so far in frontier order, counting its pixels, ties to the lowest rank: the
 // same on every rank). In batches of nodes whose data fit kBatchHistogramBytes, (1) every rank
