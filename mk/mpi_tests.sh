@@ -3,7 +3,9 @@
 # training"), on this machine with mpirun --oversubscribe (~30 s on 2 cores):
 #   - mpirun -np 3 synth writes the dataset a single process writes, byte for byte;
 #   - forests from 1 process (2 threads) and from 1, 2 and 3 ranks (1 thread) are byte-identical
-#     for BPC, OJR with the classification objective and OJR with the regression objective;
+#     for BPC, OJR with the classification objective and OJR with the regression objective, with
+#     --node-parallel-below set so that each tree's first levels sum histograms and the deeper ones
+#     are node-parallel (the 2- and 3-rank runs' progress lines must show both);
 #   - a run stopped after a checkpoint under 2 ranks and resumed under 3 equals the uninterrupted one;
 #   - mismatched options, an unreadable image and a dying rank end the job with a message naming
 #     the rank, never a hang.
@@ -47,16 +49,28 @@ fi
 DATA=$ROOT/data1
 
 # --- train: 1 process, 1/2/3 ranks ----------------------------------------------------------------
-TRAIN=(train --data "$DATA" --trees 2 --depth 8 --pixels-per-image 200 --offsets 40 --thresholds 10 --nres 5 --quiet --no-timings)
+# 4800 pixels per tree: levels 0-1 (nodes of ~2400+ pixels) sum histograms, levels from 2 on
+# hold nodes below 1000 pixels, searched node-parallel.
+TRAIN=(train --data "$DATA" --trees 2 --depth 8 --pixels-per-image 200 --offsets 40 --thresholds 10 --nres 5 --no-timings
+       --node-parallel-below 1000)
 same_forest() {  # same_forest NAME train-options...
   local name=$1; shift
-  local d=$ROOT/$name ok=1
+  local d=$ROOT/$name ok=1 why="see $STEPS"
   mkdir -p "$d"
-  run "$CLI" "${TRAIN[@]}" "$@" --threads 2 --out "$d/p1.forest" || ok=0
-  run "${MPIRUN[@]}" -np 1 "$CLI" "${TRAIN[@]}" "$@" --threads 1 --distributed --out "$d/r1.forest" || ok=0
-  for n in 2 3; do run "${MPIRUN[@]}" -np $n "$CLI" "${TRAIN[@]}" "$@" --threads 1 --out "$d/r$n.forest" || ok=0; done
+  run "$CLI" "${TRAIN[@]}" "$@" --quiet --threads 2 --out "$d/p1.forest" || ok=0
+  run "${MPIRUN[@]}" -np 1 "$CLI" "${TRAIN[@]}" "$@" --quiet --threads 1 --distributed --out "$d/r1.forest" || ok=0
+  for n in 2 3; do
+    echo "+ ${MPIRUN[*]} -np $n $CLI ${TRAIN[*]} $* --threads 1 --out $d/r$n.forest" >>"$STEPS"
+    timeout 120 "${MPIRUN[@]}" -np $n "$CLI" "${TRAIN[@]}" "$@" --threads 1 --out "$d/r$n.forest" >"$d/r$n.log" 2>&1 || ok=0
+    cat "$d/r$n.log" >>"$STEPS"
+    # Both regimes in each tree: level 0 by histogram sums, a deeper level node-parallel.
+    if ! grep -qE "level  0/8: .* 0 node-parallel" "$d/r$n.log" ||
+       ! grep -qE "level  [2-7]/8: .* [1-9][0-9]* node-parallel" "$d/r$n.log"; then
+      ok=0; why="$n ranks: $d/r$n.log does not show level 0 by histogram sums and a deeper level node-parallel"
+    fi
+  done
   for n in 1 2 3; do cmp "$d/p1.forest" "$d/r$n.forest" >>"$STEPS" 2>&1 || ok=0; done
-  if [ $ok = 1 ]; then pass "MpiTrain.$name"; else fail "MpiTrain.$name" "see $STEPS"; fi
+  if [ $ok = 1 ]; then pass "MpiTrain.$name"; else fail "MpiTrain.$name" "$why"; fi
 }
 same_forest BpcSameForestFor1To3Ranks --method bpc
 same_forest OjrClassificationSameForestFor1To3Ranks --method ojr

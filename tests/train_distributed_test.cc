@@ -1,8 +1,9 @@
 // The data-parallel trainer without MPI: N "ranks" are threads of this process joined by an
 // in-process Communicator, each holding one image shard of a stick-body set as load_training_set
 // gives it (SamplingOptions::shard). Rank 0's forest must serialize to the bytes of the
-// one-process forest, for BPC and for OJR with both objectives, and the data digest must not
-// depend on the shards. (mk/mpi_tests.sh runs the same comparisons through mpirun.)
+// one-process forest, for BPC and for OJR with both objectives, with histogram sums at every level,
+// node-parallel deep levels and node-parallel levels throughout (TreeParams::node_parallel_pixels),
+// and the data digest must not depend on the shards. (mk/mpi_tests.sh runs the same comparisons through mpirun.)
 #include <gtest/gtest.h>
 
 #include <condition_variable>
@@ -20,7 +21,7 @@ namespace {
 
 // Shared state of the thread ranks: a reusable barrier and the buffers the collectives fill.
 struct ThreadGroup {
-  explicit ThreadGroup(int n) : size(n), gathered(n) {}
+  explicit ThreadGroup(int n) : size(n), gathered(n), outbox(n) {}
   void barrier() {
     std::unique_lock<std::mutex> lock(mutex);
     const uint64_t generation = generation_;
@@ -39,6 +40,7 @@ struct ThreadGroup {
   uint64_t generation_ = 0;
   std::vector<int64_t> sums;
   std::vector<std::vector<uint8_t>> gathered;
+  std::vector<std::vector<std::vector<uint8_t>>> outbox;  // [sender][receiver] of exchange()
 };
 
 class ThreadCommunicator final : public Communicator {
@@ -61,6 +63,17 @@ class ThreadCommunicator final : public Communicator {
     group_.barrier();
     if (rank_ != 0) data = group_.gathered[0];
     group_.barrier();
+  }
+  std::vector<std::vector<uint8_t>> exchange(const std::vector<std::vector<uint8_t>>& parts) override {
+    if (parts.size() != size_t(group_.size)) throw std::runtime_error("exchange: one part per rank expected");
+    for (int r = 0; r < group_.size; ++r)
+      if (r != rank_) bytes_exchanged_ += parts[r].size();
+    group_.outbox[rank_] = parts;
+    group_.barrier();
+    std::vector<std::vector<uint8_t>> out(group_.size);
+    for (int r = 0; r < group_.size; ++r) out[r] = group_.outbox[r][rank_];
+    group_.barrier();
+    return out;
   }
   void barrier() override { group_.barrier(); }
   [[noreturn]] void abort(const std::string& message) override {
@@ -125,8 +138,10 @@ ForestOptions small_options(const std::string& method, Objective objective, int 
   return fo;
 }
 
-// Trains on `ranks` thread ranks (2 threads each) and returns rank 0's forest bytes.
-std::vector<uint8_t> distributed_forest(const TrainingSet& all, const ForestOptions& options, int ranks) {
+// Trains on `ranks` thread ranks (2 threads each) and returns rank 0's forest bytes; `levels`
+// receives rank 0's level reports.
+std::vector<uint8_t> distributed_forest(const TrainingSet& all, const ForestOptions& options, int ranks,
+                                        std::vector<LevelReport>* levels = nullptr) {
   ThreadGroup group(ranks);
   std::vector<std::vector<uint8_t>> bytes(ranks);
   std::vector<std::string> errors(ranks);
@@ -139,7 +154,12 @@ std::vector<uint8_t> distributed_forest(const TrainingSet& all, const ForestOpti
         ForestOptions o = options;
         o.tree.comm = &comm;
         o.tree.threads = 2;
-        bytes[r] = forest_bytes(train_forest(shard, o, {}));
+        ProgressFn progress;
+        if (r == 0 && levels)
+          progress = [&](const LevelReport& report) {
+            if (!report.partial) levels->push_back(report);
+          };
+        bytes[r] = forest_bytes(train_forest(shard, o, progress));
       } catch (const std::exception& e) {
         errors[r] = e.what();
       }
@@ -158,12 +178,33 @@ TEST(TrainDistributed, ThreadRanksGrowTheOneProcessForest) {
   } cases[] = {{"bpc", "bpc", Objective::kClassification},
                {"ojr classification", "ojr", Objective::kClassification},
                {"ojr regression", "ojr", Objective::kRegression}};
+  // 960 pixels per tree: histogram sums at every level (0), at the root and level 1 then
+  // node-parallel (300), node-parallel from the root (the default, above the root's pixels).
   for (const Case& c : cases) {
     const std::vector<uint8_t> one = forest_bytes(train_forest(set, small_options(c.method, c.objective, 1), {}));
-    for (int ranks : {2, 3}) {
-      const std::vector<uint8_t> many = distributed_forest(set, small_options(c.method, c.objective, 1), ranks);
-      EXPECT_TRUE(one == many) << c.name << ": " << ranks << " ranks wrote another forest (" << many.size()
-                               << " bytes against " << one.size() << ")";
+    const std::pair<uint32_t, int> runs[] = {{0, 2}, {300, 2}, {300, 3}, {kDefaultNodeParallelPixels, 3}};
+    for (const auto& [below, ranks] : runs) {
+      ForestOptions o = small_options(c.method, c.objective, 1);
+      o.tree.node_parallel_pixels = below;
+      std::vector<LevelReport> levels;
+      const std::vector<uint8_t> many = distributed_forest(set, o, ranks, &levels);
+      EXPECT_TRUE(one == many) << c.name << ", --node-parallel-below " << below << ": " << ranks
+                               << " ranks wrote another forest (" << many.size() << " bytes against " << one.size()
+                               << ")";
+      // The regimes the switch asks for were taken: count the levels of each.
+      ASSERT_FALSE(levels.empty());
+      const bool root_summed = levels[0].active_pixels >= below;
+      int summed = 0, node_parallel = 0;
+      uint64_t exchanged = 0;  // rank 0's features sent to the other ranks' nodes
+      for (const LevelReport& l : levels) {
+        if (l.split_nodes == 0) continue;
+        summed += l.node_parallel_nodes == 0;
+        node_parallel += l.node_parallel_nodes > 0;
+        exchanged += l.bytes_exchanged;
+      }
+      EXPECT_EQ(summed > 0, root_summed) << c.name << ", below " << below;
+      EXPECT_EQ(node_parallel > 0, below > 0) << c.name << ", below " << below;
+      EXPECT_EQ(exchanged > 0, below > 0) << c.name << ", below " << below;
     }
   }
 }

@@ -30,6 +30,10 @@ class Communicator {
   virtual std::vector<std::vector<uint8_t>> gather(const std::vector<uint8_t>& mine) = 0;
   // Rank 0's `data` replaces every other rank's (sizes may differ beforehand).
   virtual void broadcast(std::vector<uint8_t>& data) = 0;
+  // All to all: this rank sends parts[r] to rank r (parts.size() == size(); parts[rank()] is
+  // delivered to itself) and receives what each rank sent it, indexed by the sender. The node-
+  // parallel deep levels move pixel features to the rank that owns a node this way.
+  virtual std::vector<std::vector<uint8_t>> exchange(const std::vector<std::vector<uint8_t>>& parts) = 0;
   virtual void barrier() = 0;
   // Ends every rank of the job with exit status 1 after printing "depthpose: rank R of N: message"
   // on stderr. For errors on one rank that the others cannot see (they would wait forever).
@@ -37,11 +41,15 @@ class Communicator {
 
   // Payload bytes this rank has handed to sum() so far (a level's traffic is the difference).
   uint64_t bytes_reduced() const { return bytes_reduced_; }
-  // Wall seconds this rank has spent inside sum() (waiting for the slowest rank included).
+  // Bytes this rank has sent to other ranks through exchange() so far (its own part excluded).
+  uint64_t bytes_exchanged() const { return bytes_exchanged_; }
+  // Wall seconds this rank has spent inside sum() and exchange() (waiting for the slowest rank
+  // included).
   double seconds_reducing() const { return seconds_reducing_; }
 
  protected:
   uint64_t bytes_reduced_ = 0;
+  uint64_t bytes_exchanged_ = 0;
   double seconds_reducing_ = 0;
 };
 

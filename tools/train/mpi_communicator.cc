@@ -107,6 +107,32 @@ class MpiCommunicator final : public Communicator {
   }
   void barrier() override { MPI_Barrier(MPI_COMM_WORLD); }
 
+  std::vector<std::vector<uint8_t>> exchange(const std::vector<std::vector<uint8_t>>& parts) override {
+    if (parts.size() != size_t(size_))
+      abort("exchange() got " + std::to_string(parts.size()) + " parts for " + std::to_string(size_) + " ranks");
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<int> send_counts(size_), send_displs(size_), recv_counts(size_), recv_displs(size_);
+    std::vector<uint8_t> sent = concatenate(parts, send_counts, send_displs);
+    for (int r = 0; r < size_; ++r)
+      if (r != rank_) bytes_exchanged_ += parts[r].size();
+    MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+    size_t total = 0;
+    for (int r = 0; r < size_; ++r) {
+      if (total + size_t(recv_counts[r]) > size_t(std::numeric_limits<int>::max()))
+        abort("exchanged messages of more than 2^31 bytes exceed MPI's int displacements");
+      recv_displs[r] = static_cast<int>(total);
+      total += size_t(recv_counts[r]);
+    }
+    std::vector<uint8_t> received(total);
+    MPI_Alltoallv(sent.data(), send_counts.data(), send_displs.data(), MPI_BYTE, received.data(), recv_counts.data(),
+                  recv_displs.data(), MPI_BYTE, MPI_COMM_WORLD);
+    std::vector<std::vector<uint8_t>> out(size_);
+    for (int r = 0; r < size_; ++r)
+      out[r].assign(received.begin() + recv_displs[r], received.begin() + recv_displs[r] + recv_counts[r]);
+    seconds_reducing_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return out;
+  }
+
   [[noreturn]] void abort(const std::string& message) override {
     std::fprintf(stderr, "depthpose: rank %d of %d: %s\n", rank_, size_, message.c_str());
     std::fflush(stderr);
@@ -115,6 +141,23 @@ class MpiCommunicator final : public Communicator {
   }
 
  private:
+  // The parts one after another, with MPI's int counts and displacements (refused beyond 2^31 − 1).
+  std::vector<uint8_t> concatenate(const std::vector<std::vector<uint8_t>>& parts, std::vector<int>& counts,
+                                   std::vector<int>& displs) {
+    size_t total = 0;
+    for (size_t r = 0; r < parts.size(); ++r) {
+      if (total + parts[r].size() > size_t(std::numeric_limits<int>::max()))
+        abort("exchanged messages of more than 2^31 bytes exceed MPI's int displacements");
+      counts[r] = static_cast<int>(parts[r].size());
+      displs[r] = static_cast<int>(total);
+      total += parts[r].size();
+    }
+    std::vector<uint8_t> all;
+    all.reserve(total);
+    for (const std::vector<uint8_t>& p : parts) all.insert(all.end(), p.begin(), p.end());
+    return all;
+  }
+
   template <class T>
   void reduce(T* data, size_t count, MPI_Datatype type) {
     bytes_reduced_ += count * sizeof(T);

@@ -17,7 +17,7 @@
 namespace dp::train {
 namespace {
 
-constexpr const char* kUsage =
+const std::string kUsage = std::string() +
     "usage: depthpose train --data DIR[,DIR...] --method bpc|ojr --out FILE.forest [options]\n"
     "  --trees T              trees (default 3)\n"
     "  --depth D              maximum depth, leaves at level <= D (default 20)\n"
@@ -51,6 +51,10 @@ constexpr const char* kUsage =
     "                         over all trees); --resume continues (e.g. within a batch system's time limit)\n"
     "  --quiet                no progress on stderr\n"
     "  --no-timings           leave the timings out of the file, so that runs compare byte for byte\n"
+    "  --node-parallel-below N  distributed: nodes with fewer than N pixels are searched by one rank\n"
+    "                         each from their pixels' features instead of by summing histograms over\n"
+    "                         the ranks (default " + std::to_string(kDefaultNodeParallelPixels) + ", 0 = never); the same forest\n"
+    "                         either way (docs/training.md \"What is communicated per level\")\n"
     "  --distributed          run as one rank of an MPI job even when no launcher is detected\n"
     "                         (mpirun/srun are detected; docs/training.md \"Distributed training\")\n";
 
@@ -140,7 +144,8 @@ int train_main(int argc, char** argv, Communicator* comm) {
                    {"--data", "--method", "--trees", "--depth", "--out", "--objective", "--pixels-per-image",
                     "--images-per-tree", "--offsets", "--thresholds", "--max-offset", "--reference-focal",
                     "--min-samples", "--rho", "--nres", "--bandwidth", "--votes-per-leaf", "--vote-length",
-                    "--structure", "--structure-min-pixels", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint", "--stop-after"},
+                    "--structure", "--structure-min-pixels", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint", "--stop-after",
+                    "--node-parallel-below"},
                    {"--quiet", "--resume", "--distributed", "--no-timings"});
   if (args.help_requested()) {
     std::cout << kUsage;
@@ -229,6 +234,10 @@ int train_main(int argc, char** argv, Communicator* comm) {
   fo.tree.threads = threads;
   fo.tree.proposal = proposal.get();
   fo.tree.comm = comm;
+  const long long node_parallel_below = args.get_int("--node-parallel-below", kDefaultNodeParallelPixels);
+  if (node_parallel_below < 0 || node_parallel_below > kMaxNodeParallelPixels)
+    tools::fail("--node-parallel-below must be 0.." + std::to_string(kMaxNodeParallelPixels) + " pixels");
+  fo.tree.node_parallel_pixels = static_cast<uint32_t>(node_parallel_below);
   fo.leaf.reservoir = static_cast<int>(args.get_int("--nres", 100));
   fo.leaf.bandwidth_m = static_cast<float>(args.get_double("--bandwidth", 0.05));
   fo.leaf.votes_per_joint = static_cast<int>(args.get_int("--votes-per-leaf", 2));
@@ -281,8 +290,10 @@ int train_main(int argc, char** argv, Communicator* comm) {
     const double tree_left = per_level * std::max(0, depth - r.level - 1);
     const double per_tree = done_trees == 0 ? per_level * depth : done_seconds / done_trees;
     const double eta = tree_left + per_tree * (trees - r.tree - 1);
-    char traffic[64] = "";
-    if (comm) std::snprintf(traffic, sizeof traffic, ", %.3f MB reduced per rank", r.bytes_reduced / 1e6);
+    char traffic[128] = "";
+    if (comm)
+      std::snprintf(traffic, sizeof traffic, ", %.3f MB reduced + %.3f MB exchanged per rank, %zu node-parallel",
+                    r.bytes_reduced / 1e6, r.bytes_exchanged / 1e6, r.node_parallel_nodes);
     std::fprintf(stderr,
                  "train: tree %d/%d level %2d/%d: %zu nodes, %zu split, %.2fM px, %.2f G evals%s, %s (tree %s, ETA <= %s)\n",
                  r.tree + 1, trees, r.level, depth, r.frontier_nodes, r.split_nodes, r.active_pixels / 1e6,
@@ -329,9 +340,10 @@ int train_main(int argc, char** argv, Communicator* comm) {
     if (!args.flag("--quiet"))
       std::fprintf(stderr,
                    "train: rank %d of %d: images %zu..%zu (%zu loaded, %.1f MB), %zu training pixels, %.3f MB "
-                   "reduced in %.2f s, peak resident %.1f MB\n",
+                   "reduced + %.3f MB exchanged in %.2f s, peak resident %.1f MB\n",
                    comm->rank(), comm->size(), first, last, images_used, set.image_bytes() / 1e6, set.pixel_count(),
-                   comm->bytes_reduced() / 1e6, comm->seconds_reducing(), peak_resident_bytes() / 1e6);
+                   comm->bytes_reduced() / 1e6, comm->bytes_exchanged() / 1e6, comm->seconds_reducing(),
+                   peak_resident_bytes() / 1e6);
     comm->barrier();  // rank 0 has written the forest when any rank exits 0
   }
   if (!quiet) {

@@ -256,6 +256,18 @@ struct ImageRef {
   int32_t width, height;
 };
 
+// bin[c] = the number of lane c's thresholds below feature[c] (8 lanes per SSE2 instruction).
+inline void bins_sse2(const CandidateLanes& l, const int16_t* feature, int16_t* bin) {
+  for (int c = 0; c < l.padded; c += 8) {
+    const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(feature + c));
+    __m128i count = _mm_setzero_si128();
+    const int16_t* t = l.table.data() + c;
+    for (int k = 0; k < l.thresholds; ++k, t += l.padded)
+      count = _mm_sub_epi16(count, _mm_cmpgt_epi16(f, _mm_loadu_si128(reinterpret_cast<const __m128i*>(t))));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(bin + c), count);
+  }
+}
+
 // Features and bins of every candidate at one pixel (same values as dp::depth_feature and
 // block_bins). Pixel-major: the pixel's neighbourhood stays in L1 while all candidates probe it,
 // and consecutive pixels of a node mostly come from the same image (pixels stay in image order).
@@ -264,8 +276,8 @@ struct ImageRef {
 // the background constant 32767 without a branch or select.
 // Writes bin[0, l.padded); `feature` is scratch of l.padded entries. `l` is shared by threads
 // (read only); feature and bin are the calling thread's.
-inline void pixel_features(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v, int32_t s,
-                           int16_t* feature, int16_t* bin) {
+inline void features_scalar(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v, int32_t s,
+                            int16_t* feature) {
   static_assert(kBackgroundDepthMm == 0x7FFF, "the OR trick needs the background to be all ones");
   const uint32_t w = static_cast<uint32_t>(im.width), h = static_cast<uint32_t>(im.height);
   for (int c = 0; c < l.padded; ++c) {
@@ -277,14 +289,11 @@ inline void pixel_features(const CandidateLanes& l, const ImageRef& im, int32_t 
     const int32_t d2 = im.probe[(v2 * im.width + u2) & in2] | (~in2 & 0x7FFF);
     feature[c] = static_cast<int16_t>(d1 - d2);
   }
-  for (int c = 0; c < l.padded; c += 8) {
-    const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(feature + c));
-    __m128i count = _mm_setzero_si128();
-    const int16_t* t = l.table.data() + c;
-    for (int k = 0; k < l.thresholds; ++k, t += l.padded)
-      count = _mm_sub_epi16(count, _mm_cmpgt_epi16(f, _mm_loadu_si128(reinterpret_cast<const __m128i*>(t))));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(bin + c), count);
-  }
+}
+inline void pixel_features(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v, int32_t s,
+                           int16_t* feature, int16_t* bin) {
+  features_scalar(l, im, u, v, s, feature);
+  bins_sse2(l, feature, bin);
 }
 
 // One probe for 8 lanes (offset rows du, dv) at a pixel: offsets, bounds and the element index
@@ -800,16 +809,14 @@ class Grower {
   // Returns node_features for accumulate.
   const int16_t* prepare_stored_group(const NodeInfo& node, int c0, int c1, CandidateGroup& g, int thread) {
     Scratch& s = scratch_[thread];
-    draw_group_offsets(node, c0, c1, g);
-    const size_t padded = size_t(g.lanes.padded);
-    s.node_features.resize(size_t(node.count) * padded);
-    int16_t* rows = s.node_features.data();
-    for (uint32_t i = node.begin; i < node.end; ++i) pixel_feature_row(g.lanes, i, rows + (i - node.begin) * padded);
-    thresholds_from_rows(node, g, rows, thread);
-    return rows;
+    draw_group(node, c0, c1, g);
+    s.node_features.resize(size_t(node.count) * g.lanes.padded);
+    feature_rows(g, node.begin, node.end, s.node_features.data());
+    thresholds_from_rows(node, s.node_features.data(), g, thread);
+    return s.node_features.data();
   }
-  // Candidates [c0, c1) of `node` with their offset lanes (no thresholds yet).
-  void draw_group_offsets(const NodeInfo& node, int c0, int c1, CandidateGroup& g) const {
+  // Candidates [c0, c1) of `node` drawn into g, with their offset lanes (no thresholds yet).
+  void draw_group(const NodeInfo& node, int c0, int c1, CandidateGroup& g) const {
     g.c0 = c0;
     g.c1 = c1;
     g.candidates.resize(c1 - c0);
@@ -832,23 +839,46 @@ class Grower {
   uint32_t image_of(uint32_t i) const { return px_[i].image; }
   size_t image_count() const { return images_.size(); }
   // evaluate() for a node whose pixels' features for all candidates (lanes of
-  // draw_group_offsets(node, 0, offset_candidates)) are already in `rows`, pixel-major.
+  // draw_group(node, 0, offset_candidates)) are already in `rows`, pixel-major.
   Best evaluate_rows(const NodeInfo& node, const int16_t* rows, int thread) {
     CandidateGroup& g = groups_[thread];
-    draw_group_offsets(node, 0, p_.offset_candidates, g);
-    thresholds_from_rows(node, g, rows, thread);
+    draw_group(node, 0, p_.offset_candidates, g);
+    thresholds_from_rows(node, rows, g, thread);
     return search_group(node, g, rows, thread);
   }
-  // The thresholds of `g` from the node's sample pixels' rows of `rows` (the node's features).
-  void thresholds_from_rows(const NodeInfo& node, CandidateGroup& g, const int16_t* rows, int thread) {
+  // The features of g's lanes (offsets only) at this process's pixels [begin, end), pixel-major:
+  // pixel i's at rows + (i − begin) × g.lanes.padded.
+  void feature_rows(const CandidateGroup& g, uint32_t begin, uint32_t end, int16_t* rows) const {
+    const size_t padded = size_t(g.lanes.padded);
+    for (uint32_t i = begin; i < end; ++i) {
+      const TrainingPixel& p = px_[i];
+      if (features_ == pixel_features_avx2)
+        features_avx2(g.lanes, images_[p.image], p.u, p.v, p.scale_q13, rows + (i - begin) * padded);
+      else
+        features_scalar(g.lanes, images_[p.image], p.u, p.v, p.scale_q13, rows + (i - begin) * padded);
+    }
+  }
+  // The thresholds of g (draw_group done) from `rows`, the features of all the node's pixels in
+  // its global order (pixel-major, g.lanes.padded per pixel): the threshold sample's features are
+  // the rows at the sample positions (the same values prepare_group computes from the pixels).
+  void thresholds_from_rows(const NodeInfo& node, const int16_t* rows, CandidateGroup& g, int thread) {
     Scratch& s = scratch_[thread];
     const size_t padded = size_t(g.lanes.padded);
     uint32_t positions[kBlock];
     const int n = sample_positions(node, positions);
-    s.sample_features.resize(size_t(n) * padded);
-    for (int i = 0; i < n; ++i)
-      std::memcpy(s.sample_features.data() + i * padded, rows + positions[i] * padded, padded * sizeof(int16_t));
-    set_lane_thresholds(g, s.sample_features.data(), n, thread);
+    if (features_ == pixel_features_avx2) {
+      s.sample_features.resize(size_t(n) * padded);
+      for (int i = 0; i < n; ++i)
+        std::memcpy(s.sample_features.data() + i * padded, rows + positions[i] * padded, padded * sizeof(int16_t));
+      set_lane_thresholds(g, s.sample_features.data(), n, thread);
+      return;
+    }
+    int16_t column[kBlock];
+    for (int c = 0; c < g.c1 - g.c0; ++c) {
+      for (int i = 0; i < n; ++i) column[i] = rows[positions[i] * padded + g.lanes.lane[c]];
+      set_thresholds(g.candidates[c], column, n);
+    }
+    finish_group(g);
   }
   // The same group when the sample's features come from all ranks: `features` holds
   // (c1 − c0) × sample_count values, candidate-major (sample_features()).
@@ -897,8 +927,6 @@ class Grower {
   // without evaluating them again.
   void accumulate(const NodeInfo& node, const CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts,
                   int thread, const int16_t* stored = nullptr) {
-    const int nc = g.c1 - g.c0;
-    const size_t class_stride = size_t(g.bins) * nc;
     const CandidateLanes& l = g.lanes;
     Scratch& s = scratch_[thread];
     s.feature.resize(l.padded);
@@ -907,12 +935,37 @@ class Grower {
     for (uint32_t i = begin; i < end; ++i) {
       const TrainingPixel& p = px_[i];
       if (stored)
-        bins_avx2(l, stored + size_t(i - node.begin) * l.padded, bin);
+        bin_row(l, stored + size_t(i - node.begin) * l.padded, bin);
       else
         features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), bin);
-      uint32_t* h = counts + node.class_of[p.label] * class_stride;
-      for (int c = 0; c < nc; ++c) ++h[bin[c] * nc + c];
+      count_pixel(g, bin, node.class_of[p.label], counts);
     }
+  }
+  // Adds one pixel of compact class `cls` with bins `bin` (by lane) to a classification histogram
+  // (cells [class][bin][lane]).
+  static void count_pixel(const CandidateGroup& g, const int16_t* bin, int cls, uint32_t* counts) {
+    const int nc = g.c1 - g.c0;
+    uint32_t* h = counts + size_t(cls) * g.bins * nc;
+    for (int c = 0; c < nc; ++c) ++h[bin[c] * nc + c];
+  }
+  // Adds one pixel's offsets (pixel_offsets) with bins `bin` (by lane) to a regression histogram
+  // (accumulate_regression's cells).
+  void add_regression_pixel(const CandidateGroup& g, const int16_t* bin, const int32_t* offsets, uint32_t* counts,
+                            int64_t* sums) const {
+    const size_t row = size_t(joints_) * 5;
+    for (int c = 0; c < g.c1 - g.c0; ++c) {
+      const size_t cell = size_t(c) * g.bins + bin[g.lanes.lane[c]];
+      ++counts[cell];
+      add_offsets(offsets, joints_, sums + cell * row);
+    }
+  }
+  // Bins of one pixel's stored features (g.lanes.padded of them): the same bins as the pixel
+  // kernels give.
+  void bin_row(const CandidateLanes& l, const int16_t* feature, int16_t* bin) const {
+    if (features_ == pixel_features_avx2)
+      bins_avx2(l, feature, bin);
+    else
+      bins_sse2(l, feature, bin);
   }
 
   // Classification: the best (candidate, threshold) of a group from its complete histogram.
@@ -980,24 +1033,18 @@ class Grower {
   void accumulate_regression(const CandidateGroup& g, uint32_t begin, uint32_t end, uint32_t* counts,
                              int64_t* sums, int thread, const int16_t* stored = nullptr) {
     Scratch& s = scratch_[thread];
-    const int nc = g.c1 - g.c0, bins = g.bins, J = joints_;
-    const size_t row = size_t(J) * 5;
     const CandidateLanes& l = g.lanes;
     s.feature.resize(l.padded);
     s.bin.resize(l.padded);
-    s.offsets.resize(size_t(J) * 4);
+    s.offsets.resize(size_t(joints_) * 4);
     for (uint32_t i = begin; i < end; ++i) {
       const TrainingPixel& p = px_[i];
       if (stored)
-        bins_avx2(l, stored + size_t(i - begin) * l.padded, s.bin.data());
+        bin_row(l, stored + size_t(i - begin) * l.padded, s.bin.data());
       else
         features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
       pixel_offsets(p, s.offsets.data());
-      for (int c = 0; c < nc; ++c) {
-        const size_t cell = size_t(c) * bins + s.bin[l.lane[c]];
-        ++counts[cell];
-        add_offsets(s.offsets.data(), J, sums + cell * row);
-      }
+      add_regression_pixel(g, s.bin.data(), s.offsets.data(), counts, sums);
     }
   }
 
@@ -1066,6 +1113,68 @@ class Grower {
     return score_regression(node, g, s.counts.data(), s.sums.data(), thread);
   }
 
+  // Node-parallel deep levels (search_node_parallel). What a rank sends a node's owner per pixel:
+  // its target (classification: the label byte and a zero byte, so that every part keeps the
+  // int16 features 2-byte aligned; regression: pixel_offsets, joints × 4 int32) and, per work item,
+  // the features of its candidates (int16, in lane order).
+  size_t target_bytes() const { return classification() ? 2 : size_t(joints_) * 4 * sizeof(int32_t); }
+  void local_targets(const NodeInfo& node, uint8_t* out) const {
+    std::vector<int32_t> o(4 * size_t(joints_));
+    for (uint32_t i = node.begin; i < node.end; ++i, out += target_bytes()) {
+      if (classification()) {
+        out[0] = px_[i].label;
+        out[1] = 0;
+      } else {
+        pixel_offsets(px_[i], o.data());
+        std::memcpy(out, o.data(), target_bytes());
+      }
+    }
+  }
+  // Features of candidates [c0, c1) of `node` at this process's pixels of it: (c1 − c0) per pixel
+  // in lane order (make_offset_lanes), pixels in order.
+  void local_features(const NodeInfo& node, int c0, int c1, int16_t* out, int thread) {
+    Scratch& s = scratch_[thread];
+    CandidateGroup& g = groups_[thread];
+    draw_group(node, c0, c1, g);
+    const size_t padded = size_t(g.lanes.padded), nc = size_t(c1 - c0), n = node.end - node.begin;
+    s.node_features.resize(n * padded);
+    feature_rows(g, node.begin, node.end, s.node_features.data());
+    for (size_t i = 0; i < n; ++i) std::memcpy(out + i * nc, s.node_features.data() + i * padded, nc * sizeof(int16_t));
+  }
+  // What evaluate() finds for candidates [c0, c1) of `node`, from all its pixels' features
+  // (`features`: node.count × (c1 − c0), as local_features gives them, ranks' pixels in rank
+  // order = the node's global order) and targets (local_targets likewise): the same threshold
+  // sample, thresholds, histograms and scoring as one process, hence the same split.
+  Best evaluate_gathered(const NodeInfo& node, int c0, int c1, const int16_t* features, const uint8_t* targets,
+                         int thread) {
+    Scratch& s = scratch_[thread];
+    CandidateGroup& g = groups_[thread];
+    draw_group(node, c0, c1, g);
+    const size_t padded = size_t(g.lanes.padded), nc = size_t(c1 - c0), n = node.count;
+    s.node_features.assign(n * padded, 0);
+    int16_t* rows = s.node_features.data();
+    for (size_t i = 0; i < n; ++i) std::memcpy(rows + i * padded, features + i * nc, nc * sizeof(int16_t));
+    thresholds_from_rows(node, rows, g, thread);
+    s.bin.resize(padded);
+    if (classification()) {
+      s.counts.assign(g.histogram_cells(node), 0);
+      for (size_t i = 0; i < n; ++i) {
+        bin_row(g.lanes, rows + i * padded, s.bin.data());
+        count_pixel(g, s.bin.data(), node.class_of[targets[i * target_bytes()]], s.counts.data());
+      }
+      return score_group(node, g, s.counts.data(), s.score);
+    }
+    s.counts.assign(nc * g.bins, 0);
+    s.sums.assign(regression_sums(g), 0);
+    s.offsets.resize(size_t(joints_) * 4);
+    for (size_t i = 0; i < n; ++i) {
+      bin_row(g.lanes, rows + i * padded, s.bin.data());
+      std::memcpy(s.offsets.data(), targets + i * target_bytes(), target_bytes());
+      add_regression_pixel(g, s.bin.data(), s.offsets.data(), s.counts.data(), s.sums.data());
+    }
+    return score_regression(node, g, s.counts.data(), s.sums.data(), thread);
+  }
+
   // Candidates per candidate group (work item) of `node` on a level with `splittable` nodes to
   // search. More candidates per group means each pixel's neighbourhood, once in cache, serves more
   // probes. Classification groups hold as many as keep the group's histogram within
@@ -1111,7 +1220,8 @@ struct Item {
 // own pixels per node (labels or fixed-point offset sums); one sum gives every rank the node's
 // global count, its statistics and where each rank's pixels start in the node's global order
 // (ranks hold contiguous image ranges and partitions are stable, so that order is rank order).
-void gather_node_stats(Grower& grower, std::vector<NodeInfo>& info, Communicator& comm, int threads) {
+// Returns every rank's pixel count of every node (node f, rank r at f × ranks + r).
+std::vector<uint32_t> gather_node_stats(Grower& grower, std::vector<NodeInfo>& info, Communicator& comm, int threads) {
   const size_t ranks = size_t(comm.size()), labels = 256, sums = size_t(grower.stats_sums());
   const size_t stride = ranks + labels;
   std::vector<uint32_t> counts(info.size() * stride, 0);
@@ -1132,6 +1242,41 @@ void gather_node_stats(Grower& grower, std::vector<NodeInfo>& info, Communicator
     }
     grower.finish(info[f], total, c + ranks, offsets.data() + f * sums);
   });
+  std::vector<uint32_t> rank_counts(info.size() * ranks);
+  for (size_t f = 0; f < info.size(); ++f)
+    std::copy(counts.begin() + f * stride, counts.begin() + f * stride + ranks, rank_counts.begin() + f * ranks);
+  return rank_counts;
+}
+
+// Gives every rank results[0, n): item i's record comes from the one rank where mine(i) holds
+// (the others' entries are ignored), in one sum where each record has one non-zero term.
+void share_results(Best* results, size_t n, const std::function<bool(size_t)>& mine, Communicator& comm) {
+  constexpr size_t kFields = 7;  // score bits, candidate, du1, dv1, du2, dv2, threshold
+  std::vector<int64_t> shared(n * kFields, 0);
+  for (size_t i = 0; i < n; ++i) {
+    if (!mine(i)) continue;
+    const Best& b = results[i];
+    int64_t* f = &shared[i * kFields];
+    std::memcpy(&f[0], &b.score, sizeof b.score);
+    f[1] = b.candidate;
+    f[2] = b.du1;
+    f[3] = b.dv1;
+    f[4] = b.du2;
+    f[5] = b.dv2;
+    f[6] = b.threshold;
+  }
+  comm.sum(shared.data(), shared.size());
+  for (size_t i = 0; i < n; ++i) {
+    const int64_t* f = &shared[i * kFields];
+    Best& b = results[i];
+    std::memcpy(&b.score, &f[0], sizeof b.score);
+    b.candidate = static_cast<int>(f[1]);
+    b.du1 = static_cast<int32_t>(f[2]);
+    b.dv1 = static_cast<int32_t>(f[3]);
+    b.du2 = static_cast<int32_t>(f[4]);
+    b.dv2 = static_cast<int32_t>(f[5]);
+    b.threshold = static_cast<int32_t>(f[6]);
+  }
 }
 
 // Upper bound on the histogram bytes of one batch of a distributed level (all its work items'
@@ -1223,31 +1368,7 @@ void search_distributed(Grower& grower, const std::vector<NodeInfo>& info, const
                                                   sums.data() + sum_at[i], thread);
       }
     });
-    constexpr size_t kFields = 7;  // score bits, candidate, du1, dv1, du2, dv2, threshold
-    std::vector<int64_t> shared(n * kFields, 0);
-    for (size_t i = me; i < n; i += ranks) {
-      const Best& b = results[b0 + i];
-      int64_t* f = &shared[i * kFields];
-      std::memcpy(&f[0], &b.score, sizeof b.score);
-      f[1] = b.candidate;
-      f[2] = b.du1;
-      f[3] = b.dv1;
-      f[4] = b.du2;
-      f[5] = b.dv2;
-      f[6] = b.threshold;
-    }
-    comm.sum(shared.data(), shared.size());  // one rank wrote each record, the others zeros
-    for (size_t i = 0; i < n; ++i) {
-      const int64_t* f = &shared[i * kFields];
-      Best& b = results[b0 + i];
-      std::memcpy(&b.score, &f[0], sizeof b.score);
-      b.candidate = static_cast<int>(f[1]);
-      b.du1 = static_cast<int32_t>(f[2]);
-      b.dv1 = static_cast<int32_t>(f[3]);
-      b.du2 = static_cast<int32_t>(f[4]);
-      b.dv2 = static_cast<int32_t>(f[5]);
-      b.threshold = static_cast<int32_t>(f[6]);
-    }
+    share_results(results.data() + b0, n, [&](size_t i) { return i % ranks == me; }, comm);
     b0 = b1;
   }
 }
@@ -1324,6 +1445,119 @@ void search_image_major(Grower& grower, const std::vector<NodeInfo>& info, const
   }
 }
 
+// Node-parallel split search (docs/training.md "What is communicated per level") of the work items of
+// nodes with few pixels, `items` grouped by node in frontier order. Each node is owned by one rank
+// (the least loaded so far in frontier order, counting its pixels, ties to the lowest rank: the
+// same on every rank). In batches of nodes whose data fit kBatchHistogramBytes, (1) every rank
+// computes, for its own pixels of each node, their targets and every candidate's features and
+// sends them to the node's owner (one exchange); (2) the owner lays the ranks' parts end to end in
+// rank order — the node's global pixel order — and runs evaluate()'s search on them
+// (evaluate_gathered); (3) one sum shares the owners' results. Nothing per node is repeated on
+// other ranks beyond drawing the candidates their pixels are evaluated on; the batches depend
+// only on global counts, so every rank makes the same collective calls.
+void search_node_parallel(Grower& grower, const std::vector<NodeInfo>& info, const std::vector<uint32_t>& rank_counts,
+                          const std::vector<Item>& items, std::vector<Best>& results, Communicator& comm,
+                          int threads) {
+  const size_t ranks = size_t(comm.size()), me = size_t(comm.rank());
+  struct OwnedNode {
+    uint32_t node;
+    size_t i0, i1;  // its items
+    size_t owner;
+    size_t pixel_bytes;  // per pixel: target + features of every item
+  };
+  std::vector<OwnedNode> nodes;
+  std::vector<uint64_t> load(ranks, 0);
+  for (size_t i = 0; i < items.size();) {
+    OwnedNode o{items[i].node, i, i, 0, grower.target_bytes()};
+    for (; o.i1 < items.size() && items[o.i1].node == o.node; ++o.i1)
+      o.pixel_bytes += size_t(items[o.i1].c1 - items[o.i1].c0) * sizeof(int16_t);
+    o.owner = size_t(std::min_element(load.begin(), load.end()) - load.begin());
+    load[o.owner] += info[o.node].count;
+    nodes.push_back(o);
+    i = o.i1;
+  }
+  // The bytes rank r sends for node k of `nodes`, and where item i's features start in them.
+  auto part_bytes = [&](const OwnedNode& o, size_t r) { return size_t(rank_counts[o.node * ranks + r]) * o.pixel_bytes; };
+  auto item_offset = [&](const OwnedNode& o, size_t i, size_t pixels) {
+    return pixels * (grower.target_bytes() + size_t(items[i].c0 - items[o.i0].c0) * sizeof(int16_t));
+  };
+  for (size_t k0 = 0; k0 < nodes.size();) {
+    size_t k1 = k0, bytes = 0;
+    while (k1 < nodes.size()) {
+      const size_t node_bytes = size_t(info[nodes[k1].node].count) * nodes[k1].pixel_bytes;
+      if (k1 > k0 && bytes + node_bytes > kBatchHistogramBytes) break;
+      bytes += node_bytes;
+      ++k1;
+    }
+    // (1) this rank's parts, to each owner in batch order
+    std::vector<std::vector<uint8_t>> parts(ranks);
+    std::vector<size_t> at(k1 - k0);
+    {
+      std::vector<size_t> size(ranks, 0);
+      for (size_t k = k0; k < k1; ++k) {
+        at[k - k0] = size[nodes[k].owner];
+        size[nodes[k].owner] += part_bytes(nodes[k], me);
+      }
+      for (size_t r = 0; r < ranks; ++r) parts[r].resize(size[r]);
+    }
+    parallel_for(k1 - k0, threads, [&](size_t k, int thread) {
+      const OwnedNode& o = nodes[k0 + k];
+      const NodeInfo& node = info[o.node];
+      const size_t pixels = node.end - node.begin;
+      if (pixels == 0) return;
+      uint8_t* out = parts[o.owner].data() + at[k];
+      grower.local_targets(node, out);
+      for (size_t i = o.i0; i < o.i1; ++i)
+        grower.local_features(node, items[i].c0, items[i].c1,
+                              reinterpret_cast<int16_t*>(out + item_offset(o, i, pixels)), thread);
+    });
+    const std::vector<std::vector<uint8_t>> received = comm.exchange(parts);
+    std::vector<std::vector<uint8_t>>().swap(parts);
+    // (2) the owned nodes, assembled in global pixel order, then searched
+    std::vector<size_t> owned;
+    for (size_t k = k0; k < k1; ++k)
+      if (nodes[k].owner == me) owned.push_back(k);
+    std::vector<std::vector<uint8_t>> gathered(owned.size());
+    std::vector<size_t> cursor(ranks, 0);
+    for (size_t j = 0; j < owned.size(); ++j) {
+      const OwnedNode& o = nodes[owned[j]];
+      const size_t n = info[o.node].count;
+      gathered[j].resize(n * o.pixel_bytes);
+      size_t first = 0;  // the sender's first pixel in the node's global order
+      for (size_t r = 0; r < ranks; ++r) {
+        const size_t m = rank_counts[o.node * ranks + r];
+        const uint8_t* in = received[r].data() + cursor[r];
+        std::memcpy(gathered[j].data() + first * grower.target_bytes(), in, m * grower.target_bytes());
+        for (size_t i = o.i0; i < o.i1; ++i) {
+          const size_t row = size_t(items[i].c1 - items[i].c0) * sizeof(int16_t);
+          std::memcpy(gathered[j].data() + item_offset(o, i, n) + first * row, in + item_offset(o, i, m), m * row);
+        }
+        cursor[r] += m * o.pixel_bytes;
+        first += m;
+      }
+    }
+    std::vector<std::pair<size_t, size_t>> work;  // (owned node j, item i)
+    for (size_t j = 0; j < owned.size(); ++j)
+      for (size_t i = nodes[owned[j]].i0; i < nodes[owned[j]].i1; ++i) work.push_back({j, i});
+    parallel_for(work.size(), threads, [&](size_t w, int thread) {
+      const auto [j, i] = work[w];
+      const OwnedNode& o = nodes[owned[j]];
+      const NodeInfo& node = info[o.node];
+      const uint8_t* data = gathered[j].data();
+      results[i] = grower.evaluate_gathered(node, items[i].c0, items[i].c1,
+                                            reinterpret_cast<const int16_t*>(data + item_offset(o, i, node.count)),
+                                            data, thread);
+    });
+    // (3) the owners' results to every rank
+    const size_t i0 = nodes[k0].i0, i1 = nodes[k1 - 1].i1;
+    std::vector<size_t> owner_of(i1 - i0);
+    for (size_t k = k0; k < k1; ++k)
+      for (size_t i = nodes[k].i0; i < nodes[k].i1; ++i) owner_of[i - i0] = nodes[k].owner;
+    share_results(results.data() + i0, i1 - i0, [&](size_t i) { return owner_of[i] == me; }, comm);
+    k0 = k1;
+  }
+}
+
 struct GrowNode {
   uint32_t heap;
   uint32_t begin, end;
@@ -1373,6 +1607,8 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
   if (params.objective == Objective::kRegression && (!set.has_joints || set.joint_names.empty()))
     fail("the regression objective needs joints in every frame");
   if (pixels.size() > UINT32_MAX / 2) fail("too many training pixels for one tree");
+  if (params.node_parallel_pixels > kMaxNodeParallelPixels)
+    fail("--node-parallel-below must be 0.." + std::to_string(kMaxNodeParallelPixels) + " pixels");
 
   GrownTree out;
   Grower grower(set, pixels, tree_index, params);
@@ -1415,8 +1651,10 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       info[f].level = level;
     }
     const uint64_t reduced_before = comm ? comm->bytes_reduced() : 0;
+    const uint64_t exchanged_before = comm ? comm->bytes_exchanged() : 0;
+    std::vector<uint32_t> rank_counts;
     if (comm)
-      gather_node_stats(grower, info, *comm, threads);
+      rank_counts = gather_node_stats(grower, info, *comm, threads);
     else
       parallel_for(info.size(), threads, [&](size_t f, int) { grower.prepare(info[f]); });
 
@@ -1472,7 +1710,24 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       for (const RangeItem& r : ranges) level_bytes += groups[r.group].histogram_cells(info[items[r.group].node]) * 4;
       range_peak_bytes = std::max(range_peak_bytes, level_bytes);
     }
-    if (comm) search_distributed(grower, info, items, results, *comm, threads);
+    size_t node_parallel_nodes = 0;
+    if (comm) {
+      // Nodes below the switch are searched node-parallel, the others by histogram sums; either
+      // search fills its items' results (the split does not depend on which).
+      std::vector<Item> summed, gathered;
+      std::vector<size_t> summed_at, gathered_at;
+      for (size_t i = 0; i < items.size(); ++i) {
+        const bool np = info[items[i].node].count < params.node_parallel_pixels;
+        (np ? gathered : summed).push_back(items[i]);
+        (np ? gathered_at : summed_at).push_back(i);
+      }
+      for (const NodeInfo& n : info) node_parallel_nodes += n.splittable && n.count < params.node_parallel_pixels;
+      std::vector<Best> summed_results(summed.size()), gathered_results(gathered.size());
+      search_distributed(grower, info, summed, summed_results, *comm, threads);
+      search_node_parallel(grower, info, rank_counts, gathered, gathered_results, *comm, threads);
+      for (size_t i = 0; i < summed.size(); ++i) results[summed_at[i]] = summed_results[i];
+      for (size_t i = 0; i < gathered.size(); ++i) results[gathered_at[i]] = gathered_results[i];
+    }
     const bool image_major =
         !comm && !by_ranges && !items.empty() && level >= replay_levels && grower.has_avx2_kernel() &&
         std::all_of(items.begin(), items.end(),
@@ -1610,6 +1865,8 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       r.active_pixels = active;
       r.feature_evaluations = evaluations;
       r.bytes_reduced = comm ? comm->bytes_reduced() - reduced_before : 0;
+      r.bytes_exchanged = comm ? comm->bytes_exchanged() - exchanged_before : 0;
+      r.node_parallel_nodes = node_parallel_nodes;
       r.seconds = std::chrono::duration<double>(now - level_start).count();
       r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
       progress(r);
