@@ -363,21 +363,23 @@ $(FUZZ_DIR)/$(1)_fuzz: tests/fuzz/$(1)_fuzz.cc $(FUZZ_SRCS_$(1)) $(wildcard test
 endef
 $(foreach t,$(filter-out blob_loader,$(FUZZ_TARGETS)),$(eval $(call FUZZ_RULE,$(t))))
 
-# $(1) = make target, $(2) = libFuzzer's bounds for each parser
+# $(1) = make target, $(2) = libFuzzer's bounds for each parser. Each parser is a target of its own
+# ($(1)-<parser>), so the parsers are fuzzed side by side on every core (-j1: one at a time).
 define FUZZ_CAMPAIGN
-$(1): $(CLI) $(FUZZ_TARGETS:%=$(FUZZ_DIR)/%_fuzz)
+.PHONY: $(1) $(1)-corpus $(FUZZ_TARGETS:%=$(1)-%)
+$(1)-corpus: $(CLI)
 	@mkdir -p $(FUZZ_DIR)/artifacts
 	@rm -rf $(FUZZ_DIR)/corpus && mkdir -p $(FUZZ_DIR)/corpus/blob_loader
 	@$(CLI) demo --write-blobs $(FUZZ_DIR)/corpus/blob_loader > /dev/null
-	@for t in $(FUZZ_TARGETS); do \
-	  mkdir -p $(FUZZ_DIR)/corpus/$$$$t; \
-	  if [ -d tests/fuzz/seeds/$$$$t ]; then cp tests/fuzz/seeds/$$$$t/* $(FUZZ_DIR)/corpus/$$$$t/; fi; \
-	  echo "== fuzz $$$$t ($(2))"; \
-	  $(FUZZ_DIR)/$$$${t}_fuzz $(FUZZ_RUN_FLAGS) $(2) \
-	    -artifact_prefix=$(FUZZ_DIR)/artifacts/$$$$t- $(FUZZ_DIR)/corpus/$$$$t > $(FUZZ_DIR)/$$$$t.log 2>&1 \
-	    || { tail -40 $(FUZZ_DIR)/$$$$t.log; echo "$(1): $$$$t FAILED (log $(FUZZ_DIR)/$$$$t.log)"; exit 1; }; \
-	  grep -E "^#[0-9]+.*DONE" $(FUZZ_DIR)/$$$$t.log | tail -1; \
-	done; echo "$(1): OK ($(words $(FUZZ_TARGETS)) targets, nothing found)"
+$(FUZZ_TARGETS:%=$(1)-%): $(1)-%: $(FUZZ_DIR)/%_fuzz $(1)-corpus
+	@t=$$*; mkdir -p $(FUZZ_DIR)/corpus/$$$$t; \
+	if [ -d tests/fuzz/seeds/$$$$t ]; then cp tests/fuzz/seeds/$$$$t/* $(FUZZ_DIR)/corpus/$$$$t/; fi; \
+	$(FUZZ_DIR)/$$$${t}_fuzz $(FUZZ_RUN_FLAGS) $(2) \
+	  -artifact_prefix=$(FUZZ_DIR)/artifacts/$$$$t- $(FUZZ_DIR)/corpus/$$$$t > $(FUZZ_DIR)/$$$$t.log 2>&1 \
+	  || { tail -40 $(FUZZ_DIR)/$$$$t.log; echo "$(1): $$$$t FAILED (log $(FUZZ_DIR)/$$$$t.log)"; exit 1; }; \
+	echo "== fuzz $$$$t ($(2)): $$$$(grep -E "^#[0-9]+.*DONE" $(FUZZ_DIR)/$$$$t.log | tail -1)"
+$(1): $(FUZZ_TARGETS:%=$(1)-%)
+	@echo "$(1): OK ($(words $(FUZZ_TARGETS)) targets, nothing found)"
 endef
 $(eval $(call FUZZ_CAMPAIGN,fuzz-smoke,-seed=$(FUZZ_SEED) -runs=$(FUZZ_RUNS) -max_total_time=$(or $(FUZZ_SECONDS),60)))
 $(eval $(call FUZZ_CAMPAIGN,fuzz,-seed=0 -max_total_time=$(or $(FUZZ_SECONDS),300)))
