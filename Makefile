@@ -2,7 +2,8 @@
 #   make            build the CLI (build/bin/depthpose) and the runtime library
 #   make run        install what is missing, build, run the shipped model on the shipped recording
 #   make test       install what is missing, build, run every test (normal, ASan+UBSan, debug
-#                   checks, the chain, the checks); ends with "N passed, N failed, N skipped"
+#                   checks, the chain, the checks); prints each step's wall and CPU seconds, then
+#                   ends with "N passed, N failed, N skipped"
 #   make bench      benchmarks (tests/bench/*_bench.cc, one binary each)
 #   make bench-mpi  distributed training measured under mpirun (mk/mpi.mk, docs/training.md)
 #   make fuzz-smoke libFuzzer, one target per parser, FUZZ_RUNS fixed-seed inputs each (~2 min)
