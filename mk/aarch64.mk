@@ -50,17 +50,17 @@ $(A64_TEST_BIN): $(A64_TEST_OBJS) $(A64_GTEST_OBJS) $(A64_LIB)
 # bit, from the same PCL blob the aarch64 run reads (PCL_BLOB, mk/runtime_tests.mk: converted once).
 $(A64)/data/x86_digests.txt: $(BUILD)/bin/runtime_tests $(PCL_BLOB)
 	@mkdir -p $(@D)
-	@DP_PCL_BLOB=$(PCL_BLOB) DP_DIGESTS_OUT=$@ $(BUILD)/bin/runtime_tests \
+	@DP_PCL_BLOB=$(PCL_BLOB) DP_DIGESTS_OUT=$@ mk/step_time.sh "x86-64 digests for $(A64)" $(BUILD)/bin/runtime_tests \
 	  --gtest_filter=PclRealFramesSharedData.ReferenceDigestsAgreeAcrossArchitectures \
 	  > $(A64)/data/x86_digests.log 2>&1 || { cat $(A64)/data/x86_digests.log; rm -f $@; exit 1; }
 
-test-aarch64: $(A64_TEST_BIN) $(PCL_BLOB) $(A64)/data/x86_digests.txt
-	@mkdir -p $(A64)/test-logs
+# Built by a make of its own, so `make test` can time the cross build.
+.PHONY: test-aarch64-build
+test-aarch64-build:
+	@mk/step_time.sh "build $(A64)" $(MAKE) --no-print-directory $(A64_TEST_BIN)
+test-aarch64: test-aarch64-build $(PCL_BLOB) $(A64)/data/x86_digests.txt
 	@cd $(CURDIR) && DP_PCL_BLOB=$(PCL_BLOB) DP_DIGESTS_EXPECTED=$(A64)/data/x86_digests.txt \
-	  $(QEMU_A64) $(A64_TEST_BIN) $(GTEST_ARGS) > $(A64)/test-logs/unit.log 2>&1; rc=$$?; \
-	  echo $$rc > $(A64)/test-logs/unit.log.rc; \
-	  grep -E '^\[  (FAILED|SKIPPED) \]|^\[==========\]|^\[  PASSED  \]' $(A64)/test-logs/unit.log | sed 's|^|$(A64): |'; \
-	  exit $$rc
+	  mk/run_gtest.sh $(A64)/test-logs/unit.log "$(A64) (qemu)" $(QEMU_A64) $(A64_TEST_BIN) $(GTEST_ARGS)
 
 check-runtime-aarch64: $(A64_LIB)
 	@$(MAKE) --no-print-directory BUILD=$(A64) CXX="$(A64_CCACHE)$(A64_CXX)" NM=$(A64_NM) check-runtime

@@ -23,17 +23,14 @@ test-runtime: $(RUNTIME_TEST_BIN)
 # PCL_BLOB (Makefile): PCL's trees converted once by the CLI.
 $(PCL_BLOB): $(CLI)
 	@mkdir -p $(@D)
-	$(CLI) convert --from-pcl $(PCL_TREES) --out $@
+	mk/step_time.sh "convert the PCL trees" $(CLI) convert --from-pcl $(PCL_TREES) --out $@
 
 # The debug binary builds while the CLI (which converts PCL_BLOB) does; the run waits for both.
 .PHONY: test-debug-build
 test-debug-build:
-	@$(MAKE) --no-print-directory BUILD=$(BUILD)/debug DEBUG=1 $(BUILD)/debug/bin/runtime_tests
+	@mk/step_time.sh "build $(BUILD)/debug" $(MAKE) --no-print-directory BUILD=$(BUILD)/debug DEBUG=1 $(BUILD)/debug/bin/runtime_tests
 test-debug: test-debug-build $(PCL_BLOB)
-	@mkdir -p $(BUILD)/debug/test-logs
-	@cd $(CURDIR) && DP_PCL_BLOB=$(PCL_BLOB) $(BUILD)/debug/bin/runtime_tests $(GTEST_ARGS) > $(BUILD)/debug/test-logs/unit.log 2>&1; rc=$$?; \
-	  echo $$rc > $(BUILD)/debug/test-logs/unit.log.rc; \
-	  grep -E '^\[  (FAILED|SKIPPED) \]|^\[==========\]|^\[  PASSED  \]' $(BUILD)/debug/test-logs/unit.log | sed 's|^|$(BUILD)/debug: |'; \
-	  exit $$rc
+	@cd $(CURDIR) && DP_PCL_BLOB=$(PCL_BLOB) mk/run_gtest.sh $(BUILD)/debug/test-logs/unit.log $(BUILD)/debug \
+	  $(BUILD)/debug/bin/runtime_tests $(GTEST_ARGS)
 
 -include $(RUNTIME_TEST_OBJS:.o=.d)
