@@ -117,7 +117,9 @@ constexpr double kConfigIntUnbounded = double(INT32_MAX);
   X(float, furniture_smooth_step_m, 0.015f, 0, kConfigUnbounded, kRangeClosed, "m", "... the step") \
   X(float, furniture_smooth_step_per_m2, 0.001f, 0, kConfigUnbounded, kRangeClosed, "m/m^2", "growth of the step with the component's mean depth squared") \
   X(float, furniture_pole_max_width_m, 0.06f, 0, kConfigUnbounded, kRangeClosed, "m", "a new user with furniture_pole_min_share of its height bands at most this wide is a pole (coat stand); 0 = off") \
-  X(float, furniture_pole_min_share, 0.5f, 0, 1, kRangeOpenMin, "of its height bands", "... that share")
+  X(float, furniture_pole_min_share, 0.5f, 0, 1, kRangeOpenMin, "of its height bands", "... that share") \
+  X(int32_t, furniture_track_frames, 15, 0, 65535, kRangeClosed, "frames", "a tracked user furniture-shaped (above) and static this many frames in a row is no longer a user; 0 = off") \
+  X(float, furniture_static_m, 0.1f, 0, kConfigUnbounded, kRangeOpenMin, "m", "... static: its centroid stays within this of where that run of frames began")
 
 // Constraints between fields: X(name, relation, other) means `name relation other` must hold.
 #define DP_SEGMENTER_CONFIG_RELATIONS(X) \

@@ -82,6 +82,41 @@ void UserStage::associate_tracks(int32_t n, Verdicts* v) {
   }
 }
 
+// Tracked users re-judged as furniture (furniture_track_frames, furniture_static_m): the new-user
+// test judges a component once, so furniture admitted in one frame (a person touching it, part of
+// it hidden, one noisy frame) would stay a user for good, and the background model never learns
+// what lies inside a user's box. A run of furniture-shaped frames at one place ends its user. A
+// person standing still keeps it: a body's width changes with height in almost every frame.
+void UserStage::drop_tracked_furniture(const DepthFrame& f, int32_t n, Verdicts* v) {
+  const SegmenterConfig& cfg = *config_;
+  if (cfg.furniture_track_frames <= 0) return;
+  for (int32_t k = 0; k < n; ++k) {
+    const int32_t id = candidates_[k].user;
+    if (id <= 0) continue;
+    Track& tr = tracks_[id - 1];
+    if (furniture(f, k) == 0) {
+      tr.furniture_frames = 0;
+      continue;
+    }
+    const float dx = v->cx[k] - tr.furniture_anchor[0], dy = v->cy[k] - tr.furniture_anchor[1],
+                dz = v->cz[k] - tr.furniture_anchor[2];
+    const bool still = dx * dx + dy * dy + dz * dz <= cfg.furniture_static_m * cfg.furniture_static_m;
+    if (tr.furniture_frames > 0 && still) {
+      ++tr.furniture_frames;
+    } else {  // a run begins here
+      tr.furniture_frames = 1;
+      tr.furniture_anchor[0] = v->cx[k];
+      tr.furniture_anchor[1] = v->cy[k];
+      tr.furniture_anchor[2] = v->cz[k];
+    }
+    if (tr.furniture_frames < cfg.furniture_track_frames) continue;
+    tr = Track{};  // freed, not gone: the id waits for no one
+    v->track_matched[id - 1] = false;
+    v->strict[k] = false;  // nor a new user this frame
+    candidates_[k].user = 0;
+  }
+}
+
 // New users: unmatched components meeting the full person test, largest first, lowest free id;
 // each may first be found a limb in front of a user, a box, two people or a piece of a user.
 // Returns the candidate count, grown by the components cut in two (split_pair).
@@ -258,6 +293,7 @@ void UserStage::assign_users(const DepthFrame& f, int32_t candidate_count, Segme
   Verdicts v{};
   judge_candidates(f, candidate_count, &v);
   associate_tracks(candidate_count, &v);
+  drop_tracked_furniture(f, candidate_count, &v);
   admit_new_users(f, candidate_count, &v, r);
   update_tracks(v, r);
   write_labels(f, r);

@@ -16,8 +16,14 @@
 //     reid_speed_m per frame gone of where the track was last seen (arrival kUserReturned).
 //     Otherwise it takes the lowest id that is neither in use nor gone, else the id gone longest
 //     (arrival kUserNew): a gone person's id is not handed to someone else while others are free.
-//   - Bounded: kMaxUsers × kMaxCandidates per matching round, kMaxUsers rounds; kMaxCandidates
-//     admission rounds; one sweep over the frame for the labels.
+//   - Furniture taken for a person: a tracked user whose component has been furniture-shaped
+//     (PersonTests::furniture) for furniture_track_frames frames in a row, its centroid within
+//     furniture_static_m of where that run began, is no longer a user: its track is freed (not
+//     gone: no id is reserved for it) and its pixels are background from that frame on. Both the
+//     shape and the stillness are needed: people stand still, but their width changes with height.
+//   - Bounded: kMaxUsers × kMaxCandidates per matching round, kMaxUsers rounds; one sweep over the
+//     image box of each matched user for the furniture re-judgment; kMaxCandidates admission
+//     rounds; one sweep over the frame for the labels.
 //   - Units: centroids and velocities in camera metres (per frame).
 #pragma once
 #include <stdint.h>
@@ -44,6 +50,11 @@ struct Track {
   int32_t height_next;   // ring position of the next sample
   float heights[kReidHeightSamples];
   float height_m;        // median of the samples when the track was dropped
+  // Furniture re-judged while tracked (furniture_track_frames, furniture_static_m): frames in a row
+  // its component has been furniture-shaped (PersonTests::furniture) with its centroid within
+  // furniture_static_m of furniture_anchor, the centroid where that run began.
+  int32_t furniture_frames;
+  float furniture_anchor[3];
 };
 
 struct UserStage : PersonTests {
@@ -56,6 +67,7 @@ struct UserStage : PersonTests {
   void set_centroid(int32_t k, Verdicts* v) const;
   void judge_candidates(const DepthFrame& frame, int32_t candidate_count, Verdicts* v);
   void associate_tracks(int32_t candidate_count, Verdicts* v);
+  void drop_tracked_furniture(const DepthFrame& frame, int32_t candidate_count, Verdicts* v);
   int32_t admit_new_users(const DepthFrame& frame, int32_t candidate_count, Verdicts* v, SegmentationResult* r);
   int32_t slot_for_new_user(const Candidate& c, const float* centroid, bool* returned) const;
   void update_tracks(const Verdicts& v, SegmentationResult* r);
