@@ -120,7 +120,7 @@ constexpr double kConfigIntUnbounded = double(INT32_MAX);
   X(float, furniture_pole_min_share, 0.5f, 0, 1, kRangeOpenMin, "of its height bands", "... that share") \
   X(int32_t, furniture_track_frames, 5, 0, 32, kRangeClosed, "frames", "a tracked user furniture-shaped (above) in this many of the last furniture_track_window frames, static all along, is no longer a user; 0 = off") \
   X(int32_t, furniture_track_window, 30, 1, 32, kRangeClosed, "frames", "... the window") \
-  X(float, furniture_static_m, 0.1f, 0, kConfigUnbounded, kRangeOpenMin, "m", "... static: its centroid within this of where it was in the first of those frames")
+  X(float, furniture_static_m, 0.1f, 0, kConfigUnbounded, kRangeOpenMin, "m", "... static: its centroid within this of where it stood in the first of those frames")
 
 // Constraints between fields: X(name, relation, other) means `name relation other` must hold.
 #define DP_SEGMENTER_CONFIG_RELATIONS(X) \

@@ -18,7 +18,7 @@
 //     (arrival kUserNew): a gone person's id is not handed to someone else while others are free.
 //   - Furniture taken for a person: a tracked user whose component has been furniture-shaped
 //     (PersonTests::furniture) in furniture_track_frames of its last furniture_track_window matched
-//     frames, its centroid within furniture_static_m of where it was in the first of them all
+//     frames, its centroid within furniture_static_m of where it stood in the first of them all
 //     along, is no longer a user: its track is freed (not gone: no id is reserved for it) and its
 //     pixels are background from that frame on. Shape and stillness are both needed: people stand
 //     still, but a body's width changes with height in almost every frame. The piece is then
@@ -64,14 +64,14 @@ struct Track {
 };
 
 // A tracked user dropped as furniture, remembered while it stays in view so that it does not come
-// back as a new user in a frame where its shape looks less like furniture (someone passing in
+// back as a new user in a frame where its shape looks less like furniture (someone walking in
 // front): a component that is no user, with its centroid within furniture_static_m of `centroid`
 // and its top within furniture_static_m of `top`, is that piece again. Forgotten after
 // track_keep_frames frames without such a component.
 struct FurnitureMark {
   int32_t active;
   int32_t unseen_frames;
-  float centroid[3];  // camera metres, when it was dropped
+  float centroid[3];  // camera metres, at the drop
   float top;          // metres above the floor
 };
 
