@@ -26,8 +26,8 @@
 //     component at its place and height becomes no new user while it stays in view.
 //   - Bounded: kMaxUsers × kMaxCandidates per matching round, kMaxUsers rounds; one sweep over the
 //     image box of each matched user for the furniture re-judgment; kMaxUsers × kMaxCandidates
-//     comparisons with the furniture marks; kMaxCandidates admission
-//     rounds; one sweep over the frame for the labels.
+//     comparisons with the furniture marks; kMaxCandidates admission rounds; one sweep over the
+//     frame for the labels.
 //   - Units: centroids and velocities in camera metres (per frame).
 #pragma once
 #include <stdint.h>
@@ -56,9 +56,9 @@ struct Track {
   float height_m;        // median of the samples when the track was dropped
   // Furniture re-judged while tracked (furniture_track_frames, furniture_track_window,
   // furniture_static_m): bit i of furniture_history is set when the component was furniture-shaped
-  // (PersonTests::furniture) i matched frames ago, all of them with the centroid within
-  // furniture_static_m of furniture_anchor, the centroid of the oldest set bit's frame (0: no
-  // evidence, no anchor).
+  // (PersonTests::furniture) i matched frames ago; every frame since the evidence began had its
+  // centroid within furniture_static_m of furniture_anchor, the centroid of that first
+  // furniture-shaped frame (history 0: no evidence, the anchor unused).
   uint32_t furniture_history;
   float furniture_anchor[3];
 };
