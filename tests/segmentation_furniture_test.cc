@@ -93,3 +93,75 @@ TEST(SegmentationFurniture, ABodyBesideADoorStaysAUserAndTheDoorDoesNot) {
 
 }  // namespace
 }  // namespace dp
+
+namespace dp {
+namespace {
+
+// Tracked users re-judged (furniture_track_frames, furniture_track_window, furniture_static_m):
+// a door admitted while the shape rules were off stays a user until it has been furniture-shaped
+// and static in furniture_track_frames frames, then is no user, and stays out even in frames where
+// the new-user test would not catch it.
+TEST(SegmentationFurniture, ATrackedStaticDoorIsDroppedAfterTheEvidenceFrames) {
+  tools::Scene s = room();
+  s.boxes.push_back({-0.4f, 0.45f, 0.0f, 2.0f, 3.0f, 3.04f, 0});
+  const tools::RenderedScene f = tools::render_scene(s);
+  const SegmenterConfig rule_on = default_segmenter_config(false);
+  const SegmenterConfig shape_off = testing_seg::without_furniture_rule(rule_on);
+  ASSERT_GT(rule_on.furniture_track_frames, 1);
+  ASSERT_GT(shape_off.furniture_track_frames, 0) << "the tracked re-judgment has its own switch";
+  SegmenterHarness h(shape_off, 320, 240, true);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  ASSERT_EQ(h.result.user_count, 1) << "the door should pass the person test with the shape rules off";
+  const int id = h.result.users[0].id;
+  ASSERT_EQ(h.segmenter.set_config(rule_on), Status::kOk);
+  for (int frame = 1; frame < rule_on.furniture_track_frames; ++frame) {
+    ASSERT_EQ(h.run(f), Status::kOk);
+    ASSERT_EQ(h.result.user_count, 1) << "dropped after " << frame << " frames of evidence, before the window";
+    EXPECT_EQ(h.result.users[0].id, id);
+  }
+  ASSERT_EQ(h.run(f), Status::kOk);
+  EXPECT_EQ(h.result.user_count, 0) << "still a user after furniture_track_frames frames of evidence";
+  // Remembered: with the shape rules off again (the new-user test would admit it), it stays out.
+  ASSERT_EQ(h.segmenter.set_config(shape_off), Status::kOk);
+  for (int frame = 0; frame < 10; ++frame) {
+    ASSERT_EQ(h.run(f), Status::kOk);
+    EXPECT_EQ(h.result.user_count, 0) << "the dropped door came back " << frame << " frames later";
+  }
+}
+
+// Evidence needs stillness: the same door moving 0.15 m a frame along the floor stays a user.
+TEST(SegmentationFurniture, ATrackedDoorThatMovesIsKept) {
+  const SegmenterConfig rule_on = default_segmenter_config(false);
+  ASSERT_GT(0.15f, rule_on.furniture_static_m);
+  SegmenterHarness h(testing_seg::without_furniture_rule(rule_on), 320, 240, true);
+  for (int frame = 0; frame < 2 * rule_on.furniture_track_frames; ++frame) {
+    tools::Scene s = room();
+    const float x = -0.9f + 0.15f * float(frame);
+    s.boxes.push_back({x, x + 0.85f, 0.0f, 2.0f, 3.0f, 3.04f, 0});
+    ASSERT_EQ(h.run(tools::render_scene(s)), Status::kOk);
+    EXPECT_EQ(h.result.user_count, 1) << "frame " << frame;
+    if (frame == 0) ASSERT_EQ(h.segmenter.set_config(rule_on), Status::kOk);
+  }
+}
+
+// People stand still: a body standing still for a whole window and more (alone, and beside a door
+// at its depth) keeps its user and id.
+TEST(SegmentationFurniture, AStillBodyKeepsItsUserAloneAndBesideADoor) {
+  const SegmenterConfig config = default_segmenter_config(false);
+  for (const bool door : {false, true}) {
+    tools::Scene s = room();
+    add_body(&s, -0.5f, 3.0f, 1);
+    if (door) s.boxes.push_back({0.3f, 1.15f, 0.0f, 2.0f, 3.0f, 3.04f, 0});
+    const tools::RenderedScene f = tools::render_scene(s);
+    SegmenterHarness h(config, 320, 240, true);
+    for (int frame = 0; frame < 2 * config.furniture_track_window; ++frame) {
+      ASSERT_EQ(h.run(f), Status::kOk);
+      ASSERT_EQ(h.result.user_count, 1) << (door ? "beside a door" : "alone") << ", frame " << frame;
+      EXPECT_EQ(h.result.users[0].id, 1);
+      EXPECT_GT(testing_seg::count_pixels(h.labels, f, 1, 1), 9 * testing_seg::truth_pixels(f, 1) / 10);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace dp

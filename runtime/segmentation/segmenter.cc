@@ -27,6 +27,7 @@ bool Segmenter::carve(ArenaCarver& c, int32_t w, int32_t h, Segmenter* into) {
   SegmenterConfig* config = c.tail<SegmenterConfig>(1);
   seg::BackgroundCell* background = c.tail<seg::BackgroundCell>(pixels);
   seg::Track* tracks = c.tail<seg::Track>(kMaxUsers);
+  seg::FurnitureMark* furniture_marks = c.tail<seg::FurnitureMark>(kMaxUsers);
   FloorPlane* floor = c.tail<FloorPlane>(1);
   State* state = c.tail<State>(1);
   int32_t* parent = c.head<int32_t>(pixels);
@@ -51,6 +52,7 @@ bool Segmenter::carve(ArenaCarver& c, int32_t w, int32_t h, Segmenter* into) {
     s.candidates_ = candidates;
     s.hull_rows_ = hull_rows;
     s.tracks_ = tracks;
+    s.furniture_marks_ = furniture_marks;
   }
   return true;
 }
@@ -95,6 +97,7 @@ void Segmenter::reset() {
   if (!initialized_) return;
   memset(background_, 0, sizeof(seg::BackgroundCell) * size_t(max_width_) * size_t(max_height_));
   memset(stages_.tracks_, 0, sizeof(seg::Track) * kMaxUsers);
+  memset(stages_.furniture_marks_, 0, sizeof(seg::FurnitureMark) * kMaxUsers);
   memset(floor_, 0, sizeof *floor_);
   memset(state_, 0, sizeof *state_);
 }

@@ -20,8 +20,8 @@
 //
 // Contract (same pattern as dp::Pipeline, docs/segmentation.md):
 //   - The caller owns all memory: segmenter_required_bytes() says how much; init() takes a 64-byte
-//     aligned arena. Persistent state (config, background model, tracks, floor) sits at the arena
-//     tail, per-frame scratch at its head. Nothing allocates or throws.
+//     aligned arena. Persistent state (config, background model, tracks, furniture marks, floor)
+//     sits at the arena tail, per-frame scratch at its head. Nothing allocates or throws.
 //   - Every loop is bounded by the frame size and the caps below (validated by init/set_config);
 //     a frame full of clutter costs O(W·H·log(W·H)) for the components plus
 //     O(kMaxCandidates · W·H) at worst for the candidate selection, never more.

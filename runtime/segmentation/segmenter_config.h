@@ -117,7 +117,10 @@ constexpr double kConfigIntUnbounded = double(INT32_MAX);
   X(float, furniture_smooth_step_m, 0.015f, 0, kConfigUnbounded, kRangeClosed, "m", "... the step") \
   X(float, furniture_smooth_step_per_m2, 0.001f, 0, kConfigUnbounded, kRangeClosed, "m/m^2", "growth of the step with the component's mean depth squared") \
   X(float, furniture_pole_max_width_m, 0.06f, 0, kConfigUnbounded, kRangeClosed, "m", "a new user with furniture_pole_min_share of its height bands at most this wide is a pole (coat stand); 0 = off") \
-  X(float, furniture_pole_min_share, 0.5f, 0, 1, kRangeOpenMin, "of its height bands", "... that share")
+  X(float, furniture_pole_min_share, 0.5f, 0, 1, kRangeOpenMin, "of its height bands", "... that share") \
+  X(int32_t, furniture_track_frames, 5, 0, 32, kRangeClosed, "frames", "a tracked user furniture-shaped (above) in this many of the last furniture_track_window frames, static all along, is no longer a user; 0 = off") \
+  X(int32_t, furniture_track_window, 30, 1, 32, kRangeClosed, "frames", "... the window") \
+  X(float, furniture_static_m, 0.1f, 0, kConfigUnbounded, kRangeOpenMin, "m", "... static: its centroid within this of where it stood in the first of those frames")
 
 // Constraints between fields: X(name, relation, other) means `name relation other` must hold.
 #define DP_SEGMENTER_CONFIG_RELATIONS(X) \
@@ -125,7 +128,8 @@ constexpr double kConfigIntUnbounded = double(INT32_MAX);
   X(floor_far_mm, kRelationGreaterEqual, near_mm) \
   X(floor_wide_inlier_fraction, kRelationLessEqual, floor_min_inlier_fraction) \
   X(floor_wide_extent_m, kRelationGreaterEqual, floor_min_extent_m) \
-  X(camera_height_max_m, kRelationGreater, camera_height_min_m)
+  X(camera_height_max_m, kRelationGreater, camera_height_min_m) \
+  X(furniture_track_frames, kRelationLessEqual, furniture_track_window)
 
 struct SegmenterConfig {
 #define DP_SEGMENTER_CONFIG_MEMBER(type, name, def, lo, hi, range, unit, meaning) type name = def;

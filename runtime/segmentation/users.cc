@@ -82,6 +82,84 @@ void UserStage::associate_tracks(int32_t n, Verdicts* v) {
   }
 }
 
+// Tracked users re-judged as furniture (furniture_track_frames, furniture_track_window,
+// furniture_static_m): the new-user test judges a component once, so furniture admitted in one
+// frame (a person touching it, part of it hidden, one noisy frame) would stay a user for good, and
+// the background model never learns what lies inside a user's box. Evidence over a window of frames
+// at one place ends its user. On the validation sequences a tracked person was furniture-shaped in
+// at most 2 frames of any 30, the furniture kept as users in 4 to 30 (docs/segmentation.md).
+void UserStage::drop_tracked_furniture(const DepthFrame& f, int32_t n, Verdicts* v) {
+  const SegmenterConfig& cfg = *config_;
+  if (cfg.furniture_track_frames <= 0) return;
+  const uint32_t window = cfg.furniture_track_window >= 32 ? 0xffffffffu : (1u << cfg.furniture_track_window) - 1u;
+  for (int32_t k = 0; k < n; ++k) {
+    const int32_t id = candidates_[k].user;
+    if (id <= 0) continue;
+    Track& tr = tracks_[id - 1];
+    const bool shaped = furniture(f, k) != 0;
+    const float dx = v->cx[k] - tr.furniture_anchor[0], dy = v->cy[k] - tr.furniture_anchor[1],
+                dz = v->cz[k] - tr.furniture_anchor[2];
+    const bool still = dx * dx + dy * dy + dz * dz <= cfg.furniture_static_m * cfg.furniture_static_m;
+    if (tr.furniture_history != 0 && still) {
+      tr.furniture_history = ((tr.furniture_history << 1) | (shaped ? 1u : 0u)) & window;
+    } else {  // no evidence yet, or it moved: the evidence starts over here
+      tr.furniture_history = shaped ? 1u : 0u;
+      tr.furniture_anchor[0] = v->cx[k];
+      tr.furniture_anchor[1] = v->cy[k];
+      tr.furniture_anchor[2] = v->cz[k];
+    }
+    int32_t evidence = 0;
+    for (int32_t bit = 0; bit < 32; ++bit) evidence += int32_t((tr.furniture_history >> bit) & 1u);
+    if (evidence < cfg.furniture_track_frames) continue;
+    tr = Track{};  // freed, not gone: the id waits for no one
+    v->track_matched[id - 1] = false;
+    v->strict[k] = false;  // nor a new user this frame
+    candidates_[k].user = 0;
+    const float centroid[3] = {v->cx[k], v->cy[k], v->cz[k]};
+    mark_furniture(candidates_[k], centroid);
+  }
+}
+
+// Remembers a piece of furniture dropped as a user: a free mark, else the one unseen longest.
+void UserStage::mark_furniture(const Candidate& c, const float* centroid) {
+  int32_t slot = 0;
+  for (int32_t m = 0; m < kMaxUsers; ++m) {
+    const FurnitureMark& mark = furniture_marks_[m];
+    if (!mark.active) { slot = m; break; }
+    if (mark.unseen_frames > furniture_marks_[slot].unseen_frames) slot = m;
+  }
+  FurnitureMark& mark = furniture_marks_[slot];
+  mark.active = 1;
+  mark.unseen_frames = 0;
+  for (int a = 0; a < 3; ++a) mark.centroid[a] = centroid[a];
+  mark.top = c.top;
+}
+
+// Components no track matched, at a remembered piece's place and height, are that piece: no new
+// user. Marks no component matched this frame age, and go after track_keep_frames.
+void UserStage::keep_marked_furniture_out(int32_t n, Verdicts* v) {
+  const SegmenterConfig& cfg = *config_;
+  const float reach2 = cfg.furniture_static_m * cfg.furniture_static_m;
+  for (int32_t m = 0; m < kMaxUsers; ++m) {
+    FurnitureMark& mark = furniture_marks_[m];
+    if (!mark.active) continue;
+    bool seen = false;
+    for (int32_t k = 0; k < n; ++k) {
+      const Candidate& c = candidates_[k];
+      if (c.pixels == 0 || c.user != 0 || fabsf(c.top - mark.top) > cfg.furniture_static_m) continue;
+      const float dx = v->cx[k] - mark.centroid[0], dy = v->cy[k] - mark.centroid[1], dz = v->cz[k] - mark.centroid[2];
+      if (dx * dx + dy * dy + dz * dz > reach2) continue;
+      v->strict[k] = false;
+      seen = true;
+    }
+    if (seen) {
+      mark.unseen_frames = 0;
+    } else if (++mark.unseen_frames > cfg.track_keep_frames) {
+      mark.active = 0;
+    }
+  }
+}
+
 // New users: unmatched components meeting the full person test, largest first, lowest free id;
 // each may first be found a limb in front of a user, a box, two people or a piece of a user.
 // Returns the candidate count, grown by the components cut in two (split_pair).
@@ -258,6 +336,8 @@ void UserStage::assign_users(const DepthFrame& f, int32_t candidate_count, Segme
   Verdicts v{};
   judge_candidates(f, candidate_count, &v);
   associate_tracks(candidate_count, &v);
+  drop_tracked_furniture(f, candidate_count, &v);
+  keep_marked_furniture_out(candidate_count, &v);
   admit_new_users(f, candidate_count, &v, r);
   update_tracks(v, r);
   write_labels(f, r);

@@ -16,8 +16,18 @@
 //     reid_speed_m per frame gone of where the track was last seen (arrival kUserReturned).
 //     Otherwise it takes the lowest id that is neither in use nor gone, else the id gone longest
 //     (arrival kUserNew): a gone person's id is not handed to someone else while others are free.
-//   - Bounded: kMaxUsers × kMaxCandidates per matching round, kMaxUsers rounds; kMaxCandidates
-//     admission rounds; one sweep over the frame for the labels.
+//   - Furniture taken for a person: a tracked user whose component has been furniture-shaped
+//     (PersonTests::furniture) in furniture_track_frames of its last furniture_track_window matched
+//     frames, its centroid within furniture_static_m of where it stood in the first of them all
+//     along, is no longer a user: its track is freed (not gone: no id is reserved for it) and its
+//     pixels are background from that frame on. Shape and stillness are both needed: people stand
+//     still, but a body's width changes with height in almost every frame. The piece is then
+//     remembered (FurnitureMark, at most kMaxUsers, the one unseen longest replaced) and a
+//     component at its place and height becomes no new user while it stays in view.
+//   - Bounded: kMaxUsers × kMaxCandidates per matching round, kMaxUsers rounds; one sweep over the
+//     image box of each matched user for the furniture re-judgment; kMaxUsers × kMaxCandidates
+//     comparisons with the furniture marks; kMaxCandidates admission rounds; one sweep over the
+//     frame for the labels.
 //   - Units: centroids and velocities in camera metres (per frame).
 #pragma once
 #include <stdint.h>
@@ -44,10 +54,30 @@ struct Track {
   int32_t height_next;   // ring position of the next sample
   float heights[kReidHeightSamples];
   float height_m;        // median of the samples when the track was dropped
+  // Furniture re-judged while tracked (furniture_track_frames, furniture_track_window,
+  // furniture_static_m): bit i of furniture_history is set when the component was furniture-shaped
+  // (PersonTests::furniture) i matched frames ago; every frame since the evidence began had its
+  // centroid within furniture_static_m of furniture_anchor, the centroid of that first
+  // furniture-shaped frame (history 0: no evidence, the anchor unused).
+  uint32_t furniture_history;
+  float furniture_anchor[3];
+};
+
+// A tracked user dropped as furniture, remembered while it stays in view so that it does not come
+// back as a new user in a frame where its shape looks less like furniture (someone walking in
+// front): a component that is no user, with its centroid within furniture_static_m of `centroid`
+// and its top within furniture_static_m of `top`, is that piece again. Forgotten after
+// track_keep_frames frames without such a component.
+struct FurnitureMark {
+  int32_t active;
+  int32_t unseen_frames;
+  float centroid[3];  // camera metres, at the drop
+  float top;          // metres above the floor
 };
 
 struct UserStage : PersonTests {
   Track* tracks_ = nullptr;  // [kMaxUsers], slot i ↔ id i + 1
+  FurnitureMark* furniture_marks_ = nullptr;  // [kMaxUsers]
 
   void assign_users(const DepthFrame& frame, int32_t candidate_count, SegmentationResult* result);
 
@@ -56,6 +86,9 @@ struct UserStage : PersonTests {
   void set_centroid(int32_t k, Verdicts* v) const;
   void judge_candidates(const DepthFrame& frame, int32_t candidate_count, Verdicts* v);
   void associate_tracks(int32_t candidate_count, Verdicts* v);
+  void drop_tracked_furniture(const DepthFrame& frame, int32_t candidate_count, Verdicts* v);
+  void mark_furniture(const Candidate& c, const float* centroid);
+  void keep_marked_furniture_out(int32_t candidate_count, Verdicts* v);
   int32_t admit_new_users(const DepthFrame& frame, int32_t candidate_count, Verdicts* v, SegmentationResult* r);
   int32_t slot_for_new_user(const Candidate& c, const float* centroid, bool* returned) const;
   void update_tracks(const Verdicts& v, SegmentationResult* r);
