@@ -106,8 +106,8 @@ TEST(TrainGolden, StoredFeaturesOfSmallNodesGrowTheSameForest) {
 
 // Deep levels walk their nodes' pixels in image order, in batches of nodes whose features fit a
 // byte budget (1 GiB by default, so the forests above take one batch per level). With a budget of
-// a few dozen pixels, every deep level takes many batches (and nodes larger than the budget a
-// batch of their own): the forest must still be the recorded one, with 1 and 2 threads.
+// a few dozen pixels, every deep level takes many batches and the nodes larger than the budget
+// keep the node-major walk: the forest must still be the recorded one, with 1 and 2 threads.
 TEST(TrainGolden, SmallFeatureBatchesGrowTheSameForest) {
   const TrainingSet set = testing_bodies::stick_body_set(24, 400, 2, 3);
   const GoldenCase& c = kGoldenCases[0];

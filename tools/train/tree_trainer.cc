@@ -1392,6 +1392,29 @@ void search_image_major(Grower& grower, const std::vector<NodeInfo>& info, const
                         std::vector<Best>& results, int padded, int threads, size_t batch_bytes,
                         std::vector<int16_t>& rows, const std::function<void(size_t)>& finished) {
   const size_t max_rows = std::max<size_t>(1, batch_bytes / (size_t(padded) * sizeof(int16_t)));
+  auto pixels = [&](size_t item) -> size_t { return info[items[item].node].end - info[items[item].node].begin; };
+  // A node larger than a batch keeps the node-major walk (its pixels come ≥ 1 per image there:
+  // the walk is cache-friendly) and its own work item, all such nodes side by side on the threads.
+  std::vector<size_t> large, small;
+  for (size_t i = 0; i < items.size(); ++i) (pixels(i) > max_rows ? large : small).push_back(i);
+  parallel_for(large.size(), threads, [&](size_t k, int thread) {
+    const Item& it = items[large[k]];
+    results[large[k]] = grower.evaluate(info[it.node], it.c0, it.c1, thread);
+  });
+  size_t done = large.size();
+  if (!large.empty()) finished(done);
+  if (small.empty()) return;
+  // The buffer holds the largest batch of this level, allocated once at its exact size.
+  size_t largest = 0;
+  for (size_t b0 = 0; b0 < small.size();) {
+    size_t total = 0;
+    for (; b0 < small.size() && total + pixels(small[b0]) <= max_rows; ++b0) total += pixels(small[b0]);
+    largest = std::max(largest, total);
+  }
+  if (rows.size() < largest * padded) {
+    std::vector<int16_t>().swap(rows);
+    rows.resize(largest * padded);
+  }
   struct Entry {
     uint32_t pixel, item;  // item: index within the batch
   };
@@ -1399,49 +1422,37 @@ void search_image_major(Grower& grower, const std::vector<NodeInfo>& info, const
   std::vector<size_t> first_row;
   std::vector<uint32_t> slot(grower.image_count() + 1);
   std::vector<Entry> order;
-  for (size_t b0 = 0; b0 < items.size();) {
+  for (size_t b0 = 0; b0 < small.size();) {
     size_t b1 = b0, total = 0;
-    while (b1 < items.size()) {
-      const NodeInfo& node = info[items[b1].node];
-      const size_t n = node.end - node.begin;
-      if (b1 > b0 && total + n > max_rows) break;
-      total += n;
-      ++b1;
-    }
+    for (; b1 < small.size() && total + pixels(small[b1]) <= max_rows; ++b1) total += pixels(small[b1]);
     const size_t m = b1 - b0;
+    auto node_of = [&](size_t k) -> const NodeInfo& { return info[items[small[b0 + k]].node]; };
     if (lanes.size() < m) lanes.resize(m);
     first_row.assign(m + 1, 0);
-    for (size_t k = 0; k < m; ++k) {
-      const NodeInfo& node = info[items[b0 + k].node];
-      first_row[k + 1] = first_row[k] + (node.end - node.begin);
-    }
-    if (rows.size() < total * padded) rows.resize(total * padded);
-    parallel_for(m, threads, [&](size_t k, int thread) { grower.offset_lanes(info[items[b0 + k].node], lanes[k], thread); });
+    for (size_t k = 0; k < m; ++k) first_row[k + 1] = first_row[k] + pixels(small[b0 + k]);
+    parallel_for(m, threads, [&](size_t k, int thread) { grower.offset_lanes(node_of(k), lanes[k], thread); });
     // Counting sort of the batch's pixels by image (stable: within an image, in item then pixel order).
     std::fill(slot.begin(), slot.end(), 0u);
-    for (size_t k = 0; k < m; ++k) {
-      const NodeInfo& node = info[items[b0 + k].node];
-      for (uint32_t i = node.begin; i < node.end; ++i) ++slot[grower.image_of(i) + 1];
-    }
+    for (size_t k = 0; k < m; ++k)
+      for (uint32_t i = node_of(k).begin; i < node_of(k).end; ++i) ++slot[grower.image_of(i) + 1];
     for (size_t j = 1; j < slot.size(); ++j) slot[j] += slot[j - 1];
     order.resize(total);
-    for (size_t k = 0; k < m; ++k) {
-      const NodeInfo& node = info[items[b0 + k].node];
-      for (uint32_t i = node.begin; i < node.end; ++i) order[slot[grower.image_of(i)]++] = {i, uint32_t(k)};
-    }
+    for (size_t k = 0; k < m; ++k)
+      for (uint32_t i = node_of(k).begin; i < node_of(k).end; ++i) order[slot[grower.image_of(i)]++] = {i, uint32_t(k)};
     const size_t chunks = std::min(total, size_t(64) * std::max(1, threads));
     parallel_for(chunks, threads, [&](size_t c, int) {
       for (size_t e = total * c / chunks; e < total * (c + 1) / chunks; ++e) {
         const Entry& x = order[e];
-        const size_t row = first_row[x.item] + (x.pixel - info[items[b0 + x.item].node].begin);
+        const size_t row = first_row[x.item] + (x.pixel - node_of(x.item).begin);
         grower.pixel_feature_row(lanes[x.item], x.pixel, rows.data() + row * padded);
       }
     });
     parallel_for(m, threads, [&](size_t k, int thread) {
-      results[b0 + k] = grower.evaluate_rows(info[items[b0 + k].node], rows.data() + first_row[k] * padded, thread);
+      results[small[b0 + k]] = grower.evaluate_rows(node_of(k), rows.data() + first_row[k] * padded, thread);
     });
+    done += m;
     b0 = b1;
-    finished(b0);
+    finished(done);
   }
 }
 
