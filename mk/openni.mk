@@ -19,7 +19,7 @@ OPENNI_TARGETS    := $(OPENNI_LIB_LINK) $(OPENNI_ONIFILE) $(OPENNI_FEED)
 
 EXTRA_LINK_DEPS += $(OPENNI_TARGETS)
 # all/test-unit/bench list $(EXTRA_LINK_DEPS) before this file is read; add the edges here.
-all test-unit bench chain-smoke: $(OPENNI_TARGETS)
+all test-unit test-bin bench chain-smoke: $(OPENNI_TARGETS)
 
 $(OPENNI_LIB_LINK):
 	@mkdir -p $(@D)
