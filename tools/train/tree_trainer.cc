@@ -1743,22 +1743,24 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
         !comm && !by_ranges && !items.empty() && level >= replay_levels && grower.has_avx2_kernel() &&
         std::all_of(items.begin(), items.end(),
                     [&](const Item& it) { return it.c0 == 0 && it.c1 == params.offset_candidates; });
+    // A progress line every ~10 s within a long level (called on the calling thread only).
+    auto heartbeat = [&](double done) {
+      const auto now = std::chrono::steady_clock::now();
+      if (!progress || now - last_beat <= std::chrono::seconds(10)) return;
+      last_beat = now;
+      LevelReport r;
+      r.tree = tree_index;
+      r.level = level;
+      r.partial = true;
+      r.done = done;
+      r.seconds = std::chrono::duration<double>(now - level_start).count();
+      r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
+      progress(r);
+    };
     if (image_major)
       search_image_major(grower, info, items, results, (params.offset_candidates + kLanes - 1) / kLanes * kLanes,
                          threads, params.level_feature_bytes ? params.level_feature_bytes : kLevelFeatureBytes,
-                         level_rows, [&](size_t done) {
-                           const auto now = std::chrono::steady_clock::now();
-                           if (!progress || now - last_beat <= std::chrono::seconds(10)) return;
-                           last_beat = now;
-                           LevelReport r;
-                           r.tree = tree_index;
-                           r.level = level;
-                           r.partial = true;
-                           r.done = double(done) / items.size();
-                           r.seconds = std::chrono::duration<double>(now - level_start).count();
-                           r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
-                           progress(r);
-                         });
+                         level_rows, [&](size_t done) { heartbeat(double(done) / items.size()); });
     const size_t work = comm || image_major ? 0 : by_ranges ? ranges.size() : items.size();
     parallel_for(work, threads, [&](size_t i, int thread) {
       if (by_ranges) {
@@ -1770,20 +1772,7 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
         results[i] = grower.evaluate(info[items[i].node], items[i].c0, items[i].c1, thread);
       }
       const size_t done = items_done.fetch_add(1) + 1;
-      if (thread == 0 && progress) {
-        const auto now = std::chrono::steady_clock::now();
-        if (now - last_beat > std::chrono::seconds(10)) {
-          last_beat = now;
-          LevelReport r;
-          r.tree = tree_index;
-          r.level = level;
-          r.partial = true;
-          r.done = double(done) / work;
-          r.seconds = std::chrono::duration<double>(now - level_start).count();
-          r.tree_seconds = std::chrono::duration<double>(now - tree_start).count();
-          progress(r);
-        }
-      }
+      if (thread == 0) heartbeat(double(done) / work);
     });
 
     if (by_ranges) {
