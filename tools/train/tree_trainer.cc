@@ -823,18 +823,21 @@ class Grower {
     for (int c = 0; c < c1 - c0; ++c) draw_offsets(node, c0 + c, g.candidates[c]);
     make_offset_lanes(g.candidates, g.lanes);
   }
-  // The features of every lane of `l` at pixel i (AVX2 kernel), into row[0, l.padded).
+  // The features of every lane of `l` at pixel i (the AVX2 kernel, or the portable one), into
+  // row[0, l.padded).
   void pixel_feature_row(const CandidateLanes& l, uint32_t i, int16_t* row) const {
     const TrainingPixel& p = px_[i];
-    features_avx2(l, images_[p.image], p.u, p.v, p.scale_q13, row);
+    if (features_ == pixel_features_avx2)
+      features_avx2(l, images_[p.image], p.u, p.v, p.scale_q13, row);
+    else
+      features_scalar(l, images_[p.image], p.u, p.v, p.scale_q13, row);
   }
   bool has_avx2_kernel() const { return features_ == pixel_features_avx2; }
-  // The offset lanes of all candidates of `node` (what pixel_feature_row reads).
+  // The offset lanes of all candidates of `node` (what pixel_feature_row reads), drawn by draw_group
+  // in the thread's group and copied out.
   void offset_lanes(const NodeInfo& node, CandidateLanes& l, int thread) {
-    std::vector<Candidate>& c = scratch_[thread].candidates;
-    c.resize(p_.offset_candidates);
-    for (int k = 0; k < p_.offset_candidates; ++k) draw_offsets(node, k, c[k]);
-    make_offset_lanes(c, l);
+    draw_group(node, 0, p_.offset_candidates, groups_[thread]);
+    l = groups_[thread].lanes;
   }
   uint32_t image_of(uint32_t i) const { return px_[i].image; }
   size_t image_count() const { return images_.size(); }
@@ -850,13 +853,7 @@ class Grower {
   // pixel i's at rows + (i − begin) × g.lanes.padded.
   void feature_rows(const CandidateGroup& g, uint32_t begin, uint32_t end, int16_t* rows) const {
     const size_t padded = size_t(g.lanes.padded);
-    for (uint32_t i = begin; i < end; ++i) {
-      const TrainingPixel& p = px_[i];
-      if (features_ == pixel_features_avx2)
-        features_avx2(g.lanes, images_[p.image], p.u, p.v, p.scale_q13, rows + (i - begin) * padded);
-      else
-        features_scalar(g.lanes, images_[p.image], p.u, p.v, p.scale_q13, rows + (i - begin) * padded);
-    }
+    for (uint32_t i = begin; i < end; ++i) pixel_feature_row(g.lanes, i, rows + (i - begin) * padded);
   }
   // The thresholds of g (draw_group done) from `rows`, the features of all the node's pixels in
   // its global order (pixel-major, g.lanes.padded per pixel): the threshold sample's features are
