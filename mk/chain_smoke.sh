@@ -37,6 +37,9 @@ check() {  # check NAME command...
   check CostCurve bash -c "env CLI='$CLI' MODEL_DIR='$ROOT/model' CURVE_POINTS='20:6:50:10 0:8:50:10' CURVE_SHIPPED=1 \
       mk/cost_curve.sh > '$ROOT/curve.md' && [ \$(grep -cE '\| 0\.[0-9]{3} \| 0\.[0-9]{3} \|\$' '$ROOT/curve.md') -eq 3 ] &&
     env CLI='$CLI' MODEL_DIR='$ROOT/model' CURVE_POINTS='20:6:50:10' mk/cost_curve.sh 2>&1 >/dev/null | grep -q 'i20_d6_o50_t10 trained already'"
+  # The Markdown tables of docs/results.md, from the evals the run made.
+  check ReportTables bash -c "grep -q '^| \*\*mAP\*\* | \*\*0\.[0-9]\{3\}\*\* | \*\*0\.[0-9]\{3\}\*\* |' '$ROOT/model/report.md' &&
+    [ \$(grep -c '^| [a-z_]* | [*0-9.]* | [*0-9.]* |\$' '$ROOT/model/report.md') -ge 16 ]"
   check BlobsDescribed bash -c "'$CLI' info '$ROOT/models/bpc.blob' && '$CLI' info '$ROOT/models/ojr.blob'"
   # A chain that lost the labels or joints on the way scores ~0; even this tiny forest scores > 0.1.
   check EvalScores bash -c "grep -qE '^  \"mAP\": *0\.[1-9]' '$ROOT/model/eval_bpc.json' && grep -qE '^  \"mAP\": *0\.[1-9]' '$ROOT/model/eval_ojr.json'"

@@ -185,5 +185,7 @@ fi
   done
 } > "$D/report.txt"
 cat "$D/report.txt"
+# report.md: the Markdown tables of docs/results.md (overall, per category, per joint, AP vs D_tp).
+python3 "$(dirname "$0")/model_report.py" "$D" > "$D/report.md"
 echo "== [$(elapsed) elapsed] make_model: done; blobs in $OUT"
 ls -l "$OUT"
