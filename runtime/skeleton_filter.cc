@@ -42,4 +42,13 @@ void JointFilter::update(const SkeletonFilterParams& p, float dt_s, const float 
   for (int a = 0; a < 3; ++a) out[a] = x[a] = x[a] + alpha * (in[a] - x[a]);
 }
 
+void JointFilter::limit_offset(const float in[3], float max_offset_m, float out[3]) {
+  const float dx = out[0] - in[0], dy = out[1] - in[1], dz = out[2] - in[2];
+  const float offset = sqrtf(dx * dx + dy * dy + dz * dz);
+  if (!(offset > max_offset_m)) return;
+  const float scale = max_offset_m / offset;
+  const float d[3] = {dx, dy, dz};
+  for (int a = 0; a < 3; ++a) out[a] = x[a] = in[a] + scale * d[a];
+}
+
 }  // namespace dp

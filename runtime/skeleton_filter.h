@@ -36,6 +36,9 @@ struct JointFilter {
   void reset() { primed = 0; }
   // Filters `in` (metres) over a frame period `dt_s` > 0 into `out`; the first sample is returned unchanged.
   void update(const SkeletonFilterParams& params, float dt_s, const float in[3], float out[3]);
+  // Pulls `out` (this update's output) and the filter's state to within `max_offset_m` of `in`
+  // along the line between them; nothing changes when they are that close already.
+  void limit_offset(const float in[3], float max_offset_m, float out[3]);
 };
 
 }  // namespace dp

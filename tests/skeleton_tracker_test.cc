@@ -319,6 +319,65 @@ TEST(SkeletonFilter, OffPassesThroughDefaultCutsJitterAndFollowsMotion) {
   EXPECT_LT(truth - out_def[0], 2.0f * 2.0f * dt) << "default lags by less than two frames at 2 m/s";
 }
 
+TEST(SkeletonFilter, LimitOffsetPullsOutputAndStateToWithinReachOfTheInput) {
+  const float dt = 1.0f / 30.0f;
+  const SkeletonFilterParams p = skeleton_filter_preset(SkeletonFilterPreset::kDefault);
+  JointFilter limited{}, free{};
+  limited.reset();
+  free.reset();
+  float out[3], out_free[3];
+  for (int f = 0; f < 10; ++f) {
+    const float still[3] = {0.0f, 1.0f, 2.0f};
+    limited.update(p, dt, still, out);
+    free.update(p, dt, still, out_free);
+  }
+  // A 0.3 m jump along x: the filter lags far behind it, the limit pulls the output to 3 cm.
+  const float jump[3] = {0.3f, 1.0f, 2.0f};
+  limited.update(p, dt, jump, out);
+  free.update(p, dt, jump, out_free);
+  ASSERT_GT(jump[0] - out[0], 0.1f) << "the default filter lags a jump by more than 0.1 m";
+  limited.limit_offset(jump, 0.03f, out);
+  EXPECT_NEAR(out[0], 0.27f, 1e-5f);
+  EXPECT_NEAR(out[1], 1.0f, 1e-6f);
+  EXPECT_NEAR(out[2], 2.0f, 1e-6f);
+  EXPECT_EQ(limited.x[0], out[0]) << "the filter goes on from the limited output";
+  // The next update starts from there: closer to the input than the unlimited filter.
+  limited.update(p, dt, jump, out);
+  free.update(p, dt, jump, out_free);
+  EXPECT_LT(jump[0] - out[0], 0.03f);
+  EXPECT_GT(jump[0] - out_free[0], 0.05f);
+  // Within reach already: nothing changes.
+  const float before[3] = {out[0], out[1], out[2]};
+  limited.limit_offset(jump, 0.5f, out);
+  for (int a = 0; a < 3; ++a) EXPECT_EQ(out[a], before[a]);
+}
+
+TEST(SkeletonTracker, AWellFittingJointIsReportedWithinTheFilterLimitOfItsProposal) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  ASSERT_EQ(tracker->init(skeleton_meta(), default_skeleton_config()), Status::kOk);
+  Skeleton s;
+  feed_still_body(*tracker, 12, &s);
+  // The whole body steps 0.12 m sideways in one frame: every proposal still fits its bones, so each
+  // joint is tracked with a high fit score and the default filter may not hold it back by more than
+  // 3 cm (unlimited, it would report the joints ~9 cm behind).
+  float truth[kSkeletonJoints][3];
+  body(0.12f, truth);
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    const TrackedJoint& t = s.joints[j];
+    ASSERT_EQ(t.state, JointState::kTracked) << skeleton_joint_name(j);
+    EXPECT_GE(t.evidence, 5) << skeleton_joint_name(j);
+    EXPECT_LT(distance(t, truth[j]), 1e-5f) << skeleton_joint_name(j);
+    const float reported[3] = {t.x_m, t.y_m, t.z_m};
+    const float offset = std::sqrt((reported[0] - truth[j][0]) * (reported[0] - truth[j][0]) +
+                                   (reported[1] - truth[j][1]) * (reported[1] - truth[j][1]) +
+                                   (reported[2] - truth[j][2]) * (reported[2] - truth[j][2]));
+    EXPECT_LE(offset, 0.03f + 1e-5f) << skeleton_joint_name(j);
+    EXPECT_GT(offset, 0.02f) << skeleton_joint_name(j) << ": still smoothed, not passed through";
+  }
+}
+
 namespace {
 // q (w, x, y, z) applied to v.
 void rotate(const float* q, const float* v, float* out) {
