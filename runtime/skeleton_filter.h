@@ -20,6 +20,9 @@ struct SkeletonFilterParams {
   float min_cutoff_hz;   // cutoff of a still joint, (0, 100]
   float beta;            // cutoff increase per m/s of speed, [0, 1000]
   float d_cutoff_hz;     // cutoff of the speed estimate, (0, 100]
+  // The skeleton tracker keeps a well-fitting tracked joint at most this far (metres) from its chosen
+  // proposal (JointFilter::limit_offset; skeleton_tracker.cc says which joints); 0 = no limit, [0, 1].
+  float max_offset_m;
 };
 
 enum class SkeletonFilterPreset : int32_t { kOff = 0, kDefault = 1, kStrong = 2 };

@@ -93,18 +93,12 @@ constexpr float kAbsentCost = 8.0f;        // choosing nothing
 // jitter 22.6 mm; models/bpc.blob 0.531 → 0.553, swaps 51.1 → 42.0 ‰).
 constexpr float kOrphanCost = 6.0f;
 constexpr int32_t kMaxPredictedFrames = 10;  // a joint unseen longer than this is missing
-// The 1€ filter smooths a well-supported joint (tracked with a fit score exp(−local cost / 2) ≥
-// 0.5, evidence classes kFilterLimitMinEvidence..9) but never reports it more than kMaxFilterOffsetM
-// from the chosen proposal (JointFilter::limit_offset): when the raw joint jumps back onto a
-// proposal that fits, the filter's lag moved correct joints more than 0.1 m away (486 of the 2083
-// joint-frames lost against the first proposal on the validation sequences with tall clutter).
-// Inferred and weakly fitting joints keep the full smoothing (their raw position is the less
-// trustworthy one). Range 0.01–0.2 m; on those sequences (seeds 191–196, default filter) the limit
-// 0.02 / 0.03 / 0.05 / 0.07 m / none gave within 0.1 m 0.544 / 0.543 / 0.538 / 0.536 / 0.534 with
-// models/ojr.blob and still-joint jitter 25.5 / 24.5 / 23.5 / 23.0 / 22.6 mm (models/bpc.blob 0.562 /
-// 0.560 / 0.557 / 0.556 / 0.553, jitter 28.4 / 27.5 / 26.3 / 25.6 / 23.7 mm); 0.03 is the knee.
-// Applied to every tracked joint (classes 0–9) the same 0.03 m gave 0.545 at 31.6 mm jitter.
-constexpr float kMaxFilterOffsetM = 0.03f;
+// The joints the filter's offset limit (SkeletonFilterParams::max_offset_m) holds near their chosen
+// proposal: tracked with a fit score exp(−local cost / 2) ≥ 0.5, evidence classes
+// kFilterLimitMinEvidence..9. Inferred and weakly fitting joints keep the full smoothing (their raw
+// position is the less trustworthy one). On the validation sequences with tall clutter (seeds
+// 191–196, models/ojr.blob, limit 0.03 m) classes 5–9 gave 0.543 within 0.1 m at 24.5 mm still-joint
+// jitter, every tracked class (0–9) 0.545 at 31.6 mm.
 constexpr int32_t kFilterLimitMinEvidence = 5;
 
 // Calibration of the confidence (probability of being within 0.1 m of the truth) per evidence
@@ -611,7 +605,8 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
     for (int a = 0; a < 3; ++a) o.raw_m[a] = c.pos[j][k][a];
     float filtered[3];
     u.filters[j].update(config_.filter, config_.frame_period_s, o.raw_m, filtered);
-    if (evidence >= kFilterLimitMinEvidence && evidence < 10) u.filters[j].limit_offset(o.raw_m, kMaxFilterOffsetM, filtered);
+    if (config_.filter.enabled && config_.filter.max_offset_m > 0.0f && evidence >= kFilterLimitMinEvidence && evidence < 10)
+      u.filters[j].limit_offset(o.raw_m, config_.filter.max_offset_m, filtered);
     o.x_m = filtered[0];
     o.y_m = filtered[1];
     o.z_m = filtered[2];

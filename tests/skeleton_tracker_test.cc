@@ -91,6 +91,11 @@ TEST(SkeletonTracker, RefusesOtherJointSetsAndBadConfigs) {
   c = default_skeleton_config();
   c.frame_period_s = std::nanf("");
   EXPECT_EQ(tracker->init(m, c), Status::kBadConfig);
+  for (float offset : {-0.01f, 1.5f, std::nanf("")}) {
+    c = default_skeleton_config();
+    c.filter.max_offset_m = offset;
+    EXPECT_EQ(tracker->init(m, c), Status::kBadConfig) << "max_offset_m " << offset;
+  }
   float truth[kSkeletonJoints][3];
   body(0.0f, truth);
   auto r = clean_frame(truth);
@@ -352,29 +357,49 @@ TEST(SkeletonFilter, LimitOffsetPullsOutputAndStateToWithinReachOfTheInput) {
   for (int a = 0; a < 3; ++a) EXPECT_EQ(out[a], before[a]);
 }
 
+namespace {
+// Distance from the reported (filtered) joint to p.
+float reported_distance(const TrackedJoint& t, const float* p) {
+  return std::sqrt((t.x_m - p[0]) * (t.x_m - p[0]) + (t.y_m - p[1]) * (t.y_m - p[1]) + (t.z_m - p[2]) * (t.z_m - p[2]));
+}
+// A still body, then the whole body steps 0.12 m sideways in one frame: every proposal still fits
+// its bones, so each joint is tracked with a high fit score.
+void step_sideways(SkeletonTracker& tracker, Skeleton* s, float truth[kSkeletonJoints][3]) {
+  feed_still_body(tracker, 12, s);
+  body(0.12f, truth);
+  tracker.begin_frame();
+  ASSERT_EQ(tracker.update(1, *clean_frame(truth), s), Status::kOk);
+}
+}  // namespace
+
 TEST(SkeletonTracker, AWellFittingJointIsReportedWithinTheFilterLimitOfItsProposal) {
   auto tracker = std::make_unique<SkeletonTracker>();
-  ASSERT_EQ(tracker->init(skeleton_meta(), default_skeleton_config()), Status::kOk);
+  const SkeletonConfig config = default_skeleton_config();
+  ASSERT_NEAR(config.filter.max_offset_m, 0.03f, 1e-6f);
+  ASSERT_EQ(tracker->init(skeleton_meta(), config), Status::kOk);
   Skeleton s;
-  feed_still_body(*tracker, 12, &s);
-  // The whole body steps 0.12 m sideways in one frame: every proposal still fits its bones, so each
-  // joint is tracked with a high fit score and the default filter may not hold it back by more than
-  // 3 cm (unlimited, it would report the joints ~9 cm behind).
   float truth[kSkeletonJoints][3];
-  body(0.12f, truth);
-  tracker->begin_frame();
-  ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
+  step_sideways(*tracker, &s, truth);
+  // The default filter may not hold a well-fitting joint back by more than 3 cm (unlimited, it
+  // would report the joints ~9 cm behind).
   for (int j = 0; j < kSkeletonJoints; ++j) {
     const TrackedJoint& t = s.joints[j];
     ASSERT_EQ(t.state, JointState::kTracked) << skeleton_joint_name(j);
     EXPECT_GE(t.evidence, 5) << skeleton_joint_name(j);
     EXPECT_LT(distance(t, truth[j]), 1e-5f) << skeleton_joint_name(j);
-    const float reported[3] = {t.x_m, t.y_m, t.z_m};
-    const float offset = std::sqrt((reported[0] - truth[j][0]) * (reported[0] - truth[j][0]) +
-                                   (reported[1] - truth[j][1]) * (reported[1] - truth[j][1]) +
-                                   (reported[2] - truth[j][2]) * (reported[2] - truth[j][2]));
+    const float offset = reported_distance(t, truth[j]);
     EXPECT_LE(offset, 0.03f + 1e-5f) << skeleton_joint_name(j);
     EXPECT_GT(offset, 0.02f) << skeleton_joint_name(j) << ": still smoothed, not passed through";
+  }
+  // The strong preset has no limit: it smooths the same step fully.
+  SkeletonConfig strong = default_skeleton_config();
+  strong.filter = skeleton_filter_preset(SkeletonFilterPreset::kStrong);
+  EXPECT_EQ(strong.filter.max_offset_m, 0.0f);
+  ASSERT_EQ(tracker->init(skeleton_meta(), strong), Status::kOk);
+  step_sideways(*tracker, &s, truth);
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    ASSERT_EQ(s.joints[j].state, JointState::kTracked) << skeleton_joint_name(j);
+    EXPECT_GT(reported_distance(s.joints[j], truth[j]), 0.05f) << skeleton_joint_name(j);
   }
 }
 
