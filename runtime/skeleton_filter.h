@@ -20,6 +20,9 @@ struct SkeletonFilterParams {
   float min_cutoff_hz;   // cutoff of a still joint, (0, 100]
   float beta;            // cutoff increase per m/s of speed, [0, 1000]
   float d_cutoff_hz;     // cutoff of the speed estimate, (0, 100]
+  // The skeleton tracker keeps a well-fitting tracked joint at most this far (metres) from its chosen
+  // proposal (JointFilter::limit_offset; skeleton_tracker.cc says which joints); 0 = no limit, [0, 1].
+  float max_offset_m;
 };
 
 enum class SkeletonFilterPreset : int32_t { kOff = 0, kDefault = 1, kStrong = 2 };
@@ -36,6 +39,9 @@ struct JointFilter {
   void reset() { primed = 0; }
   // Filters `in` (metres) over a frame period `dt_s` > 0 into `out`; the first sample is returned unchanged.
   void update(const SkeletonFilterParams& params, float dt_s, const float in[3], float out[3]);
+  // Pulls `out` (this update's output) and the filter's state to within `max_offset_m` of `in`
+  // along the line between them; nothing changes when they are that close already.
+  void limit_offset(const float in[3], float max_offset_m, float out[3]);
 };
 
 }  // namespace dp

@@ -23,7 +23,9 @@
 //               or a proposal that does not fit its bone; missing: no proposal and no history.
 //   confidence  in [0, 1], calibrated: of the joints reported at confidence c, about a fraction c
 //               lie within 0.1 m of the truth (on held-out synthetic sequences, docs/skeleton.md).
-//   filter      each reported joint goes through its JointFilter (skeleton_filter.h).
+//   filter      each reported joint goes through its JointFilter (skeleton_filter.h); a tracked joint
+//               that fits well is kept within the filter's max_offset_m of its chosen proposal
+//               (JointFilter::limit_offset; kFilterLimitMinEvidence in skeleton_tracker.cc).
 //   bones       a quaternion per bone from the filtered joints (Skeleton::bone_rotation).
 //
 // Contract (firmware style, as dp::Pipeline): the tracker is a fixed-size object (state for

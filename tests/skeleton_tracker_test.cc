@@ -91,6 +91,11 @@ TEST(SkeletonTracker, RefusesOtherJointSetsAndBadConfigs) {
   c = default_skeleton_config();
   c.frame_period_s = std::nanf("");
   EXPECT_EQ(tracker->init(m, c), Status::kBadConfig);
+  for (float offset : {-0.01f, 1.5f, std::nanf("")}) {
+    c = default_skeleton_config();
+    c.filter.max_offset_m = offset;
+    EXPECT_EQ(tracker->init(m, c), Status::kBadConfig) << "max_offset_m " << offset;
+  }
   float truth[kSkeletonJoints][3];
   body(0.0f, truth);
   auto r = clean_frame(truth);
@@ -317,6 +322,85 @@ TEST(SkeletonFilter, OffPassesThroughDefaultCutsJitterAndFollowsMotion) {
   const float truth = 2.0f * dt * 29.0f;
   EXPECT_LT(truth - out_def[0], truth - out_strong[0]);
   EXPECT_LT(truth - out_def[0], 2.0f * 2.0f * dt) << "default lags by less than two frames at 2 m/s";
+}
+
+TEST(SkeletonFilter, LimitOffsetPullsOutputAndStateToWithinReachOfTheInput) {
+  const float dt = 1.0f / 30.0f;
+  const SkeletonFilterParams p = skeleton_filter_preset(SkeletonFilterPreset::kDefault);
+  JointFilter limited{}, free{};
+  limited.reset();
+  free.reset();
+  float out[3], out_free[3];
+  for (int f = 0; f < 10; ++f) {
+    const float still[3] = {0.0f, 1.0f, 2.0f};
+    limited.update(p, dt, still, out);
+    free.update(p, dt, still, out_free);
+  }
+  // A 0.3 m jump along x: the filter lags far behind it, the limit pulls the output to 3 cm.
+  const float jump[3] = {0.3f, 1.0f, 2.0f};
+  limited.update(p, dt, jump, out);
+  free.update(p, dt, jump, out_free);
+  ASSERT_GT(jump[0] - out[0], 0.1f) << "the default filter lags a jump by more than 0.1 m";
+  limited.limit_offset(jump, 0.03f, out);
+  EXPECT_NEAR(out[0], 0.27f, 1e-5f);
+  EXPECT_NEAR(out[1], 1.0f, 1e-6f);
+  EXPECT_NEAR(out[2], 2.0f, 1e-6f);
+  EXPECT_EQ(limited.x[0], out[0]) << "the filter goes on from the limited output";
+  // The next update starts from there: closer to the input than the unlimited filter.
+  limited.update(p, dt, jump, out);
+  free.update(p, dt, jump, out_free);
+  EXPECT_LT(jump[0] - out[0], 0.03f);
+  EXPECT_GT(jump[0] - out_free[0], 0.05f);
+  // Within reach already: nothing changes.
+  const float before[3] = {out[0], out[1], out[2]};
+  limited.limit_offset(jump, 0.5f, out);
+  for (int a = 0; a < 3; ++a) EXPECT_EQ(out[a], before[a]);
+}
+
+namespace {
+// Distance from the reported (filtered) joint to p.
+float reported_distance(const TrackedJoint& t, const float* p) {
+  return std::sqrt((t.x_m - p[0]) * (t.x_m - p[0]) + (t.y_m - p[1]) * (t.y_m - p[1]) + (t.z_m - p[2]) * (t.z_m - p[2]));
+}
+// A still body, then the whole body steps 0.12 m sideways in one frame: every proposal still fits
+// its bones, so each joint is tracked with a high fit score.
+void step_sideways(SkeletonTracker& tracker, Skeleton* s, float truth[kSkeletonJoints][3]) {
+  feed_still_body(tracker, 12, s);
+  body(0.12f, truth);
+  tracker.begin_frame();
+  ASSERT_EQ(tracker.update(1, *clean_frame(truth), s), Status::kOk);
+}
+}  // namespace
+
+TEST(SkeletonTracker, AWellFittingJointIsReportedWithinTheFilterLimitOfItsProposal) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  const SkeletonConfig config = default_skeleton_config();
+  ASSERT_NEAR(config.filter.max_offset_m, 0.03f, 1e-6f);
+  ASSERT_EQ(tracker->init(skeleton_meta(), config), Status::kOk);
+  Skeleton s;
+  float truth[kSkeletonJoints][3];
+  step_sideways(*tracker, &s, truth);
+  // The default filter may not hold a well-fitting joint back by more than 3 cm (unlimited, it
+  // would report the joints ~9 cm behind).
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    const TrackedJoint& t = s.joints[j];
+    ASSERT_EQ(t.state, JointState::kTracked) << skeleton_joint_name(j);
+    EXPECT_GE(t.evidence, 5) << skeleton_joint_name(j);
+    EXPECT_LT(distance(t, truth[j]), 1e-5f) << skeleton_joint_name(j);
+    const float offset = reported_distance(t, truth[j]);
+    EXPECT_LE(offset, 0.03f + 1e-5f) << skeleton_joint_name(j);
+    EXPECT_GT(offset, 0.02f) << skeleton_joint_name(j) << ": still smoothed, not passed through";
+  }
+  // The strong preset has no limit: it smooths the same step fully.
+  SkeletonConfig strong = default_skeleton_config();
+  strong.filter = skeleton_filter_preset(SkeletonFilterPreset::kStrong);
+  EXPECT_EQ(strong.filter.max_offset_m, 0.0f);
+  ASSERT_EQ(tracker->init(skeleton_meta(), strong), Status::kOk);
+  step_sideways(*tracker, &s, truth);
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    ASSERT_EQ(s.joints[j].state, JointState::kTracked) << skeleton_joint_name(j);
+    EXPECT_GT(reported_distance(s.joints[j], truth[j]), 0.05f) << skeleton_joint_name(j);
+  }
 }
 
 namespace {
