@@ -57,6 +57,11 @@ def table(header, rows):
     return "\n".join(out)
 
 
+def section(out, caption, header, rows):
+    """Appends a caption line and its table, each followed by a blank line."""
+    out += [caption, "", table(header, rows), ""]
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit(__doc__.strip())
@@ -82,36 +87,27 @@ def main():
     tune_rows = [[m.upper(), str(t["frames"]), f"{t['mAP_before']:.3f} → {t['mAP_after']:.3f}", str(t["nsub"])]
                  for m, t in tunes if t is not None]
     if tune_rows:
-        out.append("Tuning on the validation split (`depthpose tune`; per-joint bandwidth, vote length, "
-                   "push-back and probability threshold, then Nsub):")
-        out.append("")
-        out.append(table(["", "validation frames", "validation mAP before → after", "Nsub"], tune_rows))
-        out.append("")
+        section(out, "Tuning on the validation split (`depthpose tune`; per-joint bandwidth, vote length, "
+                "push-back and probability threshold, then Nsub):",
+                ["", "validation frames", "validation mAP before → after", "Nsub"], tune_rows)
 
     categories = sorted({c for e in evals for c in e.get("by_category", {})})
     if categories:
-        out.append("mAP per held-out motion category (frames of the test split in each):")
-        out.append("")
         rows = []
         for c in categories:
             frames = next(e["by_category"][c]["frames"] for e in evals if c in e.get("by_category", {}))
             rows.append([c, str(frames)] +
                         [fmt(e.get("by_category", {}).get(c, {}).get("mAP")) for e in evals])
-        out.append(table(["category", "frames"] + labels, rows))
-        out.append("")
+        section(out, "mAP per held-out motion category (frames of the test split in each):",
+                ["category", "frames"] + labels, rows)
 
     joints = list(first["per_joint_ap"].keys())
     order = ["head", "neck", "shoulder_l", "shoulder_r", "elbow_l", "elbow_r", "wrist_l", "wrist_r",
              "hand_l", "hand_r", "knee_l", "knee_r", "ankle_l", "ankle_r", "foot_l", "foot_r"]
     joints = [j for j in order if j in joints] + [j for j in joints if j not in order]
-    out.append(f"AP per joint (below {FLOOR} in bold):")
-    out.append("")
-    out.append(table(["joint"] + labels,
-                     [[j] + [fmt(e["per_joint_ap"].get(j), True) for e in evals] for j in joints]))
-    out.append("")
+    section(out, f"AP per joint (below {FLOOR} in bold):", ["joint"] + labels,
+            [[j] + [fmt(e["per_joint_ap"].get(j), True) for e in evals] for j in joints])
 
-    out.append("mAP against the true-positive radius:")
-    out.append("")
     radii = [p["d_tp"] for p in first["ap_vs_dtp"]]
     rows = []
     for r in radii:
@@ -120,8 +116,7 @@ def main():
             hit = [p["mAP"] for p in e["ap_vs_dtp"] if abs(p["d_tp"] - r) < 1e-9]
             cells.append(fmt(hit[0] if hit else None))
         rows.append([f"{r:.2f}"] + cells)
-    out.append(table(["D_tp (m)"] + labels, rows))
-    out.append("")
+    section(out, "mAP against the true-positive radius:", ["D_tp (m)"] + labels, rows)
 
     speed_rows = []
     for label, e in cols:
@@ -130,11 +125,9 @@ def main():
             stages = " + ".join(f"{k} {v:.3f}" for k, v in s["stage_ms"].items() if v > 0)
             speed_rows.append([label, f"{s['fps']:.0f}", f"{s['mean_evaluated_pixels']:.0f}", stages])
     if speed_rows:
-        out.append("Speed inside `depthpose eval` (one core, the test split's frames, not a benchmark: "
-                   "`make bench` measures speed):")
-        out.append("")
-        out.append(table(["blob", "frames/s", "evaluated pixels/frame", "ms per stage"], speed_rows))
-        out.append("")
+        section(out, "Speed inside `depthpose eval` (one core, the test split's frames, not a benchmark: "
+                "`make bench` measures speed):", ["blob", "frames/s", "evaluated pixels/frame", "ms per stage"],
+                speed_rows)
     print("\n".join(out).rstrip())
 
 
