@@ -44,12 +44,14 @@ constexpr float kGenericBoneM[kSkeletonJoints] = {0.10f,  0.0f,   0.24f, 0.24f, 
 // from 1.1 to 2.0 m tall; a user's measured lengths vary only with the proposals' noise, except the
 // neck→knee span (hip flexion: 0.5–1.3 m on the synthetic motion).
 constexpr float kBoneToleranceGeneric = 0.35f;
-// Measured: on the validation sequences (default filter; tall clutter seeds 191–196 and seeds 11–14 /
-// 41–44 without it), 0.15 / 0.20 / 0.25 gave within 0.1 m 0.543 / 0.544 / 0.548 and 0.576 / 0.579 /
-// 0.579 with models/ojr.blob, 0.560 / 0.561 / 0.557 and 0.579 / 0.581 / 0.571 with models/bpc.blob;
-// 0.20 gains on all four, and its still-joint jitter on the sequences without tall clutter is
-// lower (ojr 39.1 → 28.0 mm): a tight tolerance made the choice hop between proposals.
-constexpr float kBoneToleranceMeasured = 0.20f;
+// Fraction, range tried 0.15–0.30. On the validation sequences (default filter; tall clutter seeds
+// 191–196 and seeds 11–14 / 41–44 without it) with the shipped depth-20 models/ojr.blob and
+// models/bpc.blob, the first proposal is within 0.1 m 0.617 / 0.606 (ojr) and 0.633 / 0.616 (bpc).
+// With the mirror cost 1.5 and orphan cost 6, tolerance 0.15 / 0.20 / 0.25 / 0.30 gave the tracker
+// 0.618 / 0.629 / 0.633 / 0.627 and 0.611 / 0.611 / 0.615 / 0.616 (ojr), 0.638 / 0.639 / 0.637 /
+// 0.646 and 0.610 / 0.614 / 0.620 / 0.616 (bpc); with the mirror cost 3, 0.25 / 0.30 gave 0.634 /
+// 0.629, 0.614 / 0.615, 0.640 / 0.640, 0.623 / 0.624: 0.25 has the best sum of the four gains.
+constexpr float kBoneToleranceMeasured = 0.25f;
 constexpr float kBoneToleranceHipSpan = 0.35f;
 constexpr float kBoneSlackM = 0.02f;
 
@@ -73,12 +75,14 @@ constexpr float kMinShoulderSpanM = 0.10f; // two shoulders closer than this are
 constexpr float kShoulderOverlapCost = 6.0f;
 constexpr float kMinLimbSeparationM = 0.08f;  // a left and a right limb joint closer than this coincide
 constexpr float kCoincideCost = 4.0f;
-// Taking the mirror joint's proposal. On the validation sequences (as above, with the 0.20 tolerance)
-// 1 / 1.5 / 2 gave within 0.1 m 0.544 / 0.546 / 0.550 (tall clutter) and 0.579 / 0.581 / 0.578 with
-// models/ojr.blob, 0.561 / 0.568 / 0.566 and 0.581 / 0.577 / 0.572 with models/bpc.blob, swaps per
-// 1000 46.9 / 43.6 / 39.2, 43.9 / 35.0 / 32.8 (tall clutter) and 26.0 / 27.9 / 28.9, 19.1 / 20.6 /
-// 20.7: 1.5 has the best sum of the four rates.
-constexpr float kMirrorCost = 1.5f;
+// Taking the mirror joint's proposal (cost units as above), range tried 1–4. On the validation
+// sequences (as for kBoneToleranceMeasured, tolerance 0.20, orphan cost 6), 1 / 1.5 / 2 / 3 / 4
+// gave within 0.1 m 0.626 / 0.629 / 0.630 / 0.631 / 0.629 (tall clutter) and 0.613 / 0.611 / 0.612
+// / 0.609 / 0.611 with models/ojr.blob, 0.625 / 0.639 / 0.639 / 0.639 / 0.638 and 0.614 / 0.614 /
+// 0.618 / 0.622 / 0.620 with models/bpc.blob; swaps per 1000 (same order) ojr 24.0 / 19.6 / 17.7 /
+// 16.7 / 16.2 and 24.5 / 23.0 / 21.3 / 21.6 / 21.6, bpc 40.1 / 26.3 / 24.6 / 22.5 / 22.2 and 28.5 /
+// 27.5 / 23.8 / 20.5 / 20.8: 3 has the best sum of the four rates.
+constexpr float kMirrorCost = 3.0f;
 constexpr float kPredictedCost = 3.0f;     // choosing the last position instead of any proposal
 constexpr float kAbsentCost = 8.0f;        // choosing nothing
 // A proposal whose parent is an "absent" neck or shoulder: the bone to it is unmeasured, and this
@@ -90,8 +94,13 @@ constexpr float kAbsentCost = 8.0f;        // choosing nothing
 // / 0.529 / 0.533 / 0.541 / 0.541 within 0.1 m and 47.3 / 48.8 / 50.3 / 43.7 / 37.1 / 38.3 swaps ‰;
 // applied under every parent it also reported scattered limb proposals that used to be missing
 // (still-joint jitter 25.2 → 30.5 mm), so it applies under the torso joints only (6: 0.534, 44.8 ‰,
-// jitter 22.6 mm; models/bpc.blob 0.531 → 0.553, swaps 51.1 → 42.0 ‰).
-constexpr float kOrphanCost = 6.0f;
+// jitter 22.6 mm; models/bpc.blob 0.531 → 0.553, swaps 51.1 → 42.0 ‰; those figures are the
+// previous depth-18 forests'). With the shipped depth-20 models, tolerance 0.25 and mirror cost 3,
+// on the validation sequences (tall clutter; without) cost 4 / 6 / 8 gave within 0.1 m ojr 0.635 /
+// 0.634 / 0.634, 0.614 / 0.614 / 0.614, bpc 0.640 / 0.640 / 0.636, 0.623 / 0.623 / 0.623, and swaps
+// per 1000 ojr 17.2 / 19.7 / 19.8, 19.7 / 20.0 / 20.4, bpc 21.7 / 22.3 / 26.1, 20.6 / 20.5 / 21.0:
+// 4 keeps the rates and has the fewest swaps.
+constexpr float kOrphanCost = 4.0f;
 constexpr int32_t kMaxPredictedFrames = 10;  // a joint unseen longer than this is missing
 // The joints the filter's offset limit (SkeletonFilterParams::max_offset_m) holds near their chosen
 // proposal: tracked with a fit score exp(−local cost / 2) ≥ 0.5, evidence classes

@@ -156,9 +156,20 @@ TEST(SkeletonTracker, ChoosesTheProposalThatFitsOverAStrongerDecoyAndUndoesSwaps
   ASSERT_EQ(tracker->update(1, *r, &s), Status::kOk);
   EXPECT_LT(distance(s.joints[kHandL], truth[kHandL]), 1e-5f);
   EXPECT_EQ(s.joints[kHandL].proposal, 1);
-  EXPECT_LT(distance(s.joints[kAnkleL], truth[kAnkleL]), 1e-5f) << "the left ankle took the right's 2nd proposal";
-  EXPECT_EQ(s.joints[kAnkleL].proposal_joint, kAnkleR);
+  // A tracked left ankle keeps its last position: the mirror joint's weaker proposal (mirror cost
+  // 3 plus log 2) costs more than the prediction (kPredictedCost 3).
+  float last[kSkeletonJoints][3];
+  body(0.0f, last);
+  EXPECT_LT(distance(s.joints[kAnkleL], last[kAnkleL]), 1e-5f) << "the left ankle kept its prediction";
+  EXPECT_EQ(s.joints[kAnkleL].proposal_joint, -1);
   EXPECT_LT(distance(s.joints[kAnkleR], truth[kAnkleR]), 1e-5f);
+  // A new user has no prediction: its left ankle takes the right ankle's second proposal rather
+  // than its own, which lies on the wrong side and on the right ankle.
+  Skeleton fresh;
+  ASSERT_EQ(tracker->update(2, *r, &fresh), Status::kOk);
+  EXPECT_LT(distance(fresh.joints[kAnkleL], truth[kAnkleL]), 1e-5f) << "the left ankle took the right's 2nd proposal";
+  EXPECT_EQ(fresh.joints[kAnkleL].proposal_joint, kAnkleR);
+  EXPECT_LT(distance(fresh.joints[kAnkleR], truth[kAnkleR]), 1e-5f);
 }
 
 TEST(SkeletonTracker, AJointWithoutProposalsIsInferredThenMissing) {
