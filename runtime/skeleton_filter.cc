@@ -18,8 +18,8 @@ SkeletonFilterParams skeleton_filter_preset(SkeletonFilterPreset preset) {
   // filter's lag moved correct joints more than 0.1 m away (486 of the 2083 joint-frames lost
   // against the first proposal on the validation sequences with tall clutter, seeds 191–196). There,
   // with the default cutoffs, limits of 0.02 / 0.03 / 0.05 / 0.07 m / none gave within 0.1 m 0.544 /
-  // 0.543 / 0.538 / 0.536 / 0.534 with models/ojr.blob and still-joint jitter 25.5 / 24.5 / 23.5 /
-  // 23.0 / 22.6 mm (models/bpc.blob 0.562 / 0.560 / 0.557 / 0.556 / 0.553, jitter 28.4 / 27.5 / 26.3 /
+  // 0.543 / 0.538 / 0.536 / 0.534 with the previous depth-13 OJR forest and still-joint jitter 25.5 / 24.5 / 23.5 /
+  // 23.0 / 22.6 mm (the previous depth-16 BPC forest 0.562 / 0.560 / 0.557 / 0.556 / 0.553, jitter 28.4 / 27.5 / 26.3 /
   // 25.6 / 23.7 mm): 0.03 m is the knee. The strong preset has none: it is for users who want the
   // least jitter (with the 0.03 m limit its jitter was 29.4 mm on held-out set A against 16.2 mm).
   switch (preset) {

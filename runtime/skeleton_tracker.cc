@@ -95,7 +95,7 @@ constexpr float kAbsentCost = 8.0f;        // choosing nothing
 // applied under every parent it also reported scattered limb proposals that used to be missing
 // (still-joint jitter 25.2 → 30.5 mm), so it applies under the torso joints only (6: 0.534, 44.8 ‰,
 // jitter 22.6 mm; models/bpc.blob 0.531 → 0.553, swaps 51.1 → 42.0 ‰; those figures are the
-// previous depth-18 forests'). With the shipped depth-20 models, tolerance 0.25 and mirror cost 3,
+// previous forests', BPC depth 16 and OJR depth 13). With the shipped depth-20 models, tolerance 0.25 and mirror cost 3,
 // on the validation sequences (tall clutter; without) cost 4 / 6 / 8 gave within 0.1 m ojr 0.635 /
 // 0.634 / 0.634, 0.614 / 0.614 / 0.614, bpc 0.640 / 0.640 / 0.636, 0.623 / 0.623 / 0.623, and swaps
 // per 1000 ojr 17.2 / 19.7 / 19.8, 19.7 / 20.0 / 20.4, bpc 21.7 / 22.3 / 26.1, 20.6 / 20.5 / 21.0:
@@ -106,7 +106,7 @@ constexpr int32_t kMaxPredictedFrames = 10;  // a joint unseen longer than this 
 // proposal: tracked with a fit score exp(−local cost / 2) ≥ 0.5, evidence classes
 // kFilterLimitMinEvidence..9. Inferred and weakly fitting joints keep the full smoothing (their raw
 // position is the less trustworthy one). On the validation sequences with tall clutter (seeds
-// 191–196, models/ojr.blob, limit 0.03 m) classes 5–9 gave 0.543 within 0.1 m at 24.5 mm still-joint
+// 191–196, the previous depth-13 OJR forest, limit 0.03 m) classes 5–9 gave 0.543 within 0.1 m at 24.5 mm still-joint
 // jitter, every tracked class (0–9) 0.545 at 31.6 mm.
 constexpr int32_t kFilterLimitMinEvidence = 5;
 
