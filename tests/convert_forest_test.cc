@@ -19,6 +19,7 @@
 #include "tools/common/body_model.h"
 #include "tools/common/error.h"
 #include "tools/convert/forest_convert.h"
+#include "tools/eval/blob_rebuild.h"
 #include "tools/convert/pcl_import.h"
 #include "tools/demo/fixtures.h"
 #include "tools/train/forest_file.h"
@@ -264,6 +265,33 @@ TEST(ConvertForest, OjrCompactionKeepsTheHeaviestShortVotes) {
   EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{5, 0, 0.0}), tools::ToolError);
   EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{1, 4001, 0.0}), tools::ToolError);
   EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{1, 0, 1.5}), tools::ToolError);
+  // Per-joint cuts: joint 0 at 250 mm (lane 2 goes), joint 1 at 5 mm (its 11 mm vote goes); each
+  // joint's vote length becomes its own cut, and a cut of 0 leaves its joint alone.
+  c.ojr_leaves = original;
+  c.config.joints[0].vote_length_mm = 0;
+  c.config.joints[1].vote_length_mm = 500;
+  tools::OjrCompaction per_joint{4, 300, 0.0, {250, 5}, {}};
+  r = tools::compact_ojr_leaves(&c, per_joint);
+  EXPECT_EQ(r.dropped_long, 2u);
+  EXPECT_EQ(c.ojr_leaves[2].weight, 0);
+  EXPECT_EQ(c.ojr_leaves[6].weight, 0);
+  EXPECT_EQ(c.ojr_leaves[0].weight, 10);
+  EXPECT_EQ(c.config.joints[0].vote_length_mm, 250);
+  EXPECT_EQ(c.config.joints[1].vote_length_mm, 5);
+  c.ojr_leaves = original;
+  c.config.joints[1].vote_length_mm = 500;
+  r = tools::compact_ojr_leaves(&c, tools::OjrCompaction{4, 300, 0.0, {0, 5}, {}});
+  EXPECT_EQ(r.dropped_long, 1u) << "joint 0 uncut, even its 300 mm vote";
+  EXPECT_EQ(c.ojr_leaves[2].weight, 40);
+  EXPECT_EQ(c.config.joints[1].vote_length_mm, 5);
+  EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{4, 0, 0.0, {100}, {}}), tools::ToolError)
+      << "one length for two joints";
+  EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{4, 0, 0.0, {100, 4001}, {}}), tools::ToolError);
+  const std::vector<std::string> names = c.joint_names;
+  EXPECT_NO_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{4, 0, 0.0, {100, 100}, names}));
+  EXPECT_THROW(tools::compact_ojr_leaves(&c, tools::OjrCompaction{4, 0, 0.0, {100, 100}, {names[1], names[0]}}),
+               tools::ToolError)
+      << "lengths for the joints in another order";
   // The blob stores only what is left.
   c.ojr_leaves = original;
   tools::compact_ojr_leaves(&c, tools::OjrCompaction{1, 0, 0.0});
@@ -297,6 +325,40 @@ TEST(ConvertForest, CommandAppliesAndChecksTheOjrCompactionOptions) {
   EXPECT_EQ(cut_len, 300) << "and lowers the vote length to the cut";
   EXPECT_EQ(all_len, 400) << "no cut: the default config";
   EXPECT_LT(one, all);
+  // Cutting at a tuned blob's lengths: a blob whose joint 0 casts 100 mm and joint 1 150 mm.
+  {
+    const std::vector<uint8_t> bytes = blob::read_blob_file(dir.path + "/all.blob");
+    blob::LoadedBlob b;
+    ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+    blob::RuntimeConfig tuned = *b.config;
+    for (int j = 0; j < int(b.meta->joint_count); ++j) tuned.joints[j].vote_length_mm = 150;
+    tuned.joints[0].vote_length_mm = 100;
+    blob::save_blob_file(dir.path + "/tuned.blob", tools::blob_with_config(b, tuned));
+  }
+  ASSERT_EQ(run_cli({"convert", forest, "--out", dir.path + "/from.blob", "--check-frames", "0", "--ojr-lengths-from",
+                     dir.path + "/tuned.blob"}),
+            0);
+  const auto [from, from_len] = entries("from.blob");
+  EXPECT_LT(from, cut) << "cuts at 100 and 150 mm keep fewer votes than one at 300 mm";
+  EXPECT_EQ(from_len, 100);
+  {
+    const std::vector<uint8_t> bytes = blob::read_blob_file(dir.path + "/from.blob");
+    blob::LoadedBlob b;
+    ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+    EXPECT_EQ(b.config->joints[1].vote_length_mm, 150);
+    for (uint32_t e = 0; e < b.meta->entry_count; ++e) {
+      const blob::OjrVote& v = b.ojr_votes()[e];
+      const int joint = b.entry_tags[e] / b.meta->votes_per_joint;
+      const double len = std::sqrt(double(v.dx_mm) * v.dx_mm + double(v.dy_mm) * v.dy_mm + double(v.dz_mm) * v.dz_mm);
+      ASSERT_LE(len, joint == 0 ? 100.0 : 150.0) << "entry " << e << " of joint " << joint;
+    }
+  }
+  EXPECT_THROW(run_cli({"convert", forest, "--out", dir.path + "/bad.blob", "--ojr-lengths-from",
+                        dir.path + "/tuned.blob", "--ojr-max-length", "0.2"}),
+               tools::ToolError);
+  EXPECT_THROW(run_cli({"convert", forest, "--out", dir.path + "/bad.blob", "--ojr-lengths-from",
+                        dir.path + "/missing.blob"}),
+               tools::ToolError);
   for (const char* bad : {"--ojr-max-votes=5", "--ojr-max-length=4.5", "--ojr-min-share=-0.1", "--ojr-min-share=x"}) {
     const std::string option(bad);
     const size_t eq = option.find('=');

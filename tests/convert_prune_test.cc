@@ -1,8 +1,10 @@
 // Pruning a trained forest to a size budget: collapsed subtrees merge their leaves' distributions by
 // pixel count, untouched paths keep their leaves, the budget search meets its budget with the
-// smallest threshold or refuses, and the command lines refuse bad values.
+// smallest threshold or refuses, pruning by information gain keeps the splits that separate parts
+// and spends a budget across trees, and the command lines refuse bad values.
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <random>
 #include <string>
 #include <vector>
@@ -52,6 +54,32 @@ train::TrainedForest random_counted_forest(uint32_t seed, int trees, int depth) 
   std::mt19937 rng(seed + 100);
   for (auto& t : f.trees)
     for (uint32_t& c : t.leaf_pixel_counts) c = rng() % 61;
+  return f;
+}
+
+// Root → split 1 → leaves 3, 4 (100 pixels each, both parts half and half: the split separates
+// nothing) and split 2 → leaves 5 (5 pixels, all part 0), 6 (5 pixels, all part 1: a perfect
+// split of few pixels). Gains: split 1 zero bits, split 2 ten bits.
+train::TrainedForest gain_forest() {
+  train::TrainedForest f;
+  f.method = "bpc";
+  f.reference_focal_px = 262.5f;
+  f.depth = 20;
+  f.part_names = {"neck", "head"};
+  f.has_part_distributions = true;
+  train::TrainedTree t;
+  for (uint32_t h : {0u, 1u, 2u, 3u, 4u, 5u, 6u}) {
+    train::TrainedNode n;
+    n.heap_index = h;
+    n.du1 = 7;
+    n.threshold_mm = 100;
+    t.nodes.push_back(n);
+  }
+  for (int i = 3; i < 7; ++i) t.nodes[size_t(i)].leaf = i - 3;
+  t.leaf_pixel_counts = {100, 100, 5, 5};
+  t.part_probabilities = {0.5f, 0.5f, 0.5f, 0.5f, 1.0f, 0.0f, 0.0f, 1.0f};
+  f.trees.push_back(t);
+  train::link_and_validate(f, "gain forest");
   return f;
 }
 
@@ -187,6 +215,100 @@ TEST(ConvertPrune, BudgetIsMetWithTheSmallestThresholdOrRefused) {
   }
 }
 
+TEST(ConvertPrune, GainOrderCollapsesTheSplitThatSeparatesNothingFirst) {
+  const train::TrainedForest f = gain_forest();
+  // By pixel count the small, informative split goes first ...
+  const train::TrainedForest by_pixels = train::prune_forest(f, 20);
+  ASSERT_EQ(by_pixels.trees[0].leaf_count(), 3u);
+  EXPECT_EQ(by_pixels.trees[0].nodes[2].heap_index, 2u);
+  EXPECT_TRUE(by_pixels.trees[0].nodes[2].is_leaf());
+  // ... by gain the large split whose children carry the same distribution does.
+  const train::GainPruneOrder order(f);
+  EXPECT_EQ(order.leaf_count(), 4u);
+  EXPECT_EQ(order.min_leaves(), 1u);
+  train::PruneReport rep;
+  const train::TrainedForest three = order.prune_to(3, &rep);
+  const train::TrainedTree& t = three.trees[0];
+  ASSERT_EQ(t.leaf_count(), 3u);
+  EXPECT_EQ(rep.leaves_after, 3u);
+  EXPECT_EQ(rep.collapsed_splits, 1u);
+  ASSERT_EQ(t.nodes.size(), 5u);
+  EXPECT_TRUE(t.nodes[1].is_leaf()) << "split 1 collapsed";
+  EXPECT_FALSE(t.nodes[2].is_leaf()) << "split 2 kept";
+  EXPECT_EQ(t.leaf_pixel_counts, (std::vector<uint32_t>{200, 5, 5}));
+  EXPECT_EQ(t.part_probabilities, (std::vector<float>{0.5f, 0.5f, 1.0f, 0.0f, 0.0f, 1.0f}));
+  // Nested: two leaves = both splits collapsed (only split 2 is left to go); one leaf = the root.
+  EXPECT_EQ(order.prune_to(2).trees[0].leaf_count(), 2u);
+  const train::TrainedForest root = order.prune_to(1);
+  ASSERT_EQ(root.trees[0].nodes.size(), 1u);
+  EXPECT_FLOAT_EQ(root.trees[0].part_probabilities[0], 105.0f / 210.0f);
+  EXPECT_EQ(order.prune_to(4).trees[0].nodes.size(), 7u) << "as many leaves as trained: nothing collapsed";
+  EXPECT_EQ(order.prune_to(1000).trees[0].part_probabilities, f.trees[0].part_probabilities);
+  EXPECT_THROW(order.prune_to(0), tools::ToolError);
+  // Forests the order cannot rank are refused.
+  EXPECT_THROW(train::GainPruneOrder(random_trained_forest(13, "ojr", 1, 8, 0.8)), tools::ToolError);
+  train::TrainedForest bare = f;
+  bare.has_part_distributions = false;
+  bare.trees[0].part_probabilities.clear();
+  EXPECT_THROW(train::GainPruneOrder{bare}, tools::ToolError);
+}
+
+TEST(ConvertPrune, GainOrderIsNestedAndSpendsTheBudgetAcrossTrees) {
+  const train::TrainedForest f = random_counted_forest(16, 3, 11);
+  const train::GainPruneOrder order(f);
+  size_t previous = SIZE_MAX;
+  std::vector<uint64_t> per_tree_before;
+  for (const auto& t : f.trees) per_tree_before.push_back(t.leaf_count());
+  for (uint64_t k = order.leaf_count(); k >= order.min_leaves(); k = k > 40 ? k - 37 : k - 1) {
+    train::PruneReport rep;
+    const train::TrainedForest p = order.prune_to(k, &rep);
+    EXPECT_EQ(rep.leaves_after, k);
+    const size_t bytes = blob::write_blob(tools::convert_forest(p, {}, "test", nullptr)).size();
+    EXPECT_LE(bytes, previous) << "the blob never grows as leaves go, at " << k;
+    previous = bytes;
+    if (k == order.min_leaves()) break;
+  }
+  // A budget: the largest leaf count whose blob fits; one leaf more does not.
+  const size_t lossless = blob::write_blob(tools::convert_forest(f, {}, "test", nullptr)).size();
+  tools::PruneBudget budget;
+  budget.max_bytes = lossless / 2;
+  budget.by_gain = true;
+  const tools::BudgetedBlob b = tools::convert_within_budget(f, {}, budget, "test");
+  EXPECT_LE(b.bytes.size(), budget.max_bytes);
+  ASSERT_GT(b.max_leaves, 0u);
+  EXPECT_EQ(b.prune.leaves_after, b.max_leaves);
+  EXPECT_GT(blob::write_blob(tools::convert_forest(order.prune_to(b.max_leaves + 1), {}, "t", nullptr)).size(),
+            budget.max_bytes);
+  EXPECT_EQ(b.bytes, blob::write_blob(tools::convert_forest(order.prune_to(b.max_leaves), {}, "t", nullptr)));
+  // The leaves are not cut evenly: each tree keeps what its own splits gain.
+  std::vector<uint64_t> kept;
+  for (const auto& t : b.forest.trees) kept.push_back(t.leaf_count());
+  EXPECT_NE(kept[0] * per_tree_before[1], kept[1] * per_tree_before[0]);
+  // A budget the lossless blob meets prunes nothing; an impossible one is refused; OJR is refused.
+  budget.max_bytes = lossless;
+  EXPECT_EQ(tools::convert_within_budget(f, {}, budget, "test").max_leaves, 0u);
+  budget.max_bytes = 100;
+  EXPECT_THROW(tools::convert_within_budget(f, {}, budget, "test"), tools::ToolError);
+  budget.max_bytes = lossless / 2;
+  EXPECT_THROW(tools::convert_within_budget(random_trained_forest(13, "ojr", 1, 8, 0.8), {}, budget, "test"),
+               tools::ToolError);
+  budget.min_leaf_pixels = 10;
+  EXPECT_THROW(tools::convert_within_budget(f, {}, budget, "test"), tools::ToolError);
+}
+
+TEST(ConvertPrune, StructureByGainCarriesNoLeafData) {
+  const train::TrainedForest f = random_counted_forest(17, 2, 10);
+  train::PruneReport rep;
+  const train::TrainedForest s = train::prune_structure_by_gain(f, 50, &rep);
+  EXPECT_FALSE(s.has_part_distributions);
+  EXPECT_FALSE(s.has_votes);
+  EXPECT_EQ(rep.leaves_after, 50u);
+  EXPECT_EQ(s.trees[0].leaf_count() + s.trees[1].leaf_count(), 50u);
+  for (const auto& t : s.trees) EXPECT_TRUE(t.part_probabilities.empty());
+  EXPECT_THROW(train::prune_structure_by_gain(f, 1), tools::ToolError) << "two trees keep two roots";
+  EXPECT_THROW(train::prune_structure_by_gain(random_trained_forest(13, "ojr", 1, 8, 0.8), 10), tools::ToolError);
+}
+
 TEST(ConvertPrune, StructureForRetroFittingCarriesNoLeafData) {
   train::TrainedForest ojr = random_trained_forest(14, "ojr", 2, 10, 0.8);
   std::mt19937 rng(3);
@@ -225,6 +347,15 @@ TEST(ConvertPrune, CommandPrunesToTheBudgetAndRefusesBadValues) {
     args.insert(args.end(), bad.begin(), bad.end());
     EXPECT_THROW(run_cli(args), tools::ToolError) << bad[0] << " " << bad[1];
   }
+  ASSERT_EQ(run_cli({"convert", forest, "--out", out, "--max-bytes", std::to_string(budget), "--prune-by", "gain",
+                     "--check-frames", "2"}),
+            0);
+  EXPECT_LE(blob::read_blob_file(out).size(), budget);
+  EXPECT_THROW(run_cli({"convert", forest, "--out", dir.path + "/bad.blob", "--prune-by", "entropy", "--max-bytes",
+                        std::to_string(budget)}),
+               tools::ToolError);
+  EXPECT_THROW(run_cli({"convert", forest, "--out", dir.path + "/bad.blob", "--prune-by", "gain"}), tools::ToolError)
+      << "gain needs a budget";
   // Blobs carry no pixel counts: the options are refused with --upgrade-blob.
   try {
     run_cli({"convert", "--upgrade-blob", out, "--out", dir.path + "/bad.blob", "--max-bytes", "1000"});

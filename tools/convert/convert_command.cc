@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstdio>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,7 @@
 #include "forest_blob/blob_writer.h"
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
+#include "tools/common/blob_error.h"
 #include "tools/common/error.h"
 #include "tools/common/limits.h"
 #include "tools/convert/blob_upgrade.h"
@@ -39,12 +41,16 @@ const char* const kUsage =
     "                             (its pixels' merged part distribution; docs/convert.md, pruning)\n"
     "  --max-bytes B              the blob must fit B bytes: BPC is pruned at the smallest N (>= --min-leaf-pixels)\n"
     "                             whose blob fits, refused if one leaf per tree does not; OJR is refused above B\n"
+    "  --prune-by pixels|gain     how --max-bytes prunes BPC: subtrees below N training pixels (default), or\n"
+    "                             the splits of least information gain first, keeping as many leaves as fit\n"
     "  --bpc-max-parts N          BPC leaves keep their N most probable parts (1..32, default %d)\n"
     "  --bpc-min-probability P    BPC leaves drop parts below P (0..1, default %.4f); dropped mass is\n"
     "                             not renormalized (docs/convert.md). 32 and 0: lossless\n"
     "  --ojr-max-votes N          OJR: each leaf and joint keeps its N heaviest votes (1..4, default %d)\n"
     "  --ojr-max-length M         OJR: votes longer than M metres are dropped and every joint's vote length\n"
     "                             is lowered to M (0..4, default %.3f; 0 = no limit)\n"
+    "  --ojr-lengths-from BLOB    OJR: cut each joint's votes at that OJR blob's vote length for the joint\n"
+    "                             (a tuned blob's: drops only votes it never casts; joints matched by name)\n"
     "  --ojr-min-share S          OJR: votes below S of their leaf and joint's vote weight are dropped (0..1,\n"
     "                             default %.3f). 4, 0, 0: lossless\n";
 
@@ -83,6 +89,18 @@ OjrCompaction ojr_compaction_of(const Args& args, OjrCompaction k) {
   k.max_length_mm = uint16_t(std::lround(
       1000.0 * bounded_option(args, "--ojr-max-length", k.max_length_mm / 1000.0, blob::kMaxVoteLengthMm / 1000.0)));
   k.min_share = bounded_option(args, "--ojr-min-share", k.min_share, 1.0);
+  if (args.has("--ojr-lengths-from")) {
+    if (args.has("--ojr-max-length")) fail("convert: --ojr-lengths-from and --ojr-max-length exclude each other");
+    const std::string path = args.get("--ojr-lengths-from");
+    const std::vector<uint8_t> bytes = blob::read_blob_file(path);
+    const blob::LoadedBlob tuned = load_blob_or_fail(bytes, path);
+    if (tuned.method() != blob::Method::kOjr) fail("convert: --ojr-lengths-from " + path + " is not an OJR blob");
+    k.joint_max_length_mm.clear();
+    for (int j = 0; j < int(tuned.meta->joint_count); ++j) {
+      k.joint_max_length_mm.push_back(tuned.config->joints[j].vote_length_mm);
+      k.joint_names.push_back(std::string(tuned.meta->joint_names[j], strnlen(tuned.meta->joint_names[j], blob::kNameBytes)));
+    }
+  }
   return k;
 }
 
@@ -126,6 +144,11 @@ int convert_trained(const Args& args) {
   if (args.has("--max-bytes") && max_bytes < 1)
     fail("convert: --max-bytes " + std::to_string(max_bytes) + " is not a positive number of bytes");
   budget.max_bytes = uint64_t(max_bytes);
+  const std::string prune_by = args.get("--prune-by", "pixels");
+  if (prune_by != "pixels" && prune_by != "gain")
+    fail("convert: --prune-by '" + prune_by + "' is not pixels or gain");
+  budget.by_gain = prune_by == "gain";
+  if (budget.by_gain && !args.has("--max-bytes")) fail("convert: --prune-by gain needs --max-bytes");
   const BudgetedBlob converted = convert_within_budget(train::read_forest(in), options, budget, in);
   const train::TrainedForest& forest = converted.forest;
   const QuantizationReport& rep = converted.quantization;
@@ -135,6 +158,11 @@ int convert_trained(const Args& args) {
   if (converted.min_leaf_pixels > 0)
     std::printf("pruned at %llu training pixels per subtree (%d blobs built): %llu -> %llu leaves, depth %d -> %d\n",
                 (unsigned long long)converted.min_leaf_pixels, converted.conversions,
+                (unsigned long long)converted.prune.leaves_before, (unsigned long long)converted.prune.leaves_after,
+                converted.prune.depth_before, converted.prune.depth_after);
+  if (converted.max_leaves > 0)
+    std::printf("pruned by information gain to %llu leaves (%d blobs built): %llu -> %llu leaves, depth %d -> %d\n",
+                (unsigned long long)converted.max_leaves, converted.conversions,
                 (unsigned long long)converted.prune.leaves_before, (unsigned long long)converted.prune.leaves_after,
                 converted.prune.depth_before, converted.prune.depth_after);
   std::printf("quantization: thresholds and offsets exact; worst probability error %.3g (bound 2^-15 = %.3g)",
@@ -206,7 +234,7 @@ int convert_main(int argc, char** argv) {
   }();
   Args args(argc, argv, usage.c_str(),
             {"--out", "--max-size", "--check-frames", "--upgrade-blob", "--bpc-max-parts", "--bpc-min-probability",
-             "--ojr-max-votes", "--ojr-max-length", "--ojr-min-share", "--min-leaf-pixels", "--max-bytes"},
+             "--ojr-max-votes", "--ojr-max-length", "--ojr-min-share", "--ojr-lengths-from", "--min-leaf-pixels", "--max-bytes", "--prune-by"},
             {"--from-pcl"});
   if (args.help_requested()) {
     std::printf("%s", args.usage().c_str());

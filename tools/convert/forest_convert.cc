@@ -98,12 +98,30 @@ OjrCompactionReport compact_ojr_leaves(blob::BlobContents* c, const OjrCompactio
          std::to_string(blob::kMaxVotesPerLeafJoint) + ", max length " + std::to_string(k.max_length_mm) +
          " mm outside 0.." + std::to_string(blob::kMaxVoteLengthMm) + " or min share " + std::to_string(k.min_share) +
          " outside 0..1");
+  const size_t joints = c->joint_names.size();
+  if (!k.joint_max_length_mm.empty()) {
+    if (k.joint_max_length_mm.size() != joints)
+      fail("OJR compaction: " + std::to_string(k.joint_max_length_mm.size()) + " per-joint vote lengths for a forest of " +
+           std::to_string(joints) + " joints");
+    if (!k.joint_names.empty() && k.joint_names != c->joint_names) {
+      std::string theirs, ours;
+      for (const auto& n : k.joint_names) theirs += (theirs.empty() ? "" : ",") + n;
+      for (const auto& n : c->joint_names) ours += (ours.empty() ? "" : ",") + n;
+      fail("OJR compaction: the per-joint vote lengths are for joints " + theirs + ", the forest's are " + ours);
+    }
+    for (const uint16_t len : k.joint_max_length_mm)
+      if (len > blob::kMaxVoteLengthMm)
+        fail("OJR compaction: per-joint max length " + std::to_string(len) + " mm outside 0.." +
+             std::to_string(blob::kMaxVoteLengthMm));
+  }
+  const auto cut_of = [&](size_t j) { return k.joint_max_length_mm.empty() ? k.max_length_mm : k.joint_max_length_mm[j]; };
   const size_t lanes = size_t(c->votes_per_joint);
   if (lanes == 0) return rep;
-  const int64_t len2 = int64_t(k.max_length_mm) * k.max_length_mm;
   std::vector<size_t> order(lanes);
   for (size_t g = 0; g * lanes < c->ojr_leaves.size(); ++g) {  // one (record, joint) at a time
     blob::OjrVote* v = &c->ojr_leaves[g * lanes];
+    const uint16_t cut = cut_of(g % joints);
+    const int64_t len2 = int64_t(cut) * cut;
     uint64_t total = 0;
     for (size_t i = 0; i < lanes; ++i) total += v[i].weight;
     for (size_t i = 0; i < lanes; ++i) order[i] = i;
@@ -115,7 +133,7 @@ OjrCompactionReport compact_ojr_leaves(blob::BlobContents* c, const OjrCompactio
       ++rep.votes_before;
       const int64_t d2 = int64_t(x.dx_mm) * x.dx_mm + int64_t(x.dy_mm) * x.dy_mm + int64_t(x.dz_mm) * x.dz_mm;
       uint64_t* reason = nullptr;
-      if (k.max_length_mm > 0 && d2 > len2)
+      if (cut > 0 && d2 > len2)
         reason = &rep.dropped_long;
       else if (double(x.weight) < k.min_share * double(total))
         reason = &rep.dropped_light;
@@ -130,11 +148,11 @@ OjrCompactionReport compact_ojr_leaves(blob::BlobContents* c, const OjrCompactio
       ++rep.votes_after;
     }
   }
-  if (k.max_length_mm > 0)
-    for (size_t j = 0; j < c->joint_names.size(); ++j) {
-      uint16_t& len = c->config.joints[j].vote_length_mm;
-      if (len == 0 || len > k.max_length_mm) len = k.max_length_mm;
-    }
+  for (size_t j = 0; j < joints; ++j) {
+    const uint16_t cut = cut_of(j);
+    uint16_t& len = c->config.joints[j].vote_length_mm;
+    if (cut > 0 && (len == 0 || len > cut)) len = cut;
+  }
   return rep;
 }
 
@@ -313,6 +331,46 @@ BudgetedBlob convert_within_budget(const train::TrainedForest& forest, const Con
   if (budget.min_leaf_pixels > 0 && forest.has_votes)
     fail(what + ": --min-leaf-pixels prunes BPC forests only: OJR votes are mean-shift modes that do not merge; "
                 "prune the structure before retro-fitting (depthpose train --structure F --structure-min-pixels N)");
+  if (budget.by_gain) {
+    if (forest.has_votes)
+      fail(what + ": pruning by gain is for BPC forests: OJR votes are mean-shift modes that do not merge");
+    if (budget.min_leaf_pixels > 0) fail(what + ": --prune-by gain and --min-leaf-pixels exclude each other");
+    if (budget.max_bytes == 0) fail(what + ": --prune-by gain needs --max-bytes");
+    const train::GainPruneOrder order(forest);
+    int conversions = 0;
+    auto build_leaves = [&](uint64_t leaves) {
+      BudgetedBlob b;
+      ++conversions;
+      b.forest = order.prune_to(leaves, &b.prune);
+      b.max_leaves = leaves;
+      b.bytes = blob::write_blob(convert_forest(b.forest, options, what, &b.quantization));
+      return b;
+    };
+    BudgetedBlob best = build_leaves(order.leaf_count());
+    if (best.bytes.size() > budget.max_bytes) {
+      // Invariant: the blob with `high` leaves exceeds the budget, the one with `low` fits.
+      uint64_t low = order.min_leaves(), high = order.leaf_count();
+      BudgetedBlob fitting = build_leaves(low);
+      if (fitting.bytes.size() > budget.max_bytes)
+        fail(what + ": --max-bytes " + std::to_string(budget.max_bytes) + " cannot be met: with every tree pruned to " +
+             "its root the blob is still " + std::to_string(fitting.bytes.size()) + " bytes");
+      while (high - low > 1) {
+        const uint64_t mid = low + (high - low) / 2;
+        BudgetedBlob b = build_leaves(mid);
+        if (b.bytes.size() <= budget.max_bytes) {
+          low = mid;
+          fitting = std::move(b);
+        } else {
+          high = mid;
+        }
+      }
+      best = std::move(fitting);
+    } else {
+      best.max_leaves = 0;  // nothing pruned
+    }
+    best.conversions = conversions;
+    return best;
+  }
   int conversions = 1;
   BudgetedBlob best = build(budget.min_leaf_pixels);
   const auto fits = [&](const BudgetedBlob& b) { return budget.max_bytes == 0 || b.bytes.size() <= budget.max_bytes; };

@@ -74,10 +74,17 @@ CompactionReport compact_bpc_leaves(blob::BlobContents* contents, const BpcCompa
 // beyond 0.3 m are nearly never cast, and the cut halves the leaf entries at no measured accuracy
 // cost, with a margin for joints whose best λ_j is long. A weight share of
 // 0.2..0.3 dropped only 5..10 % of the votes at no gain, so it stays off; K stays as trained.
+// Per-joint cuts (joint_max_length_mm, one per joint in the forest's joint order, replacing
+// max_length_mm) serve a tuned blob: its λ_j are the longest votes the runtime casts per joint, so
+// cutting each joint at its own λ_j (`convert --ojr-lengths-from TUNED.blob`) drops only votes that
+// blob never casts. See docs/convert.md "OJR leaf compaction" for what that saves.
 struct OjrCompaction {
   int max_votes = blob::kMaxVotesPerLeafJoint;  // per (leaf, joint), 1..kMaxVotesPerLeafJoint
   uint16_t max_length_mm = 300;                 // 0..kMaxVoteLengthMm; 0 = no limit
   double min_share = 0;                         // 0..1 of the (leaf, joint)'s total vote weight
+  std::vector<uint16_t> joint_max_length_mm;    // empty, or per joint 0..kMaxVoteLengthMm (0 = no limit)
+  std::vector<std::string> joint_names;         // when set: the joints those lengths are for, which
+                                                // must be the forest's, in its order
 };
 
 struct OjrCompactionReport {
@@ -128,15 +135,20 @@ void bpc_joint_masks(const std::vector<std::string>& part_names, std::vector<std
 //                       fits (binary search; the blob never grows with N: a collapse removes two
 //                       nodes and a record, and the merged record keeps no more parts than its
 //                       leaves together under the same compaction). 0 = no budget.
+//   by_gain             with max_bytes: prune by information gain instead (train::GainPruneOrder):
+//                       keep the largest number of leaves whose blob fits (binary search over the
+//                       nested order); min_leaf_pixels must be 0.
 struct PruneBudget {
   uint64_t min_leaf_pixels = 0;
   uint64_t max_bytes = 0;
+  bool by_gain = false;
 };
 
 struct BudgetedBlob {
   train::TrainedForest forest;  // the pruned forest the blob was converted from
   std::vector<uint8_t> bytes;   // the blob (write_blob)
   uint64_t min_leaf_pixels = 0; // N used (0: not pruned)
+  uint64_t max_leaves = 0;      // leaves kept when pruned by gain (0: not pruned by gain)
   train::PruneReport prune;     // leaves and depth before / after
   QuantizationReport quantization;
   int conversions = 0;          // blobs built by the search

@@ -1,6 +1,9 @@
 #include "tools/train/forest_truncate.h"
 
 #include <algorithm>
+#include <cmath>
+#include <functional>
+#include <queue>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -59,7 +62,10 @@ int deepest_leaf(const TrainedForest& forest) {
 
 }  // namespace
 
-TrainedForest prune_forest(const TrainedForest& in, uint64_t min_pixels, PruneReport* report) {
+// The pruning itself: every split node i of tree t with collapse[t][i] set, reached from the root
+// through kept splits only, becomes a leaf holding its subtree's pixels (see prune_forest).
+static TrainedForest prune_where(const TrainedForest& in, const std::vector<std::vector<uint8_t>>& collapse,
+                          PruneReport* report) {
   if (in.has_votes)
     tools::fail("cannot prune an OJR forest's leaves: its votes are mean-shift modes that do not merge; prune the "
                 "structure before retro-fitting (depthpose train --structure F --structure-min-pixels N)");
@@ -69,14 +75,13 @@ TrainedForest prune_forest(const TrainedForest& in, uint64_t min_pixels, PruneRe
   const size_t parts = in.has_part_distributions ? in.part_names.size() : 0;
   for (size_t t = 0; t < in.trees.size(); ++t) {
     const TrainedTree& tree = in.trees[t];
-    const std::vector<uint64_t> pixels = subtree_pixels(tree);
     // owner[i]: position of the kept leaf that node i falls into, or -1 for a kept split node.
     std::vector<int64_t> owner(tree.nodes.size(), -1);
     auto place = [&](size_t i) {
       const TrainedNode& n = tree.nodes[i];
-      const bool collapse = !n.is_leaf() && pixels[i] < min_pixels;
-      if (collapse) ++rep.collapsed_splits;
-      owner[i] = (n.is_leaf() || collapse) ? int64_t(i) : -1;
+      const bool collapsed = !n.is_leaf() && collapse[t][i];
+      if (collapsed) ++rep.collapsed_splits;
+      owner[i] = (n.is_leaf() || collapsed) ? int64_t(i) : -1;
     };
     place(0);
     TrainedTree& pruned = out.trees[t];
@@ -144,6 +149,111 @@ TrainedForest prune_forest(const TrainedForest& in, uint64_t min_pixels, PruneRe
   return out;
 }
 
+TrainedForest prune_forest(const TrainedForest& in, uint64_t min_pixels, PruneReport* report) {
+  std::vector<std::vector<uint8_t>> collapse(in.trees.size());
+  for (size_t t = 0; t < in.trees.size(); ++t) {
+    const std::vector<uint64_t> pixels = subtree_pixels(in.trees[t]);
+    collapse[t].resize(pixels.size());
+    for (size_t i = 0; i < pixels.size(); ++i) collapse[t][i] = pixels[i] < min_pixels;
+  }
+  return prune_where(in, collapse, report);
+}
+
+GainPruneOrder::GainPruneOrder(const TrainedForest& forest) : forest_(&forest) {
+  if (forest.has_votes)
+    tools::fail("cannot prune an OJR forest's leaves by gain: its votes are mean-shift modes that do not merge; "
+                "prune the structure before retro-fitting (depthpose train --structure F --structure-min-pixels N)");
+  if (!forest.has_part_distributions)
+    tools::fail("pruning by gain needs the leaves' part distributions (a BPC forest or an OJR structure with them)");
+  const size_t parts = forest.part_names.size();
+  // cost[t][i] = N·H(p) in bits for node i's whole subtree taken as one leaf: N its training pixels,
+  // p their part distribution (the pixel-weighted mean of its leaves' distributions, exactly what
+  // prune_where stores in a collapsed leaf).
+  std::vector<std::vector<double>> cost(forest.trees.size());
+  for (size_t t = 0; t < forest.trees.size(); ++t) {
+    const TrainedTree& tree = forest.trees[t];
+    leaves_before_ += tree.leaf_count();
+    std::vector<double> mass(tree.nodes.size() * parts, 0.0);
+    std::vector<double> pixels(tree.nodes.size(), 0.0);
+    cost[t].assign(tree.nodes.size(), 0.0);
+    for (size_t i = tree.nodes.size(); i-- > 0;) {  // children sit after their parent in heap order
+      const TrainedNode& n = tree.nodes[i];
+      double* m = &mass[i * parts];
+      if (n.is_leaf()) {
+        pixels[i] = tree.leaf_pixel_counts[size_t(n.leaf)];
+        for (size_t c = 0; c < parts; ++c) m[c] = pixels[i] * double(tree.part_probabilities[size_t(n.leaf) * parts + c]);
+      } else {
+        pixels[i] = pixels[size_t(n.left)] + pixels[size_t(n.right)];
+        for (size_t c = 0; c < parts; ++c) m[c] = mass[size_t(n.left) * parts + c] + mass[size_t(n.right) * parts + c];
+      }
+      double total = 0, h = 0;
+      for (size_t c = 0; c < parts; ++c) total += m[c];
+      for (size_t c = 0; c < parts; ++c)
+        if (m[c] > 0) h -= m[c] * std::log2(m[c] / total);
+      cost[t][i] = h;  // Σ_c m_c·log2(total/m_c) = N·H(p) when Σ m = N
+    }
+  }
+  // Weakest link first: a split can go once both children are leaves; each collapse removes one
+  // leaf record. Greedy over the whole forest, so the budget goes to whichever tree gains most.
+  struct Candidate {
+    double gain;
+    uint32_t tree;
+    uint32_t pos;
+    bool operator>(const Candidate& o) const {
+      if (gain != o.gain) return gain > o.gain;
+      if (tree != o.tree) return tree > o.tree;
+      return pos > o.pos;
+    }
+  };
+  std::priority_queue<Candidate, std::vector<Candidate>, std::greater<Candidate>> queue;
+  std::vector<std::vector<int32_t>> parent(forest.trees.size());
+  std::vector<std::vector<uint8_t>> is_leaf_now(forest.trees.size());
+  const auto gain_of = [&](size_t t, size_t i) {
+    const TrainedNode& n = forest.trees[t].nodes[i];
+    return cost[t][i] - cost[t][size_t(n.left)] - cost[t][size_t(n.right)];
+  };
+  for (size_t t = 0; t < forest.trees.size(); ++t) {
+    const TrainedTree& tree = forest.trees[t];
+    parent[t].assign(tree.nodes.size(), -1);
+    is_leaf_now[t].assign(tree.nodes.size(), 0);
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+      const TrainedNode& n = tree.nodes[i];
+      is_leaf_now[t][i] = n.is_leaf();
+      if (!n.is_leaf()) parent[t][size_t(n.left)] = parent[t][size_t(n.right)] = int32_t(i);
+    }
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+      const TrainedNode& n = tree.nodes[i];
+      if (!n.is_leaf() && tree.nodes[size_t(n.left)].is_leaf() && tree.nodes[size_t(n.right)].is_leaf())
+        queue.push(Candidate{gain_of(t, i), uint32_t(t), uint32_t(i)});
+    }
+  }
+  order_.reserve(leaves_before_);
+  while (!queue.empty()) {
+    const Candidate c = queue.top();
+    queue.pop();
+    order_.push_back({c.tree, c.pos});
+    is_leaf_now[c.tree][c.pos] = 1;
+    const int32_t p = parent[c.tree][c.pos];
+    if (p < 0) continue;
+    const TrainedNode& pn = forest.trees[c.tree].nodes[size_t(p)];
+    if (is_leaf_now[c.tree][size_t(pn.left)] && is_leaf_now[c.tree][size_t(pn.right)])
+      queue.push(Candidate{gain_of(c.tree, size_t(p)), c.tree, uint32_t(p)});
+  }
+}
+
+TrainedForest GainPruneOrder::prune_to(uint64_t max_leaves, PruneReport* report) const {
+  const TrainedForest& in = *forest_;
+  const uint64_t floor_leaves = in.trees.size();
+  if (max_leaves < floor_leaves)
+    tools::fail("cannot prune to " + std::to_string(max_leaves) + " leaves: each of the " +
+                std::to_string(in.trees.size()) + " trees keeps at least its root");
+  std::vector<std::vector<uint8_t>> collapse(in.trees.size());
+  for (size_t t = 0; t < in.trees.size(); ++t) collapse[t].assign(in.trees[t].nodes.size(), 0);
+  const uint64_t steps = max_leaves >= leaves_before_ ? 0 : std::min<uint64_t>(leaves_before_ - max_leaves, order_.size());
+  for (uint64_t s = 0; s < steps; ++s) collapse[order_[s].tree][order_[s].pos] = 1;
+  return prune_where(in, collapse, report);
+}
+
 TrainedForest prune_structure(const TrainedForest& in, uint64_t min_pixels, PruneReport* report) {
   if (min_pixels < 1) tools::fail("structure min pixels must be >= 1, got " + std::to_string(min_pixels));
   TrainedForest counts_only = in;
@@ -151,6 +261,15 @@ TrainedForest prune_structure(const TrainedForest& in, uint64_t min_pixels, Prun
   counts_only.votes_per_joint = 0;
   for (TrainedTree& t : counts_only.trees) t.votes.clear();
   const TrainedForest pruned = prune_forest(counts_only, min_pixels, report);
+  return truncate_structure(pruned, std::max(1, pruned.depth));
+}
+
+TrainedForest prune_structure_by_gain(const TrainedForest& in, uint64_t max_leaves, PruneReport* report) {
+  if (in.has_votes)
+    tools::fail("--structure-max-leaves prunes by the part distributions of a BPC forest; this structure is an OJR "
+                "forest (use --structure-min-pixels)");
+  const GainPruneOrder order(in);
+  const TrainedForest pruned = order.prune_to(max_leaves, report);
   return truncate_structure(pruned, std::max(1, pruned.depth));
 }
 

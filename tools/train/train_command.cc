@@ -39,6 +39,8 @@ const std::string kUsage = std::string() +
     "  --structure-min-pixels N  first collapse every --structure subtree with fewer than N training pixels\n"
     "                         into a leaf (smaller OJR leaf tables, depth kept where the data is dense;\n"
     "                         docs/convert.md \"Pruning to a size budget\")\n"
+    "  --structure-max-leaves N  or prune the --structure forest to N leaves over all trees, the splits of\n"
+    "                         least information gain first (needs part distributions: a BPC forest)\n"
     "  --structure-depth D    cut the --structure trees back to depth D first (smaller OJR leaf tables)\n"
     "  --proposal FILE        mixture proposal: offsets drawn near FILE's chosen ones (90%) or uniform (10%)\n"
     "  --seed S               random seed (default 1); the forest is the same for any --threads\n"
@@ -144,7 +146,7 @@ int train_main(int argc, char** argv, Communicator* comm) {
                    {"--data", "--method", "--trees", "--depth", "--out", "--objective", "--pixels-per-image",
                     "--images-per-tree", "--offsets", "--thresholds", "--max-offset", "--reference-focal",
                     "--min-samples", "--rho", "--nres", "--bandwidth", "--votes-per-leaf", "--vote-length",
-                    "--structure", "--structure-min-pixels", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint", "--stop-after",
+                    "--structure", "--structure-min-pixels", "--structure-max-leaves", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint", "--stop-after",
                     "--node-parallel-below"},
                    {"--quiet", "--resume", "--distributed", "--no-timings"});
   if (args.help_requested()) {
@@ -176,6 +178,18 @@ int train_main(int argc, char** argv, Communicator* comm) {
     if (!quiet)
       std::fprintf(stderr, "train: structure pruned at %lld pixels: %llu -> %llu leaves, depth %d -> %d\n", min_pixels,
                    (unsigned long long)pruned.leaves_before, (unsigned long long)pruned.leaves_after,
+                   pruned.depth_before, pruned.depth_after);
+  }
+  if (args.has("--structure-max-leaves")) {
+    if (!structure) tools::fail("--structure-max-leaves needs --structure");
+    if (args.has("--structure-min-pixels")) tools::fail("--structure-max-leaves and --structure-min-pixels exclude each other");
+    const long long max_leaves = args.get_int("--structure-max-leaves", 0);
+    if (max_leaves < 1) tools::fail("--structure-max-leaves must be >= 1, got " + std::to_string(max_leaves));
+    PruneReport pruned;
+    *structure = prune_structure_by_gain(*structure, static_cast<uint64_t>(max_leaves), &pruned);
+    if (!quiet)
+      std::fprintf(stderr, "train: structure pruned by information gain to %lld leaves: %llu -> %llu leaves, depth %d -> %d\n",
+                   max_leaves, (unsigned long long)pruned.leaves_before, (unsigned long long)pruned.leaves_after,
                    pruned.depth_before, pruned.depth_after);
   }
   if (args.has("--structure-depth")) {
