@@ -106,7 +106,8 @@ SkeletonConfig default_skeleton_config();
 class SkeletonTracker {
  public:
   // kBadConfig for values outside the ranges above; kBadArgument when the blob's joints are not the
-  // 16 of kSkeletonJoints in that order (names compared). Forgets every user.
+  // 16 of kSkeletonJoints in that order (names compared). Forgets every user. The confidences use
+  // the calibration of the blob's forest method (meta.method: BPC, otherwise OJR).
   Status init(const blob::ForestMeta& meta, const SkeletonConfig& config);
   // Replaces the config (e.g. the filter preset) and keeps the users; kBadConfig when invalid.
   Status set_config(const SkeletonConfig& config);
@@ -154,6 +155,7 @@ class SkeletonTracker {
 
   SkeletonConfig config_{};
   bool initialized_ = false;
+  const float* calibration_ = nullptr;  // kEvidenceClasses confidences, set by init()
   UserState users_[kMaxUsers + 1];  // by id; [0] unused
 };
 
