@@ -115,7 +115,7 @@ constexpr int32_t kFilterLimitMinEvidence = 5;
 // shipped forests (models/ojr.blob and models/bpc.blob, depth 20) are calibrated differently, per
 // class bpc's joints lie within 0.1 m more often. Each table is its blob's fit by `depthpose
 // skeleton-eval --blob BLOB --fit-calibration` on the 14 validation sequences (seeds 11–14 and
-// 41–44; 191–196 with tall clutter; 3330 body-frames, 49466 located joints with ojr, 55732 with
+// 41–44; 191–196 with tall clutter; 3330 body-frames, 52920 located joints with ojr, 52278 with
 // bpc): each class's fraction within 0.1 m, made monotone over the tracked classes 0–9 by pool
 // adjacent violators. Expected calibration error on those sequences, tall clutter / without: ojr
 // 0.015 / 0.012, bpc 0.013 / 0.011; one table fitted on both blobs' joints pooled gave ojr 0.009 /

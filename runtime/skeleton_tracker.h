@@ -22,7 +22,8 @@
 //   states      tracked: the chosen proposal fits its parent bone; inferred: a prediction was chosen,
 //               or a proposal that does not fit its bone; missing: no proposal and no history.
 //   confidence  in [0, 1], calibrated: of the joints reported at confidence c, about a fraction c
-//               lie within 0.1 m of the truth (on held-out synthetic sequences, docs/skeleton.md).
+//               lie within 0.1 m of the truth (a table per forest method fitted on validation
+//               sequences; its error on held-out synthetic sequences in docs/skeleton.md).
 //   filter      each reported joint goes through its JointFilter (skeleton_filter.h); a tracked joint
 //               that fits well is kept within the filter's max_offset_m of its chosen proposal
 //               (JointFilter::limit_offset; kFilterLimitMinEvidence in skeleton_tracker.cc).
