@@ -111,11 +111,21 @@ constexpr int32_t kMaxPredictedFrames = 10;  // a joint unseen longer than this 
 constexpr int32_t kFilterLimitMinEvidence = 5;
 
 // Calibration of the confidence (probability of being within 0.1 m of the truth) per evidence
-// class (TrackedJoint::evidence), with the default filter. Fitted (isotonic over the
-// tracked classes) by `depthpose skeleton-eval --fit-calibration` on the validation sequences
-// (docs/skeleton.md, "Confidence").
-constexpr float kCalibration[kEvidenceClasses] = {0.15f, 0.20f, 0.21f, 0.25f, 0.32f, 0.33f, 0.42f, 0.52f,
-                                                  0.63f, 0.80f, 0.19f, 0.18f, 0.13f, 0.11f, 0.13f, 0.30f};
+// class (TrackedJoint::evidence), with the default filter, one table per forest method: the two
+// shipped forests (models/ojr.blob and models/bpc.blob, depth 20) are calibrated differently, per
+// class bpc's joints lie within 0.1 m more often. Each table is its blob's fit by `depthpose
+// skeleton-eval --blob BLOB --fit-calibration` on the 14 validation sequences (seeds 11–14 and
+// 41–44; 191–196 with tall clutter; 3330 body-frames, 52920 located joints with ojr, 52278 with
+// bpc): each class's fraction within 0.1 m, made monotone over the tracked classes 0–9 by pool
+// adjacent violators. Expected calibration error on those sequences, tall clutter / without: ojr
+// 0.015 / 0.012, bpc 0.013 / 0.011; one table fitted on both blobs' joints pooled gave ojr 0.009 /
+// 0.036 and bpc 0.037 / 0.015, the single table fitted with the previous depth-16 BPC and depth-13
+// OJR forests ojr 0.026 / 0.017 and bpc 0.070 / 0.050. Held-out figures: docs/skeleton.md, "States
+// and confidences".
+constexpr float kCalibrationOjr[kEvidenceClasses] = {0.18f, 0.21f, 0.29f, 0.31f, 0.34f, 0.40f, 0.48f, 0.53f,
+                                                     0.62f, 0.80f, 0.21f, 0.16f, 0.12f, 0.12f, 0.11f, 0.20f};
+constexpr float kCalibrationBpc[kEvidenceClasses] = {0.25f, 0.29f, 0.40f, 0.40f, 0.44f, 0.54f, 0.57f, 0.61f,
+                                                     0.69f, 0.82f, 0.23f, 0.18f, 0.15f, 0.15f, 0.13f, 0.31f};
 
 constexpr int kMaxJointCandidates = 2 * kMaxProposals + 2;  // own and mirror proposals, the prediction, "absent"
 constexpr int32_t kKindPredicted = -1;
@@ -408,6 +418,7 @@ Status SkeletonTracker::init(const blob::ForestMeta& meta, const SkeletonConfig&
   for (int j = 0; j < kSkeletonJoints; ++j)
     if (strncmp(meta.joint_names[j], kNames[j], blob::kNameBytes) != 0) return Status::kBadArgument;
   if (Status s = set_config(config); s != Status::kOk) return s;
+  calibration_ = meta.method == uint8_t(blob::Method::kBpc) ? kCalibrationBpc : kCalibrationOjr;
   for (int id = 0; id <= kMaxUsers; ++id) reset_user(users_[id]);
   initialized_ = true;
   return Status::kOk;
@@ -610,7 +621,7 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
     }
     o.evidence = evidence;
     o.state = evidence < 10 ? JointState::kTracked : JointState::kInferred;
-    o.confidence = kCalibration[evidence];
+    o.confidence = calibration_[evidence];
     for (int a = 0; a < 3; ++a) o.raw_m[a] = c.pos[j][k][a];
     float filtered[3];
     u.filters[j].update(config_.filter, config_.frame_period_s, o.raw_m, filtered);

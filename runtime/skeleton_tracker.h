@@ -22,7 +22,8 @@
 //   states      tracked: the chosen proposal fits its parent bone; inferred: a prediction was chosen,
 //               or a proposal that does not fit its bone; missing: no proposal and no history.
 //   confidence  in [0, 1], calibrated: of the joints reported at confidence c, about a fraction c
-//               lie within 0.1 m of the truth (on held-out synthetic sequences, docs/skeleton.md).
+//               lie within 0.1 m of the truth (a table per forest method fitted on validation
+//               sequences; its error on held-out synthetic sequences in docs/skeleton.md).
 //   filter      each reported joint goes through its JointFilter (skeleton_filter.h); a tracked joint
 //               that fits well is kept within the filter's max_offset_m of its chosen proposal
 //               (JointFilter::limit_offset; kFilterLimitMinEvidence in skeleton_tracker.cc).
@@ -106,7 +107,8 @@ SkeletonConfig default_skeleton_config();
 class SkeletonTracker {
  public:
   // kBadConfig for values outside the ranges above; kBadArgument when the blob's joints are not the
-  // 16 of kSkeletonJoints in that order (names compared). Forgets every user.
+  // 16 of kSkeletonJoints in that order (names compared). Forgets every user. The confidences use
+  // the calibration of the blob's forest method (meta.method: BPC, otherwise OJR).
   Status init(const blob::ForestMeta& meta, const SkeletonConfig& config);
   // Replaces the config (e.g. the filter preset) and keeps the users; kBadConfig when invalid.
   Status set_config(const SkeletonConfig& config);
@@ -154,6 +156,7 @@ class SkeletonTracker {
 
   SkeletonConfig config_{};
   bool initialized_ = false;
+  const float* calibration_ = nullptr;  // kEvidenceClasses confidences, set by init()
   UserState users_[kMaxUsers + 1];  // by id; [0] unused
 };
 

@@ -202,6 +202,37 @@ TEST(SkeletonTracker, AJointWithoutProposalsIsInferredThenMissing) {
   EXPECT_EQ(s.frames_tracked, 1);
 }
 
+TEST(SkeletonTracker, ConfidenceUsesTheCalibrationOfTheBlobsForestMethod) {
+  // The same proposals give the same evidence classes with either forest method; the confidences
+  // come from that method's table (the two forests are calibrated differently), and a meta of no
+  // known method gets the OJR table.
+  const uint8_t methods[3] = {uint8_t(blob::Method::kOjr), uint8_t(blob::Method::kBpc), 0};
+  Skeleton s[3];
+  for (int m = 0; m < 3; ++m) {
+    blob::ForestMeta meta = skeleton_meta();
+    meta.method = methods[m];
+    auto tracker = std::make_unique<SkeletonTracker>();
+    ASSERT_EQ(tracker->init(meta, unfiltered()), Status::kOk);
+    feed_still_body(*tracker, 5, &s[m]);
+    float truth[kSkeletonJoints][3];
+    body(0.0f, truth);
+    auto r = clean_frame(truth);
+    r->proposal_count[kWristR] = 0;  // one inferred joint besides the tracked ones
+    tracker->begin_frame();
+    ASSERT_EQ(tracker->update(1, *r, &s[m]), Status::kOk);
+  }
+  EXPECT_EQ(s[0].joints[kWristR].state, JointState::kInferred);
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    EXPECT_EQ(s[1].joints[j].evidence, s[0].joints[j].evidence) << skeleton_joint_name(j);
+    EXPECT_NE(s[1].joints[j].confidence, s[0].joints[j].confidence) << skeleton_joint_name(j);
+    EXPECT_EQ(s[2].joints[j].confidence, s[0].joints[j].confidence) << skeleton_joint_name(j);
+    for (int m = 0; m < 3; ++m) {
+      EXPECT_GT(s[m].joints[j].confidence, 0.0f) << skeleton_joint_name(j);
+      EXPECT_LE(s[m].joints[j].confidence, 1.0f) << skeleton_joint_name(j);
+    }
+  }
+}
+
 TEST(SkeletonTracker, AnAbsentNeckDoesNotBuyOffItsChildrensBones) {
   // A new user whose torso proposals sit at the truth while both legs' proposals lie 2 m behind
   // (what a body half hidden by furniture can give). Dropping the neck must not be cheaper than

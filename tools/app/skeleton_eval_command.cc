@@ -22,7 +22,8 @@ const char* kUsage =
     "  --frames N          at most N frames of each sequence\n"
     "  --filter-sweep      also measure a grid of 1€ settings (min cutoff × beta)\n"
     "  --fit-calibration   print the calibration table fitted on these sequences (isotonic over the\n"
-    "                      tracked classes), to paste into runtime/skeleton_tracker.cc\n";
+    "                      tracked classes), to paste into runtime/skeleton_tracker.cc as the\n"
+    "                      table of the blob's forest method (BPC or OJR)\n";
 
 void print_filter_row(const FilterFigures& f, const char* name) {
   if (f.params.enabled)
@@ -89,8 +90,9 @@ int skeleton_eval_main(int argc, char** argv) {
   }
   std::printf("\nexpected calibration error: %.3f\n\n", ece);
   if (args.flag("--fit-calibration")) {
-    // Per class hit rate (a class with fewer than 20 joints borrows its neighbours'); isotonic
-    // (pool adjacent violators) over the tracked classes 0..9.
+    // Per class hit rate (0 for a class no joint fell in), made monotone over the tracked classes
+    // 0..9 by pool adjacent violators weighted by the joints per class; the inferred classes
+    // 10..15 keep their own rates.
     std::array<double, kEvidenceClasses> rate{}, weight{};
     for (int c = 0; c < kEvidenceClasses; ++c) {
       long n = r.class_count[size_t(c)], h = r.class_hits[size_t(c)];
@@ -113,8 +115,9 @@ int skeleton_eval_main(int argc, char** argv) {
     int c = 0;
     for (const auto& blk : blocks)
       for (int k = 0; k < int(blk[2]); ++k) rate[size_t(c++)] = blk[0];
-    std::printf("fitted calibration (class: joints, value):\n");
-    for (int k = 0; k < kEvidenceClasses; ++k) std::printf("  %2d: %6ld  %.2f\n", k, r.class_count[size_t(k)], rate[size_t(k)]);
+    std::printf("fitted calibration (class: joints, within 0.1 m, value):\n");
+    for (int k = 0; k < kEvidenceClasses; ++k)
+      std::printf("  %2d: %6ld %6ld  %.2f\n", k, r.class_count[size_t(k)], r.class_hits[size_t(k)], rate[size_t(k)]);
     std::printf("  {");
     for (int k = 0; k < kEvidenceClasses; ++k) std::printf("%s%.2ff", k ? ", " : "", rate[size_t(k)]);
     std::printf("}\n\n");
