@@ -14,8 +14,12 @@ W=${MODEL_W:-320}; H=${MODEL_H:-240}
 TRAIN_FRAMES=${TRAIN_FRAMES:-120000}; SHARD_FRAMES=${SHARD_FRAMES:-5000}
 PIXELS=${TRAIN_PIXELS:-1000}; OFFSETS=${TRAIN_OFFSETS:-400}; THRESHOLDS=${TRAIN_THRESHOLDS:-20}
 MIN_SAMPLES=${TRAIN_MIN_SAMPLES:-10}; IMAGES_PER_TREE=${TRAIN_IMAGES_PER_TREE:-0}
-OJR_DEPTH=${OJR_STRUCTURE_DEPTH:-20}; OJR_MIN_PIXELS=${OJR_MIN_PIXELS:-0}
-MAX_BYTES=${MODEL_MAX_BYTES:-16000000}
+OJR_DEPTH=${OJR_STRUCTURE_DEPTH:-20}; OJR_MIN_PIXELS=${OJR_MIN_PIXELS:-0}; OJR_MAX_LEAVES=${OJR_MAX_LEAVES:-0}
+OJR_CUT_TUNED=${OJR_CUT_TUNED:-1}
+MAX_BYTES=${MODEL_MAX_BYTES:-16000000}; PRUNE=${MODEL_PRUNE:-gain}
+[ "$OJR_MIN_PIXELS" -gt 0 ] && [ "$OJR_MAX_LEAVES" -gt 0 ] &&
+  { echo "make_model: set OJR_MIN_PIXELS or OJR_MAX_LEAVES, not both" >&2; exit 2; }
+case "$PRUNE" in gain|pixels) ;; *) echo "make_model: MODEL_PRUNE must be gain or pixels, got '$PRUNE'" >&2; exit 2;; esac
 SEED0=${TRAIN_SEED:-1000}
 # Datasets rendered at once, one thread each: a render spends most of its time pruning the varied
 # pose pool, which is one thread (277 CPU-s of a shard's ~330 at POSE_STRIDE 4), so one render per
@@ -135,10 +139,13 @@ if made "$D/bpc.forest" "${bpc_train[@]}"; then skip train_bpc "$D/bpc.forest"; 
   rm -f "$D/ojr.forest.cmd" "$D/bpc.blob" "$D/ojr.blob"  # everything made from the old forest
   make_file train_bpc "$D/bpc.forest" "${bpc_train[@]}"
 fi
-# OJR: the BPC structure cut back to OJR_STRUCTURE_DEPTH and pruned to subtrees of at least
-# OJR_MIN_PIXELS training pixels, vote leaves retro-fitted (paper 3.5.2); the retro-fit checkpoints
-# blocks of leaves and continues from its checkpoint (`--resume`).
-prune=(); [ "$OJR_MIN_PIXELS" -gt 0 ] && prune=(--structure-min-pixels "$OJR_MIN_PIXELS")
+# OJR: the BPC structure cut back to OJR_STRUCTURE_DEPTH and pruned to OJR_MAX_LEAVES leaves by
+# information gain (or to subtrees of at least OJR_MIN_PIXELS training pixels), vote leaves
+# retro-fitted (paper 3.5.2); the retro-fit checkpoints blocks of leaves and continues from its
+# checkpoint (`--resume`).
+prune=()
+[ "$OJR_MIN_PIXELS" -gt 0 ] && prune=(--structure-min-pixels "$OJR_MIN_PIXELS")
+[ "$OJR_MAX_LEAVES" -gt 0 ] && prune=(--structure-max-leaves "$OJR_MAX_LEAVES")
 ojr_train=("$CLI" train --data "$train_dirs" --method ojr --structure "$D/bpc.forest" --structure-depth "$OJR_DEPTH"
   "${prune[@]}" --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --seed 1 --out "$D/ojr.forest" --resume)
 if made "$D/ojr.forest" "${ojr_train[@]}"; then skip train_ojr "$D/ojr.forest"; else
@@ -148,10 +155,22 @@ fi
 for m in bpc ojr; do
   # The tuned blob stands while its forest does (a retrained forest removes it, above).
   if [ -f "$D/$m.blob" ]; then skip "tune_$m" "$D/$m.blob"; else
-    # BPC: the grown trees pruned to the byte budget (convert --max-bytes picks the smallest
-    # --min-leaf-pixels that fits); OJR's size is set by its pruned structure (OJR_MIN_PIXELS).
-    size=(); [ "$m" = bpc ] && size=(--max-bytes "$MAX_BYTES")
-    step "convert_$m" "$CLI" convert "$D/$m.forest" --out "$D/${m}_untuned.blob" "${size[@]}"
+    # BPC: the grown trees pruned to the byte budget (convert --max-bytes keeps the most leaves that
+    # fit, by information gain or pixel count: MODEL_PRUNE). OJR: its size is set by its pruned
+    # structure and its votes: the first tune's vote lengths cut every joint's votes
+    # (convert --ojr-lengths-from: only votes that blob never casts go; smaller and faster), then
+    # the cut blob is tuned again and must fit the budget.
+    if [ "$m" = bpc ]; then
+      step convert_bpc "$CLI" convert "$D/bpc.forest" --out "$D/bpc_untuned.blob" --max-bytes "$MAX_BYTES" --prune-by "$PRUNE"
+    elif [ "$OJR_CUT_TUNED" = 1 ]; then
+      step convert_ojr "$CLI" convert "$D/ojr.forest" --out "$D/ojr_uncut.blob"
+      step tune_ojr_uncut "$CLI" tune --blob "$D/ojr_uncut.blob" --data "$D/val" --out "$D/ojr_uncut_tuned.blob" \
+        --json "$D/tune_ojr_uncut.json"
+      step convert_ojr_cut "$CLI" convert "$D/ojr.forest" --out "$D/ojr_untuned.blob" \
+        --ojr-lengths-from "$D/ojr_uncut_tuned.blob" --max-bytes "$MAX_BYTES"
+    else
+      step convert_ojr "$CLI" convert "$D/ojr.forest" --out "$D/ojr_untuned.blob" --max-bytes "$MAX_BYTES"
+    fi
     step "tune_$m" "$CLI" tune --blob "$D/${m}_untuned.blob" --data "$D/val" --out "$D/$m.blob.tmp" --json "$D/tune_$m.json"
     mv "$D/$m.blob.tmp" "$D/$m.blob"
   fi

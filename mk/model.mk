@@ -20,6 +20,7 @@ TEST_FRAMES   ?= 300
 MODEL_DEPTH   ?= 12
 OJR_STRUCTURE_DEPTH ?= 12
 OJR_MIN_PIXELS ?= 0
+OJR_MAX_LEAVES ?= 0
 TRAIN_PIXELS  ?= 500
 TRAIN_OFFSETS ?= 100
 TRAIN_THRESHOLDS ?= 10
@@ -41,10 +42,12 @@ TEST_FRAMES   ?= 3000              # the held-out test set the report scores
 MODEL_TREES   ?= 3
 MODEL_DEPTH   ?= 20                # BPC tree depth
 OJR_STRUCTURE_DEPTH ?= 20          # OJR reuses the BPC trees cut to this depth (leaf votes are retro-fitted)
-OJR_MIN_PIXELS ?= 6000             # ...and pruned to subtrees of >= this many training pixels (0 = none):
-                                   # ~150 B per OJR leaf, a leaf holds ~0.59 N pixels, so 6000 keeps a
-                                   # 1.2e8-pixel tree near 34k leaves, ~16 MB for 3 trees (docs/convert.md)
-MODEL_MAX_BYTES ?= 16000000        # BPC blob budget: convert --max-bytes prunes the grown trees to fit
+OJR_MAX_LEAVES ?= 200000           # ...and pruned to this many leaves over all trees by information gain
+                                   # (~14 MB once its votes are cut at the tuned lengths; docs/convert.md)
+OJR_MIN_PIXELS ?= 0                # or (instead) to subtrees of >= this many training pixels (0 = none)
+OJR_CUT_TUNED ?= 1                 # OJR votes cut at a first tune's vote lengths, then tuned again
+MODEL_MAX_BYTES ?= 16000000        # blob budget: BPC is pruned to fit, OJR must fit
+MODEL_PRUNE   ?= gain              # how BPC is pruned to the budget: gain (information) or pixels
 TRAIN_PIXELS  ?= 1000              # training pixels per image
 TRAIN_OFFSETS ?= 400               # candidate offset pairs per node (paper: 2000)
 TRAIN_THRESHOLDS ?= 20             # candidate thresholds per offset pair (paper: 50)
@@ -66,7 +69,7 @@ DEMO_FRAMES   ?= 45
 DEMO_CLIPS    ?= 02_06
 
 MODEL_VARS := ASSETS MODEL_DIR MODEL_OUT OLD_MODELS MODEL_W MODEL_H TRAIN_FRAMES SHARD_FRAMES VAL_FRAMES TEST_FRAMES \
-  MODEL_TREES MODEL_DEPTH OJR_STRUCTURE_DEPTH OJR_MIN_PIXELS MODEL_MAX_BYTES TRAIN_PIXELS TRAIN_OFFSETS TRAIN_THRESHOLDS TRAIN_MIN_SAMPLES \
+  MODEL_TREES MODEL_DEPTH OJR_STRUCTURE_DEPTH OJR_MIN_PIXELS OJR_MAX_LEAVES OJR_CUT_TUNED MODEL_MAX_BYTES MODEL_PRUNE TRAIN_PIXELS TRAIN_OFFSETS TRAIN_THRESHOLDS TRAIN_MIN_SAMPLES \
   TRAIN_IMAGES_PER_TREE POSE_STRIDE SYNTH_LANES POSE_POOL BODIES CLOTHED CAMERA_HEIGHT CAMERA_PITCH CAMERA_ROLL \
   TRAIN_CLIPS VAL_CLIPS TEST_CLIPS TRAIN_SEED DEMO_FRAMES DEMO_CLIPS
 
