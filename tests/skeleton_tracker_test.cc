@@ -217,11 +217,16 @@ TEST(SkeletonTracker, ConfidenceUsesTheCalibrationOfTheBlobsForestMethod) {
     float truth[kSkeletonJoints][3];
     body(0.0f, truth);
     auto r = clean_frame(truth);
-    r->proposal_count[kWristR] = 0;  // one inferred joint besides the tracked ones
-    tracker->begin_frame();
-    ASSERT_EQ(tracker->update(1, *r, &s[m]), Status::kOk);
+    // One inferred joint besides the tracked ones, predicted twice in a row (evidence class 11):
+    // the first prediction's class (10) happens to have the same value in both tables.
+    r->proposal_count[kWristR] = 0;
+    for (int frame = 0; frame < 2; ++frame) {
+      tracker->begin_frame();
+      ASSERT_EQ(tracker->update(1, *r, &s[m]), Status::kOk);
+    }
   }
   EXPECT_EQ(s[0].joints[kWristR].state, JointState::kInferred);
+  EXPECT_EQ(s[0].joints[kWristR].evidence, 11);
   for (int j = 0; j < kSkeletonJoints; ++j) {
     EXPECT_EQ(s[1].joints[j].evidence, s[0].joints[j].evidence) << skeleton_joint_name(j);
     EXPECT_NE(s[1].joints[j].confidence, s[0].joints[j].confidence) << skeleton_joint_name(j);
