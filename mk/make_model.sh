@@ -16,7 +16,7 @@ PIXELS=${TRAIN_PIXELS:-1000}; OFFSETS=${TRAIN_OFFSETS:-400}; THRESHOLDS=${TRAIN_
 MIN_SAMPLES=${TRAIN_MIN_SAMPLES:-10}; IMAGES_PER_TREE=${TRAIN_IMAGES_PER_TREE:-0}
 OJR_DEPTH=${OJR_STRUCTURE_DEPTH:-20}; OJR_MIN_PIXELS=${OJR_MIN_PIXELS:-0}; OJR_MAX_LEAVES=${OJR_MAX_LEAVES:-0}
 OJR_CUT_TUNED=${OJR_CUT_TUNED:-1}
-MAX_BYTES=${MODEL_MAX_BYTES:-16000000}; PRUNE=${MODEL_PRUNE:-gain}
+MAX_BYTES=${MODEL_MAX_BYTES:-16000000}; PRUNE=${MODEL_PRUNE:-gain}; BPC_BLOB_TREES=${BPC_BLOB_TREES:-0}
 [ "$OJR_MIN_PIXELS" -gt 0 ] && [ "$OJR_MAX_LEAVES" -gt 0 ] &&
   { echo "make_model: set OJR_MIN_PIXELS or OJR_MAX_LEAVES, not both" >&2; exit 2; }
 case "$PRUNE" in gain|pixels) ;; *) echo "make_model: MODEL_PRUNE must be gain or pixels, got '$PRUNE'" >&2; exit 2;; esac
@@ -161,7 +161,11 @@ for m in bpc ojr; do
     # (convert --ojr-lengths-from: only votes that blob never casts go; smaller and faster), then
     # the cut blob is tuned again and must fit the budget.
     if [ "$m" = bpc ]; then
-      step convert_bpc "$CLI" convert "$D/bpc.forest" --out "$D/bpc_untuned.blob" --max-bytes "$MAX_BYTES" --prune-by "$PRUNE"
+      # BPC_BLOB_TREES: the blob keeps the forest's first N trees (0 = all), so the budget buys
+      # deeper leaves in fewer trees.
+      trees=(); [ "$BPC_BLOB_TREES" -gt 0 ] && trees=(--trees "$BPC_BLOB_TREES")
+      step convert_bpc "$CLI" convert "$D/bpc.forest" --out "$D/bpc_untuned.blob" --max-bytes "$MAX_BYTES" \
+        --prune-by "$PRUNE" "${trees[@]}"
     elif [ "$OJR_CUT_TUNED" = 1 ]; then
       step convert_ojr "$CLI" convert "$D/ojr.forest" --out "$D/ojr_uncut.blob"
       step tune_ojr_uncut "$CLI" tune --blob "$D/ojr_uncut.blob" --data "$D/val" --out "$D/ojr_uncut_tuned.blob" \

@@ -356,6 +356,20 @@ TEST(ConvertPrune, CommandPrunesToTheBudgetAndRefusesBadValues) {
                tools::ToolError);
   EXPECT_THROW(run_cli({"convert", forest, "--out", dir.path + "/bad.blob", "--prune-by", "gain"}), tools::ToolError)
       << "gain needs a budget";
+  // --trees keeps the first trees: the budget then goes to their leaves alone.
+  ASSERT_EQ(run_cli({"convert", forest, "--out", out, "--trees", "1", "--check-frames", "2"}), 0);
+  {
+    const std::vector<uint8_t> bytes = blob::read_blob_file(out);
+    blob::LoadedBlob b;
+    ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
+    EXPECT_EQ(b.tree_count(), 1);
+    train::TrainedForest first = f;
+    first.trees.resize(1);
+    EXPECT_EQ(bytes, blob::write_blob(tools::convert_forest(first, {}, "t", nullptr)));
+  }
+  for (const char* trees : {"0", "3", "x"})
+    EXPECT_THROW(run_cli({"convert", forest, "--out", dir.path + "/bad.blob", "--trees", trees}), tools::ToolError)
+        << "--trees " << trees << " of a 2-tree forest";
   // Blobs carry no pixel counts: the options are refused with --upgrade-blob.
   try {
     run_cli({"convert", "--upgrade-blob", out, "--out", dir.path + "/bad.blob", "--max-bytes", "1000"});

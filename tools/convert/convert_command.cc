@@ -41,6 +41,7 @@ const char* const kUsage =
     "                             (its pixels' merged part distribution; docs/convert.md, pruning)\n"
     "  --max-bytes B              the blob must fit B bytes: BPC is pruned at the smallest N (>= --min-leaf-pixels)\n"
     "                             whose blob fits, refused if one leaf per tree does not; OJR is refused above B\n"
+    "  --trees N                  keep the forest's first N trees (default all)\n"
     "  --prune-by pixels|gain     how --max-bytes prunes BPC: subtrees below N training pixels (default), or\n"
     "                             the splits of least information gain first, keeping as many leaves as fit\n"
     "  --bpc-max-parts N          BPC leaves keep their N most probable parts (1..32, default %d)\n"
@@ -149,7 +150,15 @@ int convert_trained(const Args& args) {
     fail("convert: --prune-by '" + prune_by + "' is not pixels or gain");
   budget.by_gain = prune_by == "gain";
   if (budget.by_gain && !args.has("--max-bytes")) fail("convert: --prune-by gain needs --max-bytes");
-  const BudgetedBlob converted = convert_within_budget(train::read_forest(in), options, budget, in);
+  train::TrainedForest trained = train::read_forest(in);
+  if (args.has("--trees")) {
+    const long long trees = args.get_int("--trees", 0);
+    if (trees < 1 || trees > (long long)trained.trees.size())
+      fail("convert: --trees " + std::to_string(trees) + " is outside 1.." + std::to_string(trained.trees.size()) +
+           " (the trees of " + in + ")");
+    trained.trees.resize(size_t(trees));
+  }
+  const BudgetedBlob converted = convert_within_budget(trained, options, budget, in);
   const train::TrainedForest& forest = converted.forest;
   const QuantizationReport& rep = converted.quantization;
   const std::vector<uint8_t>& bytes = converted.bytes;
@@ -234,7 +243,7 @@ int convert_main(int argc, char** argv) {
   }();
   Args args(argc, argv, usage.c_str(),
             {"--out", "--max-size", "--check-frames", "--upgrade-blob", "--bpc-max-parts", "--bpc-min-probability",
-             "--ojr-max-votes", "--ojr-max-length", "--ojr-min-share", "--ojr-lengths-from", "--min-leaf-pixels", "--max-bytes", "--prune-by"},
+             "--ojr-max-votes", "--ojr-max-length", "--ojr-min-share", "--ojr-lengths-from", "--trees", "--min-leaf-pixels", "--max-bytes", "--prune-by"},
             {"--from-pcl"});
   if (args.help_requested()) {
     std::printf("%s", args.usage().c_str());
