@@ -19,8 +19,8 @@ namespace dp {
 // candidates, docs/runtime_speed.md). The pipeline carves it at init with the optional copies
 // (required_arena_bytes) and rebuilds it whenever the config changes.
 // Arena bytes: ojr_live_vote_bytes(); blobs above kMaxOjrLiveEntries stored votes are scanned in place.
-// The cap admits the shipped depth-20 OJR blob (1 094 457 stored votes, a 9.9 MB copy): scanned in
-// place, its votes cost 3.6–4.6 M cycles per 320×240 frame of bench_runtime's rendered people,
+// The cap admits the depth-20 OJR blobs of `make model` (the shipped one: 705 743 stored votes; one of
+// 1 094 457, a 9.9 MB copy, cut at 0.3 m instead of its tuned lengths): scanned in place, the latter's votes cost 3.6–4.6 M cycles per 320×240 frame of bench_runtime's rendered people,
 // against 1.8–2.2 M with the copy (OJR 427 → 554–646 frames/s, two alternated runs).
 constexpr uint32_t kMaxOjrLiveEntries = 1u << 21;  // votes; bounds the copy at 18 MB + the offsets
 inline bool use_ojr_live_votes(const blob::LoadedBlob& b) {
