@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 
 #include "forest_blob/blob_loader.h"
@@ -313,74 +314,53 @@ std::vector<std::vector<uint16_t>> sample_frames(int width, int height, int coun
 
 BudgetedBlob convert_within_budget(const train::TrainedForest& forest, const ConvertOptions& options,
                                    const PruneBudget& budget, const std::string& what) {
-  auto build = [&](uint64_t min_pixels) {
+  if (budget.min_leaf_pixels > 0 && forest.has_votes)
+    fail(what + ": --min-leaf-pixels prunes BPC forests only: OJR votes are mean-shift modes that do not merge; "
+                "prune the structure before retro-fitting (depthpose train --structure F --structure-min-pixels N)");
+  std::optional<train::GainPruneOrder> gain_order;
+  if (budget.by_gain) {
+    if (forest.has_votes)
+      fail(what + ": pruning by gain is for BPC forests: OJR votes are mean-shift modes that do not merge");
+    if (budget.min_leaf_pixels > 0) fail(what + ": --prune-by gain and --min-leaf-pixels exclude each other");
+    if (budget.max_bytes == 0) fail(what + ": --prune-by gain needs --max-bytes");
+    gain_order.emplace(forest);
+  }
+  // Both prunings are one knob x under which the blob never grows: the pixel threshold N, or the
+  // number of splits collapsed in the gain order (leaf_count() − x leaves kept). 0 prunes nothing.
+  auto build = [&](uint64_t x) {
     BudgetedBlob b;
-    b.min_leaf_pixels = min_pixels;
-    b.forest = min_pixels > 0 ? train::prune_forest(forest, min_pixels, &b.prune) : forest;
-    if (min_pixels == 0) {
+    if (x == 0) {
+      b.forest = forest;
       for (const auto& t : forest.trees) {
         b.prune.leaves_before += t.leaf_count();
         b.prune.depth_before = std::max(b.prune.depth_before, t.max_leaf_level());
       }
       b.prune.leaves_after = b.prune.leaves_before;
       b.prune.depth_after = b.prune.depth_before;
+    } else if (gain_order) {
+      b.max_leaves = gain_order->leaf_count() - x;
+      b.forest = gain_order->prune_to(b.max_leaves, &b.prune);
+    } else {
+      b.min_leaf_pixels = x;
+      b.forest = train::prune_forest(forest, x, &b.prune);
     }
     b.bytes = blob::write_blob(convert_forest(b.forest, options, what, &b.quantization));
     return b;
   };
-  if (budget.min_leaf_pixels > 0 && forest.has_votes)
-    fail(what + ": --min-leaf-pixels prunes BPC forests only: OJR votes are mean-shift modes that do not merge; "
-                "prune the structure before retro-fitting (depthpose train --structure F --structure-min-pixels N)");
-  if (budget.by_gain) {
-    if (forest.has_votes)
-      fail(what + ": pruning by gain is for BPC forests: OJR votes are mean-shift modes that do not merge");
-    if (budget.min_leaf_pixels > 0) fail(what + ": --prune-by gain and --min-leaf-pixels exclude each other");
-    if (budget.max_bytes == 0) fail(what + ": --prune-by gain needs --max-bytes");
-    const train::GainPruneOrder order(forest);
-    int conversions = 0;
-    auto build_leaves = [&](uint64_t leaves) {
-      BudgetedBlob b;
-      ++conversions;
-      b.forest = order.prune_to(leaves, &b.prune);
-      b.max_leaves = leaves;
-      b.bytes = blob::write_blob(convert_forest(b.forest, options, what, &b.quantization));
-      return b;
-    };
-    BudgetedBlob best = build_leaves(order.leaf_count());
-    if (best.bytes.size() > budget.max_bytes) {
-      // Invariant: the blob with `high` leaves exceeds the budget, the one with `low` fits.
-      uint64_t low = order.min_leaves(), high = order.leaf_count();
-      BudgetedBlob fitting = build_leaves(low);
-      if (fitting.bytes.size() > budget.max_bytes)
-        fail(what + ": --max-bytes " + std::to_string(budget.max_bytes) + " cannot be met: with every tree pruned to " +
-             "its root the blob is still " + std::to_string(fitting.bytes.size()) + " bytes");
-      while (high - low > 1) {
-        const uint64_t mid = low + (high - low) / 2;
-        BudgetedBlob b = build_leaves(mid);
-        if (b.bytes.size() <= budget.max_bytes) {
-          low = mid;
-          fitting = std::move(b);
-        } else {
-          high = mid;
-        }
-      }
-      best = std::move(fitting);
-    } else {
-      best.max_leaves = 0;  // nothing pruned
-    }
-    best.conversions = conversions;
-    return best;
-  }
+  const uint64_t start = budget.min_leaf_pixels;
+  const uint64_t most = gain_order ? gain_order->leaf_count() - gain_order->min_leaves()
+                                   : train::prune_everything_threshold(forest);
   int conversions = 1;
-  BudgetedBlob best = build(budget.min_leaf_pixels);
+  BudgetedBlob best = build(start);
   const auto fits = [&](const BudgetedBlob& b) { return budget.max_bytes == 0 || b.bytes.size() <= budget.max_bytes; };
   if (!fits(best)) {
     if (forest.has_votes)
       fail(what + ": the OJR blob is " + std::to_string(best.bytes.size()) + " bytes, above --max-bytes " +
            std::to_string(budget.max_bytes) + "; OJR votes do not merge, so prune the structure before retro-fitting " +
            "(depthpose train --structure F --structure-min-pixels N) or cut more votes (--ojr-max-length)");
-    // Invariant: the blob at `low` exceeds the budget, the one at `high` fits.
-    uint64_t low = budget.min_leaf_pixels, high = train::prune_everything_threshold(forest);
+    // Invariant: the blob at `low` exceeds the budget, the one at `high` fits; the smallest fitting
+    // x is kept (by gain: the most leaves).
+    uint64_t low = start, high = most;
     BudgetedBlob fitting = build(high);
     ++conversions;
     if (!fits(fitting))
