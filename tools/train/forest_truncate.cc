@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <queue>
-#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -65,7 +65,7 @@ int deepest_leaf(const TrainedForest& forest) {
 // The pruning itself: every split node i of tree t with collapse[t][i] set, reached from the root
 // through kept splits only, becomes a leaf holding its subtree's pixels (see prune_forest).
 static TrainedForest prune_where(const TrainedForest& in, const std::vector<std::vector<uint8_t>>& collapse,
-                          PruneReport* report) {
+                                 PruneReport* report) {
   if (in.has_votes)
     tools::fail("cannot prune an OJR forest's leaves: its votes are mean-shift modes that do not merge; prune the "
                 "structure before retro-fitting (depthpose train --structure F --structure-min-pixels N)");
@@ -173,17 +173,15 @@ GainPruneOrder::GainPruneOrder(const TrainedForest& forest) : forest_(&forest) {
   for (size_t t = 0; t < forest.trees.size(); ++t) {
     const TrainedTree& tree = forest.trees[t];
     leaves_before_ += tree.leaf_count();
-    std::vector<double> mass(tree.nodes.size() * parts, 0.0);
-    std::vector<double> pixels(tree.nodes.size(), 0.0);
+    std::vector<double> mass(tree.nodes.size() * parts, 0.0);  // per node: pixels of each part
     cost[t].assign(tree.nodes.size(), 0.0);
     for (size_t i = tree.nodes.size(); i-- > 0;) {  // children sit after their parent in heap order
       const TrainedNode& n = tree.nodes[i];
       double* m = &mass[i * parts];
       if (n.is_leaf()) {
-        pixels[i] = tree.leaf_pixel_counts[size_t(n.leaf)];
-        for (size_t c = 0; c < parts; ++c) m[c] = pixels[i] * double(tree.part_probabilities[size_t(n.leaf) * parts + c]);
+        const double count = tree.leaf_pixel_counts[size_t(n.leaf)];
+        for (size_t c = 0; c < parts; ++c) m[c] = count * double(tree.part_probabilities[size_t(n.leaf) * parts + c]);
       } else {
-        pixels[i] = pixels[size_t(n.left)] + pixels[size_t(n.right)];
         for (size_t c = 0; c < parts; ++c) m[c] = mass[size_t(n.left) * parts + c] + mass[size_t(n.right) * parts + c];
       }
       double total = 0, h = 0;
