@@ -155,11 +155,10 @@ constexpr int32_t kFilterLimitMinEvidence = 5;
 // 11–14 and 41–44; 191–196 with tall clutter; 3330 body-frames) with this tracker: each class's
 // fraction within 0.1 m, made monotone over the tracked classes 0–9 by pool adjacent violators.
 // The continuity weight reads the table (the last confidence over class kBestTrackedEvidence's), so
-// the fit was repeated with the fitted table in place until it returned itself (the second round
-// did). Refitted when the bone slack went 0.02 → 0.05 / 0.10 m: the looser bone term raises the fit
+// the fit was repeated with the fitted table in place until it returned itself (three rounds).
+// Refitted when the bone slack went 0.02 → 0.05 / 0.10 m: the looser bone term raises the fit
 // scores, so each class's joints are within 0.1 m less often (ojr class 9 0.81 → 0.77, class 5
-// 0.37 → 0.30).
-// Held-out figures: docs/skeleton.md, "States and confidences".
+// 0.37 → 0.30). Held-out figures: docs/skeleton.md, "States and confidences".
 constexpr float kCalibrationOjr[kEvidenceClasses] = {0.05f, 0.11f, 0.14f, 0.23f, 0.26f, 0.30f, 0.38f, 0.47f,
                                                      0.57f, 0.77f, 0.21f, 0.16f, 0.14f, 0.10f, 0.08f, 0.08f};
 constexpr float kCalibrationBpc[kEvidenceClasses] = {0.05f, 0.12f, 0.21f, 0.26f, 0.31f, 0.36f, 0.45f, 0.54f,
