@@ -40,7 +40,7 @@ constexpr float kRestDirection[kSkeletonJoints][3] = {
 // measured. The neck→knee "bone" spans torso and thigh, so it bends with the hips.
 constexpr float kGenericBoneM[kSkeletonJoints] = {0.10f,  0.0f,   0.24f, 0.24f, 0.255f, 0.255f, 0.24f,  0.24f,
                                                   0.055f, 0.055f, 0.95f, 0.95f, 0.42f,  0.42f,  0.156f, 0.156f};
-// Bone length tolerance as a fraction of the length (plus kBoneSlackM): generic lengths cover bodies
+// Bone length tolerance as a fraction of the length (plus a slack, below): generic lengths cover bodies
 // from 1.1 to 2.0 m tall; a user's measured lengths vary only with the proposals' noise, except the
 // neck→knee span (hip flexion: 0.5–1.3 m on the synthetic motion).
 constexpr float kBoneToleranceGeneric = 0.35f;
@@ -53,7 +53,30 @@ constexpr float kBoneToleranceGeneric = 0.35f;
 // 0.629, 0.614 / 0.615, 0.640 / 0.640, 0.623 / 0.624: 0.25 has the best sum of the four gains.
 constexpr float kBoneToleranceMeasured = 0.25f;
 constexpr float kBoneToleranceHipSpan = 0.35f;
-constexpr float kBoneSlackM = 0.02f;
+// Added to a bone's tolerance (metres): the noise of the two proposals a bone is measured between
+// (a few cm each), which a fraction of the length does not cover on the short bones (wrist→hand
+// 0.055 m, ankle→foot 0.156 m, neck→head 0.10 m). At 0.02 m for every bone the bone terms moved
+// correct first proposals: of the joint-frames where the first proposal was within 0.1 m and the
+// tracker's joint was not, the tracker had taken another proposal or the last position in 1136 of
+// 1460 (validation seeds 11–14 / 41–44, models/ojr.blob), and the bone cost to the parent or the
+// children was the term that favoured that choice most in 994 of them (docs/skeleton.md, "Why the
+// tracker lost on set B and the lower legs"). Chosen on the validation sequences (default filter;
+// W = seeds 11–14 / 41–44, V = tall clutter 191–196; ojr and bpc): the largest sum of the four gains
+// over the first proposal within 0.1 m whose sum of the four swap rates stays at most the previous
+// tracker's (74.2 ‰) and whose mean still-joint jitter (default filter) stays at most the previous
+// tracker's (30.5 mm); ties within 0.001 go to fewer swaps.
+// - One slack for every bone (no continuity weight), 0.02 / 0.04 / 0.06 / 0.08 / 0.09
+//   / 0.10 / 0.11 / 0.12 / 0.15 m: +0.032 / +0.038 / +0.042 / +0.049 / +0.049 / +0.055 / +0.050 /
+//   +0.047 / +0.040, joints (of 4 × 16) more than 0.005 below their first proposal 26 / 23 / 22 / 20
+//   / 17 / 16 / 17 / 17 / 17; at 0.10 m swaps 65.0 ‰ and jitter 26.0 mm.
+// - With the continuity weight (no floor), a separate slack for the generic lengths (a user's first
+//   frames) 0.02 / 0.05 / 0.08 / as measured (0.10) × measured 0.08 / 0.10 / 0.12 m: +0.067 / +0.074
+//   / +0.072, +0.069 / +0.073 / +0.071, +0.065 / +0.069 / +0.068, – / +0.064 / –.
+// - With the weight's floor kMinContinuityWeight 0.7: generic 0.02 / 0.05 / 0.10 (measured 0.10)
+//   +0.067 / +0.066 / +0.060, jitter 35.6 / 30.4 / 29.5 mm; measured 0.08 / 0.10 / 0.12 (generic
+//   0.05) +0.057 / +0.066 / +0.062.
+constexpr float kBoneSlackMeasuredM = 0.10f;
+constexpr float kBoneSlackGenericM = 0.05f;
 
 // Cost weights (dimensionless: each term is a squared normalised deviation, capped so that one bad
 // term cannot dominate). Set by hand, except the continuity scale, chosen on the validation
@@ -62,6 +85,14 @@ constexpr float kWeightProposal = 1.0f;    // per unit of −log(confidence rati
 constexpr float kMaxProposalCost = 6.0f;
 constexpr float kMotionScaleM = 0.2f;      // continuity: distance per frame that costs 1 (validation: 0.08 / 0.12 / 0.2 / 0.3 m gave 0.702 / 0.700 / 0.711 / 0.703 within 0.1 m)
 constexpr float kMaxContinuityCost = 6.0f;
+// The least weight of the continuity term (the last position's confidence over the best tracked
+// class's, see update()), range 0–1 (1: no weighting). Chosen on the validation sequences by the
+// rule of the bone slack above. With the bone slacks 0.10 / 0.05 m and the confidence
+// tables fitted before them, floor 0 / 0.5 / 0.6 / 0.7 / 0.8 / 1 gave the sum of the four gains over
+// the first proposal +0.073 / +0.071 / +0.071 / +0.066 / +0.064 / +0.053, swaps 66.3 / 66.7 / 65.0 /
+// 63.9 / 65.3 / 65.5 ‰ (sum of the four) and jitter 36.2 / 32.4 / 31.2 / 30.4 / 30.4 / 27.2 mm: a
+// weak last position no longer holds a wrong choice, but without a floor the choice hops more.
+constexpr float kMinContinuityWeight = 0.7f;
 constexpr float kWeightBone = 1.0f;
 constexpr float kMaxBoneCost = 9.0f;
 constexpr float kFitBoneCost = 4.0f;       // bone cost above which a proposal "does not fit" (2 tolerances)
@@ -123,14 +154,19 @@ constexpr int32_t kFilterLimitMinEvidence = 5;
 // `depthpose skeleton-eval --blob BLOB --fit-calibration` on the 14 validation sequences (seeds
 // 11–14 and 41–44; 191–196 with tall clutter; 3330 body-frames) with this tracker: each class's
 // fraction within 0.1 m, made monotone over the tracked classes 0–9 by pool adjacent violators.
-// The tables fitted before kSideScaleM was chosen for these blobs give an expected calibration
-// error of 0.010 (ojr) and 0.011 (bpc) on all 14 sequences with this tracker. Held-out figures:
-// docs/skeleton.md, "States and confidences".
-constexpr float kCalibrationOjr[kEvidenceClasses] = {0.09f, 0.25f, 0.25f, 0.28f, 0.35f, 0.37f, 0.46f, 0.55f,
-                                                     0.62f, 0.81f, 0.21f, 0.14f, 0.11f, 0.08f, 0.09f, 0.24f};
-constexpr float kCalibrationBpc[kEvidenceClasses] = {0.16f, 0.25f, 0.30f, 0.37f, 0.44f, 0.51f, 0.58f, 0.64f,
-                                                     0.70f, 0.83f, 0.22f, 0.17f, 0.16f, 0.15f, 0.11f, 0.38f};
+// The continuity weight reads the table (the last confidence over class kBestTrackedEvidence's), so
+// the fit was repeated with the fitted table in place until it returned itself (three rounds).
+// Refitted when the bone slack went 0.02 → 0.05 / 0.10 m: the looser bone term raises the fit
+// scores, so each class's joints are within 0.1 m less often (ojr class 9 0.81 → 0.77, class 5
+// 0.37 → 0.30). Held-out figures: docs/skeleton.md, "States and confidences".
+constexpr float kCalibrationOjr[kEvidenceClasses] = {0.05f, 0.11f, 0.14f, 0.23f, 0.26f, 0.30f, 0.38f, 0.47f,
+                                                     0.57f, 0.77f, 0.21f, 0.16f, 0.14f, 0.10f, 0.08f, 0.08f};
+constexpr float kCalibrationBpc[kEvidenceClasses] = {0.05f, 0.12f, 0.21f, 0.26f, 0.31f, 0.36f, 0.45f, 0.54f,
+                                                     0.62f, 0.78f, 0.20f, 0.14f, 0.10f, 0.10f, 0.09f, 0.02f};
 
+// The tracked evidence class of the best fit (exp(−local cost / 2) ≥ 0.9); its calibrated
+// confidence is the highest of the tracked classes (the tables are monotone over 0..9).
+constexpr int kBestTrackedEvidence = 9;
 constexpr int kMaxJointCandidates = 2 * kMaxProposals + 2;  // own and mirror proposals, the prediction, "absent"
 constexpr int32_t kKindPredicted = -1;
 constexpr int32_t kKindAbsent = -2;
@@ -380,7 +416,7 @@ float bone_tolerance(int32_t joint, float length, bool measured) {
   const float fraction = joint == kKneeL || joint == kKneeR ? kBoneToleranceHipSpan
                          : measured                          ? kBoneToleranceMeasured
                                                              : kBoneToleranceGeneric;
-  return fraction * length + kBoneSlackM;
+  return fraction * length + (measured ? kBoneSlackMeasuredM : kBoneSlackGenericM);
 }
 
 }  // namespace
@@ -508,6 +544,14 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
   for (int j = 0; j < kSkeletonJoints; ++j) {
     int n = 0;
     const float motion_scale = kMotionScaleM * float(1 + (u.missed[j] < 5 ? u.missed[j] : 5));
+    // Continuity pulls towards the last position as far as that position was likely right: its
+    // reported confidence over the best tracked class's, at least kMinContinuityWeight. Without
+    // this weight a wrong choice held itself: the distance from it made the next frames' correct
+    // proposals expensive (docs/skeleton.md, "Why the tracker lost on set B and the lower legs").
+    const float best_class = calibration_[kBestTrackedEvidence];
+    float continuity_weight = best_class > 0.0f ? u.last_confidence[j] / best_class : 1.0f;
+    if (continuity_weight > 1.0f) continuity_weight = 1.0f;
+    if (continuity_weight < kMinContinuityWeight) continuity_weight = kMinContinuityWeight;
     // The joint's own proposals, then its mirror joint's (the forest often puts a left joint's
     // best mode on the right limb and the reverse; the side and bone costs tell them apart). Not
     // for the shoulders: they anchor the torso's facing, and their own proposals rarely swap.
@@ -528,7 +572,7 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
         if (src != j) cost += kMirrorCost;
         if (u.has_last[j]) {
           const float d = distance(c.pos[j][n], u.last[j]) / motion_scale;
-          cost += capped(d * d, kMaxContinuityCost);
+          cost += continuity_weight * capped(d * d, kMaxContinuityCost);
         }
         c.unary[j][n] = cost;
       }
@@ -635,6 +679,7 @@ Status SkeletonTracker::update(int32_t user_id, const FrameResult& r, Skeleton* 
     o.y_m = filtered[1];
     o.z_m = filtered[2];
     for (int a = 0; a < 3; ++a) u.last[j][a] = o.raw_m[a];
+    u.last_confidence[j] = o.confidence;
     u.has_last[j] = 1;
     u.missed[j] = o.state == JointState::kTracked ? 0 : u.missed[j] + 1;
     if (u.missed[j] > kMaxPredictedFrames) u.has_last[j] = 0;

@@ -9,7 +9,8 @@
 //               wrist → hand; neck → knee → ankle → foot), conditioned on each pair of shoulder
 //               candidates, minimises the sum of
 //                 - proposal cost: −log(confidence / first proposal's confidence), weighted;
-//                 - continuity: squared distance to the joint's last position over the motion scale;
+//                 - continuity: squared distance to the joint's last position over the motion scale,
+//                   weighted by that position's reported confidence over the best tracked class's;
 //                 - bone cost: squared deviation of each bone's length from this user's estimate;
 //                 - side cost: a left joint on the right of the torso's mid-plane (or the
 //                   reverse), the mid-plane being the one of the shoulder pair;
@@ -142,6 +143,7 @@ class SkeletonTracker {
     int32_t has_last[kSkeletonJoints];
     int32_t missed[kSkeletonJoints];   // consecutive updates without a tracked choice
     float last[kSkeletonJoints][3];    // last chosen (unfiltered) position
+    float last_confidence[kSkeletonJoints];  // the confidence reported with it, [0, 1]
     int32_t facing_known;
     float facing[3];
     float bone_samples[kSkeletonJoints][kBoneSamples];

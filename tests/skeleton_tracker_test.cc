@@ -172,6 +172,88 @@ TEST(SkeletonTracker, ChoosesTheProposalThatFitsOverAStrongerDecoyAndUndoesSwaps
   EXPECT_LT(distance(fresh.joints[kAnkleR], truth[kAnkleR]), 1e-5f);
 }
 
+// A short bone's length measured between two noisy proposals varies by about their noise (a few
+// cm), which on wrist→hand (0.05 m here) is most of the length: a first proposal 6 cm off the
+// learned length is kept, not traded for a weaker proposal that fits the length exactly (the bone
+// slack of skeleton_tracker.cc, kBoneSlackMeasuredM).
+TEST(SkeletonTracker, AShortBonesNoisyFirstProposalIsKeptOverAWeakerOneAtTheLearnedLength) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  ASSERT_EQ(tracker->init(skeleton_meta(), unfiltered()), Status::kOk);
+  float truth[kSkeletonJoints][3];
+  Skeleton s;
+  feed_still_body(*tracker, 10, &s);  // learn the body: wrist→hand hypot(0.01, 0.05) m
+  ASSERT_NEAR(s.bone_length_m[kHandL], std::hypot(0.01f, 0.05f), 1e-4f);
+  body(0.0f, truth);
+  auto r = clean_frame(truth);
+  // The left hand's best proposal 6 cm below the hand (the bone measures 0.11 m), the second one,
+  // with 30 % of its weight, at the learned length straight out from the wrist.
+  const float low[3] = {truth[kHandL][0], truth[kHandL][1] - 0.06f, truth[kHandL][2]};
+  const float fits[3] = {truth[kWristL][0] + s.bone_length_m[kHandL], truth[kWristL][1], truth[kWristL][2]};
+  set_proposal(r.get(), kHandL, 0, low, 100.0f);
+  set_proposal(r.get(), kHandL, 1, fits, 30.0f);
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *r, &s), Status::kOk);
+  EXPECT_EQ(s.joints[kHandL].proposal, 0);
+  EXPECT_EQ(s.joints[kHandL].proposal_joint, kHandL);
+  EXPECT_LT(distance(s.joints[kHandL], low), 1e-5f);
+  EXPECT_EQ(s.joints[kHandL].state, JointState::kTracked);
+  // 0.15 m off (the bone measures 0.20 m) the weaker proposal that fits wins.
+  const float lower[3] = {truth[kHandL][0], truth[kHandL][1] - 0.15f, truth[kHandL][2]};
+  auto r2 = clean_frame(truth);
+  set_proposal(r2.get(), kHandL, 0, lower, 100.0f);
+  set_proposal(r2.get(), kHandL, 1, fits, 30.0f);
+  Skeleton s2;
+  feed_still_body(*tracker, 3, &s2);
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *r2, &s2), Status::kOk);
+  EXPECT_EQ(s2.joints[kHandL].proposal, 1);
+  EXPECT_LT(distance(s2.joints[kHandL], fits), 1e-5f);
+}
+
+// Continuity holds a joint near its last position only as far as that position was likely right
+// (its reported confidence): a confidently tracked foot keeps its place against a stronger proposal
+// 0.3 m away, but a foot that jumped there on weak evidence leaves it for a strong proposal at the
+// true place instead of holding the wrong one.
+TEST(SkeletonTracker, ContinuityHoldsAConfidentLastPositionButNotAWeakOne) {
+  auto tracker = std::make_unique<SkeletonTracker>();
+  ASSERT_EQ(tracker->init(skeleton_meta(), unfiltered()), Status::kOk);
+  float truth[kSkeletonJoints][3];
+  body(0.0f, truth);
+  Skeleton s;
+  for (int f = 0; f < 10; ++f) {  // users 1 and 2 learn the standing body
+    tracker->begin_frame();
+    ASSERT_EQ(tracker->update(1, *clean_frame(truth), &s), Status::kOk);
+    ASSERT_EQ(tracker->update(2, *clean_frame(truth), &s), Status::kOk);
+  }
+  ASSERT_EQ(s.joints[kFootL].evidence, 9);
+  // Behind the ankle at the foot bone's length: fits the bone, 0.3 m from the foot's place.
+  const float behind[3] = {truth[kAnkleL][0], truth[kAnkleL][1], truth[kAnkleL][2] + s.bone_length_m[kFootL]};
+  // User 2, confidently tracked: the foot's best proposal behind the ankle, its true place second
+  // (15 % of the weight): the last position holds.
+  auto r = clean_frame(truth);
+  set_proposal(r.get(), kFootL, 0, behind, 100.0f);
+  set_proposal(r.get(), kFootL, 1, truth[kFootL], 15.0f);
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(2, *r, &s), Status::kOk);
+  EXPECT_EQ(s.joints[kFootL].proposal, 1);
+  EXPECT_LT(distance(s.joints[kFootL], truth[kFootL]), 1e-5f);
+  // User 1: the foot's only proposal is behind the ankle; the tracker takes it (it fits the bone)
+  // with a low confidence (the 0.3 m jump).
+  auto jump = clean_frame(truth);
+  set_proposal(jump.get(), kFootL, 0, behind, 100.0f);
+  ASSERT_EQ(tracker->update(1, *jump, &s), Status::kOk);
+  ASSERT_LT(distance(s.joints[kFootL], behind), 1e-5f);
+  const float weak = s.joints[kFootL].confidence;
+  EXPECT_LT(weak, 0.5f * s.joints[kNeck].confidence);
+  // Next frame the true place is the best proposal, the wrong last place the second: the foot returns.
+  auto back = clean_frame(truth);
+  set_proposal(back.get(), kFootL, 1, behind, 15.0f);
+  tracker->begin_frame();
+  ASSERT_EQ(tracker->update(1, *back, &s), Status::kOk);
+  EXPECT_EQ(s.joints[kFootL].proposal, 0);
+  EXPECT_LT(distance(s.joints[kFootL], truth[kFootL]), 1e-5f);
+}
+
 TEST(SkeletonTracker, AJointWithoutProposalsIsInferredThenMissing) {
   auto tracker = std::make_unique<SkeletonTracker>();
   ASSERT_EQ(tracker->init(skeleton_meta(), unfiltered()), Status::kOk);
@@ -217,8 +299,7 @@ TEST(SkeletonTracker, ConfidenceUsesTheCalibrationOfTheBlobsForestMethod) {
     float truth[kSkeletonJoints][3];
     body(0.0f, truth);
     auto r = clean_frame(truth);
-    // One inferred joint besides the tracked ones, predicted twice in a row (evidence class 11):
-    // the first prediction's class (10) happens to have the same value in both tables.
+    // One inferred joint besides the tracked ones, predicted twice in a row (evidence class 11).
     r->proposal_count[kWristR] = 0;
     for (int frame = 0; frame < 2; ++frame) {
       tracker->begin_frame();
