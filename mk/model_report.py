@@ -101,10 +101,8 @@ def main():
         section(out, "mAP per held-out motion category (frames of the test split in each):",
                 ["category", "frames"] + labels, rows)
 
-    joints = list(first["per_joint_ap"].keys())
-    order = ["head", "neck", "shoulder_l", "shoulder_r", "elbow_l", "elbow_r", "wrist_l", "wrist_r",
-             "hand_l", "hand_r", "knee_l", "knee_r", "ankle_l", "ankle_r", "foot_l", "foot_r"]
-    joints = [j for j in order if j in joints] + [j for j in joints if j not in order]
+    # The blob's joint order, as `eval --json` lists it (its per-joint objects are keyed by name).
+    joints = first["joints"]
     section(out, f"AP per joint (below {FLOOR} in bold):", ["joint"] + labels,
             [[j] + [fmt(e["per_joint_ap"].get(j), True) for e in evals] for j in joints])
 

@@ -1,5 +1,6 @@
 // `depthpose eval` end to end: handcrafted blobs (tools/demo/fixtures.h) on tiny disc datasets
 // whose joints are known, through the real runtime, the CLI, the JSON and the plots.
+#include <algorithm>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -247,6 +248,14 @@ TEST(EvalEndToEnd, AccuracyPerCategoryAndSubject) {
   EXPECT_EQ(j.at("by_category").at("martial arts").at("frames").get<int>(), 2);
   EXPECT_NEAR(j.at("by_category").at("martial arts").at("per_joint_ap").at("joint1").get<double>(), 0.0, 1e-9);
   EXPECT_NEAR(j.at("by_subject").at("94").at("mAP").get<double>(), 1.0, 1e-9);
+  EXPECT_EQ(j.at("joints"), nlohmann::json(r.joint_names));
+  // "joints" keeps the blob's order where the per-joint objects (keyed by name) are alphabetical.
+  tools::EvalReport renamed = r;
+  std::reverse(renamed.joint_names.begin(), renamed.joint_names.end());
+  renamed.joint_names[0] = "zeta";
+  const nlohmann::json rj = tools::report_to_json(renamed);
+  EXPECT_EQ(rj.at("joints").front().get<std::string>(), "zeta");
+  EXPECT_NE(rj.at("per_joint_ap").begin().key(), "zeta");
   char* text = nullptr;
   size_t size = 0;
   FILE* out = open_memstream(&text, &size);

@@ -58,6 +58,7 @@ nlohmann::json report_to_json(const EvalReport& r) {
     per[r.joint_names[k]] = optional_number(r.ap[k]);
     pos[r.joint_names[k]] = r.positives[k];
   }
+  j["joints"] = r.joint_names;  // the blob's joint order (the per-joint objects below are keyed by name)
   j["per_joint_ap"] = per;
   j["positives"] = pos;
   json curve = json::array();
