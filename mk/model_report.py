@@ -101,8 +101,9 @@ def main():
         section(out, "mAP per held-out motion category (frames of the test split in each):",
                 ["category", "frames"] + labels, rows)
 
-    # The blob's joint order, as `eval --json` lists it (its per-joint objects are keyed by name).
-    joints = first["joints"]
+    # The blob's joint order, as `eval --json` lists it (its per-joint objects are keyed by name);
+    # an evaluation written before that field existed gives its keys' order.
+    joints = first.get("joints") or list(first["per_joint_ap"].keys())
     section(out, f"AP per joint (below {FLOOR} in bold):", ["joint"] + labels,
             [[j] + [fmt(e["per_joint_ap"].get(j), True) for e in evals] for j in joints])
 
