@@ -18,7 +18,7 @@ check() {  # check NAME command...
   check MakeModel env CLI="$CLI" MODEL_DIR="$ROOT/model" MODEL_OUT="$ROOT/models" \
     MODEL_W=160 MODEL_H=120 TRAIN_FRAMES=60 SHARD_FRAMES=30 VAL_FRAMES=20 TEST_FRAMES=20 DEMO_FRAMES=5 \
     MODEL_DEPTH=8 MODEL_TREES=2 TRAIN_IMAGES_PER_TREE=60 TRAIN_PIXELS=200 TRAIN_OFFSETS=50 TRAIN_THRESHOLDS=10 \
-    OJR_STRUCTURE_DEPTH=6 ASSETS="${ASSETS:-../shared/assets}" SYNTH_LANES=2 \
+    OJR_STRUCTURE_DEPTH=6 OJR_BLOB_TREES=1 ASSETS="${ASSETS:-../shared/assets}" SYNTH_LANES=2 \
     TRAIN_CLIPS=01_01,01_02,02_01 VAL_CLIPS=01_12 TEST_CLIPS=01_13 DEMO_CLIPS=02_06 \
     mk/make_model.sh
   # The second training shard read the pose cache the first one wrote and rendered in a background

@@ -17,6 +17,7 @@ MIN_SAMPLES=${TRAIN_MIN_SAMPLES:-10}; IMAGES_PER_TREE=${TRAIN_IMAGES_PER_TREE:-0
 OJR_DEPTH=${OJR_STRUCTURE_DEPTH:-20}; OJR_MIN_PIXELS=${OJR_MIN_PIXELS:-0}; OJR_MAX_LEAVES=${OJR_MAX_LEAVES:-0}
 OJR_CUT_TUNED=${OJR_CUT_TUNED:-1}
 MAX_BYTES=${MODEL_MAX_BYTES:-16000000}; PRUNE=${MODEL_PRUNE:-gain}; BPC_BLOB_TREES=${BPC_BLOB_TREES:-0}
+OJR_BLOB_TREES=${OJR_BLOB_TREES:-0}
 [ "$OJR_MIN_PIXELS" -gt 0 ] && [ "$OJR_MAX_LEAVES" -gt 0 ] &&
   { echo "make_model: set OJR_MIN_PIXELS or OJR_MAX_LEAVES, not both" >&2; exit 2; }
 case "$PRUNE" in gain|pixels) ;; *) echo "make_model: MODEL_PRUNE must be gain or pixels, got '$PRUNE'" >&2; exit 2;; esac
@@ -176,6 +177,14 @@ for m in bpc ojr; do
       step convert_ojr "$CLI" convert "$D/ojr.forest" --out "$D/ojr_untuned.blob" --max-bytes "$MAX_BYTES"
     fi
     step "tune_$m" "$CLI" tune --blob "$D/${m}_untuned.blob" --data "$D/val" --out "$D/$m.blob.tmp" --json "$D/tune_$m.json"
+    if [ "$m" = ojr ] && [ "$OJR_BLOB_TREES" -gt 0 ]; then
+      # OJR_BLOB_TREES: the tuned blob's first N trees (convert --from-blob), tuned again.
+      mv "$D/ojr.blob.tmp" "$D/ojr_all_trees.blob"
+      step ojr_trees "$CLI" convert --from-blob "$D/ojr_all_trees.blob" --trees "$OJR_BLOB_TREES" \
+        --out "$D/ojr_trees_untuned.blob"
+      step tune_ojr_trees "$CLI" tune --blob "$D/ojr_trees_untuned.blob" --data "$D/val" --out "$D/ojr.blob.tmp" \
+        --json "$D/tune_ojr_trees.json"
+    fi
     mv "$D/$m.blob.tmp" "$D/$m.blob"
   fi
   cp "$D/$m.blob" "$OUT/$m.blob"

@@ -22,6 +22,7 @@ OJR_STRUCTURE_DEPTH ?= 12
 OJR_MIN_PIXELS ?= 0
 OJR_MAX_LEAVES ?= 0
 BPC_BLOB_TREES ?= 0
+OJR_BLOB_TREES ?= 0
 TRAIN_PIXELS  ?= 500
 TRAIN_OFFSETS ?= 100
 TRAIN_THRESHOLDS ?= 10
@@ -51,6 +52,8 @@ MODEL_MAX_BYTES ?= 16000000        # blob budget: BPC is pruned to fit, OJR must
 MODEL_PRUNE   ?= gain              # how BPC is pruned to the budget: gain (information) or pixels
 BPC_BLOB_TREES ?= 2                # the BPC blob keeps the first N trees (0 = all): at 16 MB two trees
                                    # of deeper leaves beat three (validation, docs/results.md)
+OJR_BLOB_TREES ?= 0                # the OJR blob keeps the tuned blob's first N trees, tuned again (0 = all;
+                                   # 2: validation 0.778 vs 0.780, 2/3 of the forest and vote work, docs/results.md)
 TRAIN_PIXELS  ?= 1000              # training pixels per image
 TRAIN_OFFSETS ?= 400               # candidate offset pairs per node (paper: 2000)
 TRAIN_THRESHOLDS ?= 20             # candidate thresholds per offset pair (paper: 50)
@@ -72,7 +75,7 @@ DEMO_FRAMES   ?= 45
 DEMO_CLIPS    ?= 02_06
 
 MODEL_VARS := ASSETS MODEL_DIR MODEL_OUT OLD_MODELS MODEL_W MODEL_H TRAIN_FRAMES SHARD_FRAMES VAL_FRAMES TEST_FRAMES \
-  MODEL_TREES MODEL_DEPTH OJR_STRUCTURE_DEPTH OJR_MIN_PIXELS OJR_MAX_LEAVES OJR_CUT_TUNED MODEL_MAX_BYTES MODEL_PRUNE BPC_BLOB_TREES TRAIN_PIXELS TRAIN_OFFSETS TRAIN_THRESHOLDS TRAIN_MIN_SAMPLES \
+  MODEL_TREES MODEL_DEPTH OJR_STRUCTURE_DEPTH OJR_MIN_PIXELS OJR_MAX_LEAVES OJR_CUT_TUNED MODEL_MAX_BYTES MODEL_PRUNE BPC_BLOB_TREES OJR_BLOB_TREES TRAIN_PIXELS TRAIN_OFFSETS TRAIN_THRESHOLDS TRAIN_MIN_SAMPLES \
   TRAIN_IMAGES_PER_TREE POSE_STRIDE SYNTH_LANES POSE_POOL BODIES CLOTHED CAMERA_HEIGHT CAMERA_PITCH CAMERA_ROLL \
   TRAIN_CLIPS VAL_CLIPS TEST_CLIPS TRAIN_SEED DEMO_FRAMES DEMO_CLIPS
 

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <random>
 #include <string>
@@ -367,4 +368,74 @@ TEST(ConvertForest, CommandAppliesAndChecksTheOjrCompactionOptions) {
                  tools::ToolError)
         << bad;
   }
+}
+
+// `convert --from-blob BLOB --trees N`: the first N trees, every leaf node still holding the record
+// contents it held, only the records those trees reach (renumbered), config and names unchanged;
+// N = all trees gives the same bytes; bad N and pruning options are refused.
+TEST(ConvertForest, FromBlobKeepsTheFirstTreesAndTheirLeaves) {
+  TempDir dir;
+  for (const char* method : {"bpc", "ojr"}) {
+    const train::TrainedForest f = random_trained_forest(7, method, 3, 7, 0.8, 3);
+    tools::QuantizationReport rep;
+    blob::BlobContents c = tools::convert_forest(f, tools::ConvertOptions{}, "test", &rep);
+    c.config.max_votes_per_joint = 77;  // not a converter default: the config must carry over
+    const std::string in = dir.path + "/" + method + "3.blob", out = dir.path + "/" + method + "2.blob";
+    blob::save_blob_file(in, blob::write_blob(c));
+    ASSERT_EQ(run_cli({"convert", "--from-blob", in, "--trees", "2", "--out", out}), 0) << method;
+    const std::vector<uint8_t> a_bytes = blob::read_blob_file(in), b_bytes = blob::read_blob_file(out);
+    blob::LoadedBlob a, b;
+    ASSERT_EQ(blob::load_blob(a_bytes.data(), a_bytes.size(), &a), blob::BlobStatus::kOk);
+    ASSERT_EQ(blob::load_blob(b_bytes.data(), b_bytes.size(), &b), blob::BlobStatus::kOk);
+    ASSERT_EQ(b.tree_count(), 2) << method;
+    EXPECT_EQ(b.config->max_votes_per_joint, 77) << method;
+    EXPECT_EQ(std::memcmp(a.config, b.config, sizeof(blob::RuntimeConfig)), 0) << method;
+    const blob::BlobContents ac = blob::dense_contents(a), bc = blob::dense_contents(b);
+    const size_t stride = std::string(method) == "ojr" ? ac.joint_names.size() * size_t(ac.votes_per_joint) : ac.part_names.size();
+    size_t leaf_nodes = 0;
+    for (int t = 0; t < 2; ++t) {
+      ASSERT_EQ(bc.tree_nodes[t].size(), ac.tree_nodes[t].size()) << method << " tree " << t;
+      EXPECT_EQ(std::memcmp(bc.tree_nodes[t].data(), ac.tree_nodes[t].data(), sizeof(blob::TreeNode) * ac.tree_nodes[t].size()), 0);
+      EXPECT_EQ(bc.tree_left_child[t], ac.tree_left_child[t]);
+      for (size_t m = 0; m < ac.tree_nodes[t].size(); ++m) {
+        if (ac.tree_left_child[t][m] != m + 1) continue;
+        ++leaf_nodes;
+        const uint32_t ra = ac.tree_leaf_index[t][m], rb = bc.tree_leaf_index[t][m];
+        if (std::string(method) == "ojr")
+          EXPECT_EQ(std::memcmp(&ac.ojr_leaves[ra * stride], &bc.ojr_leaves[rb * stride], sizeof(blob::OjrVote) * stride), 0);
+        else
+          EXPECT_EQ(std::memcmp(&ac.bpc_leaves[ra * stride], &bc.bpc_leaves[rb * stride], sizeof(uint16_t) * stride), 0);
+      }
+    }
+    EXPECT_EQ(b.meta->leaf_count, leaf_nodes) << method;  // each leaf node its own record here
+    EXPECT_LT(b.meta->leaf_count, a.meta->leaf_count) << method;
+    ASSERT_EQ(run_cli({"convert", "--from-blob", in, "--trees", "3", "--out", out}), 0) << method;
+    EXPECT_EQ(blob::read_blob_file(out), a_bytes) << method;
+    for (const char* bad : {"0", "4", "x"})
+      EXPECT_THROW(run_cli({"convert", "--from-blob", in, "--trees", bad, "--out", out}), tools::ToolError) << bad;
+    EXPECT_THROW(run_cli({"convert", "--from-blob", in, "--out", out}), tools::ToolError);
+    EXPECT_THROW(run_cli({"convert", "--from-blob", in, "--trees", "1", "--max-bytes", "100000", "--out", out}), tools::ToolError);
+    EXPECT_THROW(run_cli({"convert", "--from-blob", in, "--trees", "1", "--ojr-max-length", "0.2", "--out", out}), tools::ToolError);
+  }
+}
+
+// Records shared by leaf nodes (allowed by the format) stay shared and are kept once.
+TEST(ConvertForest, KeepFirstTreesKeepsASharedRecordOnce) {
+  const train::TrainedForest f = random_trained_forest(8, "bpc", 2, 5, 0.8);
+  tools::QuantizationReport rep;
+  blob::BlobContents c = tools::convert_forest(f, tools::ConvertOptions{}, "test", &rep);
+  std::vector<uint32_t*> leaves;
+  for (size_t t = 0; t < c.tree_nodes.size(); ++t)
+    for (size_t m = 0; m < c.tree_nodes[t].size(); ++m)
+      if (c.tree_left_child[t][m] == m + 1) leaves.push_back(&c.tree_leaf_index[t][m]);
+  ASSERT_GE(leaves.size(), 4u);
+  *leaves[1] = *leaves[0];  // tree 0's second leaf node shares the first one's record
+  tools::keep_first_trees(&c, 1);
+  ASSERT_EQ(c.tree_nodes.size(), 1u);
+  size_t tree0_leaf_nodes = 0;
+  for (size_t m = 0; m < c.tree_nodes[0].size(); ++m) tree0_leaf_nodes += c.tree_left_child[0][m] == m + 1;
+  EXPECT_EQ(c.bpc_leaves.size() / c.part_names.size(), tree0_leaf_nodes - 1);
+  EXPECT_EQ(*leaves[0], 0u);
+  EXPECT_EQ(*leaves[1], 0u);
+  EXPECT_NO_THROW(blob::write_blob(c));
 }

@@ -18,6 +18,7 @@
 #include "tools/convert/blob_upgrade.h"
 #include "tools/convert/forest_convert.h"
 #include "tools/convert/pcl_import.h"
+#include "tools/eval/blob_rebuild.h"
 #include "tools/train/forest_file.h"
 
 namespace dp::tools {
@@ -28,12 +29,14 @@ const char* const kUsage =
     "                         [--min-leaf-pixels N] [--max-bytes B]\n"
     "       depthpose convert --from-pcl TREE.txt.bz2 [TREE2 ...] --out BLOB\n"
     "       depthpose convert --upgrade-blob OLD.blob --out BLOB\n"
+    "       depthpose convert --from-blob BLOB --trees N --out BLOB2\n"
     "  FOREST: a trained forest (depthpose train) quantized to fixed point (docs/convert.md); reports the\n"
     "  worst quantization error and checks that the blob's leaves equal the trained forest's on sample frames.\n"
     "  --from-pcl: imports PCL people-detector trees (bzip2 ASCII, read in place) as a 25-part BPC blob.\n"
     "  --upgrade-blob: rewrites a format-1 (dense leaves) or format-2 (complete heap-order trees) blob as\n"
     "  the current format 3 (sparse nodes, compact leaves), losslessly unless --bpc-*/--ojr-* options are given:\n"
     "  every pixel reaches the same leaf, same leaves and config (docs/blob_format.md).\n"
+    "  --from-blob: the blob's first N trees and the leaf records they reach, config unchanged (tune it again).\n"
     "  --out BLOB       blob to write (byte-identical for identical input)\n"
     "  --max-size WxH   largest frame the blob's arena size is computed for (default 640x480)\n"
     "  --check-frames N sample frames for the leaf check (default 12, 0 = skip, at most 256)\n"
@@ -232,6 +235,26 @@ int convert_upgrade(const Args& args) {
   return 0;
 }
 
+int convert_from_blob(const Args& args) {
+  const std::string in = args.get("--from-blob");
+  if (!args.positional().empty()) fail("convert --from-blob: takes no FOREST\n" + args.usage());
+  if (!args.has("--trees")) fail("convert --from-blob: give --trees N (the trees to keep)");
+  for (const char* option : {"--upgrade-blob", "--max-size", "--check-frames", "--bpc-max-parts", "--bpc-min-probability",
+                             "--ojr-max-votes", "--ojr-max-length", "--ojr-min-share", "--ojr-lengths-from", "--prune-by"})
+    if (args.has(option)) fail(std::string("convert --from-blob: ") + option + " does not apply to a blob's trees");
+  const std::string out = args.get("--out");
+  const std::vector<uint8_t> bytes = blob::read_blob_file(in);
+  const blob::LoadedBlob b = load_blob_or_fail(bytes, in);
+  blob::BlobContents c = contents_from_blob(b);
+  const long long trees = args.get_int("--trees", 0);
+  keep_first_trees(&c, int(std::clamp<long long>(trees, -1, 1 << 20)));
+  const std::vector<uint8_t> kept = blob::write_blob(c);
+  blob::save_blob_file(out, kept);
+  std::printf("wrote %s: %zu bytes, %lld of %d trees (%s: %zu bytes)\n", out.c_str(), kept.size(), trees, b.tree_count(),
+              in.c_str(), bytes.size());
+  return 0;
+}
+
 int convert_main(int argc, char** argv) {
   static const std::string usage = [] {
     const BpcCompaction k;
@@ -242,18 +265,20 @@ int convert_main(int argc, char** argv) {
     return std::string(text);
   }();
   Args args(argc, argv, usage.c_str(),
-            {"--out", "--max-size", "--check-frames", "--upgrade-blob", "--bpc-max-parts", "--bpc-min-probability",
+            {"--out", "--max-size", "--check-frames", "--upgrade-blob", "--from-blob", "--bpc-max-parts", "--bpc-min-probability",
              "--ojr-max-votes", "--ojr-max-length", "--ojr-min-share", "--ojr-lengths-from", "--trees", "--min-leaf-pixels", "--max-bytes", "--prune-by"},
             {"--from-pcl"});
   if (args.help_requested()) {
     std::printf("%s", args.usage().c_str());
     return 0;
   }
-  if ((args.flag("--from-pcl") || args.has("--upgrade-blob")) && (args.has("--min-leaf-pixels") || args.has("--max-bytes")))
+  if ((args.flag("--from-pcl") || args.has("--upgrade-blob") || args.has("--from-blob")) &&
+      (args.has("--min-leaf-pixels") || args.has("--max-bytes")))
     fail("convert: --min-leaf-pixels and --max-bytes prune a trained FOREST (by its leaves' training pixel counts, "
          "which blobs and PCL trees do not carry)");
   if (args.flag("--from-pcl")) return convert_from_pcl(args);
   if (args.has("--upgrade-blob")) return convert_upgrade(args);
+  if (args.has("--from-blob")) return convert_from_blob(args);
   return convert_trained(args);
 }
 

@@ -1,5 +1,6 @@
 #include "tools/eval/blob_rebuild.h"
 
+#include <cstdint>
 #include <cstring>
 #include <string>
 
@@ -17,6 +18,36 @@ std::vector<uint8_t> blob_with_config(const blob::LoadedBlob& b, const blob::Run
   blob::BlobContents c = contents_from_blob(b);
   c.config = config;
   return blob::write_blob(c);
+}
+
+void keep_first_trees(blob::BlobContents* c, int trees) {
+  const int have = int(c->tree_nodes.size());
+  if (trees < 1 || trees > have)
+    fail("--trees " + std::to_string(trees) + " is outside 1.." + std::to_string(have) + " (the blob's trees)");
+  const bool ojr = c->method == blob::Method::kOjr;
+  const size_t stride = ojr ? c->joint_names.size() * size_t(c->votes_per_joint) : c->part_names.size();
+  const size_t records = (ojr ? c->ojr_leaves.size() : c->bpc_leaves.size()) / stride;
+  std::vector<uint32_t> renumbered(records, UINT32_MAX);
+  std::vector<uint16_t> bpc;
+  std::vector<blob::OjrVote> votes;
+  uint32_t next = 0;
+  for (int t = 0; t < trees; ++t)
+    for (size_t m = 0; m < c->tree_nodes[size_t(t)].size(); ++m) {
+      if (c->tree_left_child[size_t(t)][m] != m + 1) continue;  // a split node (a leaf node is its own left child)
+      uint32_t& r = c->tree_leaf_index[size_t(t)][m];
+      if (renumbered[r] == UINT32_MAX) {
+        renumbered[r] = next++;
+        if (ojr)
+          votes.insert(votes.end(), c->ojr_leaves.begin() + ptrdiff_t(r * stride), c->ojr_leaves.begin() + ptrdiff_t((r + 1) * stride));
+        else
+          bpc.insert(bpc.end(), c->bpc_leaves.begin() + ptrdiff_t(r * stride), c->bpc_leaves.begin() + ptrdiff_t((r + 1) * stride));
+      }
+      r = renumbered[r];
+    }
+  c->tree_nodes.resize(size_t(trees));
+  c->tree_leaf_index.resize(size_t(trees));
+  c->tree_left_child.resize(size_t(trees));
+  if (ojr) c->ojr_leaves = std::move(votes); else c->bpc_leaves = std::move(bpc);
 }
 
 }  // namespace dp::tools

@@ -15,4 +15,10 @@ blob::BlobContents contents_from_blob(const blob::LoadedBlob& blob);
 // The bytes of `blob` with its runtime config replaced (ToolError when the config is invalid).
 std::vector<uint8_t> blob_with_config(const blob::LoadedBlob& blob, const blob::RuntimeConfig& config);
 
+// `c` keeping only its first `trees` trees (1..its tree count, else ToolError) and the leaf records
+// they reach, renumbered in the order their leaf nodes come (tree by tree, breadth-first); config,
+// names and everything else unchanged. Every pixel reaches the same record contents in the kept
+// trees. (`convert --from-blob BLOB --trees N`: a tuned blob's forest with fewer trees, to be tuned again.)
+void keep_first_trees(blob::BlobContents* c, int trees);
+
 }  // namespace dp::tools
