@@ -140,7 +140,9 @@ TEST(SegmentationFurniture, ATrackedDoorThatMovesIsKept) {
     s.boxes.push_back({x, x + 0.85f, 0.0f, 2.0f, 3.0f, 3.04f, 0});
     ASSERT_EQ(h.run(tools::render_scene(s)), Status::kOk);
     EXPECT_EQ(h.result.user_count, 1) << "frame " << frame;
-    if (frame == 0) ASSERT_EQ(h.segmenter.set_config(rule_on), Status::kOk);
+    if (frame == 0) {
+      ASSERT_EQ(h.segmenter.set_config(rule_on), Status::kOk);
+    }
   }
 }
 

@@ -106,6 +106,10 @@ void expect_refused(const std::vector<uint8_t>& bytes, const std::string& needle
 
 // Rewrites the CRC so that the structural checks, not the checksum, must catch the problem.
 void fix_crc(std::vector<uint8_t>& bytes) {
+  if (bytes.size() < 4) {
+    ADD_FAILURE() << "fix_crc: " << bytes.size() << " bytes hold no CRC";
+    return;
+  }
   bytes.resize(bytes.size() - 4);
   uint32_t crc = 0xFFFFFFFFu;
   for (uint8_t b : bytes) {
