@@ -100,14 +100,16 @@ TEST_OBJS    := $(TEST_FILE_OBJS)
 # folder ($(BUILD)/unity/<folder>.cc includes the folder's sources), so the headers and the templates
 # most of them instantiate (nlohmann::json's parser and serializer, above all) are compiled and
 # instrumented once per folder instead of once per file (ASan+UBSan, CPU seconds: tools/app 77.1 as
-# 10 files, 35.8 as one unit; tools/common 51.4 → 33.6). The code and flags are those of the
+# 10 files, 35.8 as one unit; tools/common 51.4 → 33.6; tools/eval with its side-check and tune
+# commands 56.7 as three units, 36.4 as one, side by side). The code and flags are those of the
 # per-file build. Files listed in UNITY_SOLO compile on their own: they define a file-local name
 # that another file of their folder defines too (kUsage of the *_command.cc files, lower, put) or
 # take their own flags (mpi_communicator.cc). A new file whose local name clashes in its folder's
-# unit fails that build with a redefinition or ambiguity error: add it here.
+# unit fails that build with a redefinition or ambiguity error: give the name a file-specific
+# spelling (kSideCheckUsage) or add the file here.
 UNITY ?=
-UNITY_SOLO := tools/app/skeleton_eval_command.cc tools/eval/side_check_command.cc tools/eval/tune_command.cc \
-              tools/synth/skeleton_naming.cc tools/train/distributed_leaves.cc tools/train/mpi_communicator.cc
+UNITY_SOLO := tools/app/skeleton_eval_command.cc tools/synth/skeleton_naming.cc tools/train/distributed_leaves.cc \
+              tools/train/mpi_communicator.cc
 ifeq ($(UNITY),1)
   UNITY_SRCS := $(filter-out $(UNITY_SOLO),$(TOOLS_SRCS))
   UNITY_DIRS := $(sort $(patsubst %/,%,$(dir $(UNITY_SRCS))))
@@ -189,7 +191,14 @@ endif
 # runtime_kernel_test 19.2 → 8.8, segmentation_cut_test 18.2 → 9.5, train_dataset_test 8.8 → 4.1.
 # They share a precompiled header (tests/test_pch.h, built per build folder with their flags):
 # -1.0 to -3.2 s CPU per driver (train_dataset_test 5.4 → 3.9, segmentation_cut_test 9.0 → 5.8).
-TEST_OPT ?= $(if $(filter -O0,$(OPT)),-O0,-O1)
+# Under the sanitizers (SAN=1) the drivers compile at -O0: at -O1 GCC optimizes the sanitizer checks
+# of every inlined GoogleTest and container template, which more than doubles a unit's compile time
+# (ASan+UBSan, CPU seconds: the tests_segmentation unit 46.0 at -O1, 19.9 at -O0; every driver of
+# the ASan+UBSan build: README.md "What `make test` costs"). -O0 drops no check (every access stays
+# instrumented); the code under test keeps its -O1, also where a driver compiles the same inline
+# function or template (TEST_BIN's link order, below). The normal build compiles the same drivers
+# at -O1, so the warnings that need the optimizer (-Wmaybe-uninitialized, ...) still show there.
+TEST_OPT ?= $(if $(filter -O0,$(OPT))$(filter 1,$(SAN)),-O0,-O1)
 TEST_CXXFLAGS := $(filter-out $(OPT) $(DEBUGINFO),$(TOOLS_CXXFLAGS)) $(TEST_OPT) -g1
 TEST_PCH := $(BUILD)/pch/test_pch.h
 $(TEST_PCH): tests/test_pch.h
@@ -223,9 +232,15 @@ $(CLI): $(BUILD)/obj/tools/cli/main.o $(TOOLS_LIB) $(RUNTIME_LIB)
 	@mkdir -p $(@D)
 	$(CXX) $(TOOLS_CXXFLAGS) -o $@ $< $(LINK_TOOLS) $(LDLIBS_TOOLS) -Wl,-rpath,'$$ORIGIN/../openni'
 
+# The libraries come before the drivers on the link line, both whole: for an inline function or
+# template that a library and a driver both compile (a header's helpers, std::vector<float>, ...)
+# the linker keeps the first copy, so the tests run the libraries' copy, built with their flags,
+# not the driver's (-O0 in the sanitizer build: with the drivers first, the ASan+UBSan run took
+# a third more CPU time).
 $(TEST_BIN): $(TEST_OBJS) $(TOOLS_LIB) $(RUNTIME_LIB)
 	@mkdir -p $(@D)
-	$(CXX) $(TOOLS_CXXFLAGS) -o $@ $(TEST_OBJS) $(LINK_TOOLS) $(LDLIBS_TOOLS) -lgtest -lgtest_main -Wl,-rpath,'$$ORIGIN/../openni'
+	$(CXX) $(TOOLS_CXXFLAGS) -o $@ -Wl,--whole-archive $(TOOLS_LIB) $(RUNTIME_LIB) -Wl,--no-whole-archive $(TEST_OBJS) \
+	  $(LDLIBS_TOOLS) -lgtest -lgtest_main -Wl,-rpath,'$$ORIGIN/../openni'
 
 $(BUILD)/bin/bench_%: $(BUILD)/obj/tests/bench/%_bench.o $(TOOLS_LIB) $(RUNTIME_LIB)
 	@mkdir -p $(@D)

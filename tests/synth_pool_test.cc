@@ -291,7 +291,8 @@ TEST_F(SynthPosePoolSharedData, PoolFromTheCacheEqualsTheFreshPoolAndOtherInputs
 }
 
 TEST(SynthPoseSheetSharedData, OneRowPerSkeletonNaming) {
-  const std::string dir = fs::temp_directory_path() / "synth_pose_sheet_test";
+  // Per process: `make test` runs the normal and the ASan+UBSan binaries side by side.
+  const std::string dir = fs::temp_directory_path() / ("synth_pose_sheet_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const std::string sheet = dir + "/sheet.png";
   ASSERT_EQ(dp::testsupport::run_cli({"synth", "--assets", kAssets, "--clips", "02_01,60_01,16_01", "--pose-stride",

@@ -16,7 +16,7 @@
 namespace dp::tools {
 namespace {
 
-const char* kUsage =
+const char* kSideCheckUsage =
     "usage: depthpose side-check --blob BLOB --truth FILE --frames DIR [--json OUT] [--segment on|off]\n"
     "  For each frame of the truth file (marked shoulders, elbows and hands of front-facing people;\n"
     "  format in tools/eval/side_check.h), runs the pipeline and the skeleton tracker on DIR/FILE as a\n"
@@ -51,9 +51,9 @@ const char* outcome_text(SideOutcome o) {
 }
 
 int side_check_main(int argc, char** argv) {
-  Args args(argc, argv, kUsage, {"--blob", "--truth", "--frames", "--json", "--segment"});
+  Args args(argc, argv, kSideCheckUsage, {"--blob", "--truth", "--frames", "--json", "--segment"});
   if (args.help_requested()) {
-    std::printf("%s", kUsage);
+    std::printf("%s", kSideCheckUsage);
     return 0;
   }
   const SideTruth truth = load_side_truth(args.get("--truth"));

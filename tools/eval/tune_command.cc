@@ -18,7 +18,7 @@ namespace dp::tools {
 
 EvalOptions eval_options_from_args(const Args& a);  // eval_command.cc
 
-static const char* const kUsage =
+static const char* const kTuneUsage =
     "usage: depthpose tune --blob BLOB --data VALIDATION --out BLOB2 [--dtp D] [--silhouette]\n"
     "                      [--penalize-occluded] [--frames N] [--passes 2] [--threads N] [--no-nsub]\n"
     "                      [--nsub-tolerance T] [--json OUT.json] [--verbose] [--kernel K]\n"
@@ -30,7 +30,7 @@ static const char* const kUsage =
     "  --nsub-tolerance T  take the smallest Nsub within T of the best mAP (faster; default 0)";
 
 static int run_tune(int argc, char** argv) {
-  Args a(argc, argv, kUsage,
+  Args a(argc, argv, kTuneUsage,
          {"--blob", "--data", "--out", "--dtp", "--frames", "--kernel", "--map-joints", "--map-parts", "--passes",
           "--threads", "--nsub-tolerance", "--json"},
          {"--penalize-occluded", "--silhouette", "--no-nsub", "--verbose"});
