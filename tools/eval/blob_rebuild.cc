@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <cstring>
 #include <string>
+#include <type_traits>
 
 #include "tools/common/error.h"
 #include "tools/common/blob_error.h"
@@ -27,27 +28,28 @@ void keep_first_trees(blob::BlobContents* c, int trees) {
   const bool ojr = c->method == blob::Method::kOjr;
   const size_t stride = ojr ? c->joint_names.size() * size_t(c->votes_per_joint) : c->part_names.size();
   const size_t records = (ojr ? c->ojr_leaves.size() : c->bpc_leaves.size()) / stride;
-  std::vector<uint32_t> renumbered(records, UINT32_MAX);
-  std::vector<uint16_t> bpc;
-  std::vector<blob::OjrVote> votes;
-  uint32_t next = 0;
+  // The kept trees' records in the order their leaf nodes reach them first, and each leaf node's new index.
+  std::vector<uint32_t> renumbered(records, UINT32_MAX), kept;
   for (int t = 0; t < trees; ++t)
     for (size_t m = 0; m < c->tree_nodes[size_t(t)].size(); ++m) {
       if (c->tree_left_child[size_t(t)][m] != m + 1) continue;  // a split node (a leaf node is its own left child)
       uint32_t& r = c->tree_leaf_index[size_t(t)][m];
       if (renumbered[r] == UINT32_MAX) {
-        renumbered[r] = next++;
-        if (ojr)
-          votes.insert(votes.end(), c->ojr_leaves.begin() + ptrdiff_t(r * stride), c->ojr_leaves.begin() + ptrdiff_t((r + 1) * stride));
-        else
-          bpc.insert(bpc.end(), c->bpc_leaves.begin() + ptrdiff_t(r * stride), c->bpc_leaves.begin() + ptrdiff_t((r + 1) * stride));
+        renumbered[r] = uint32_t(kept.size());
+        kept.push_back(r);
       }
       r = renumbered[r];
     }
+  auto gather = [&](auto& table) {
+    std::remove_reference_t<decltype(table)> out;
+    out.reserve(kept.size() * stride);
+    for (const uint32_t r : kept) out.insert(out.end(), table.begin() + ptrdiff_t(r * stride), table.begin() + ptrdiff_t((r + 1) * stride));
+    table = std::move(out);
+  };
+  if (ojr) gather(c->ojr_leaves); else gather(c->bpc_leaves);
   c->tree_nodes.resize(size_t(trees));
   c->tree_leaf_index.resize(size_t(trees));
   c->tree_left_child.resize(size_t(trees));
-  if (ojr) c->ojr_leaves = std::move(votes); else c->bpc_leaves = std::move(bpc);
 }
 
 }  // namespace dp::tools
