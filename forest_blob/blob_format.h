@@ -1,4 +1,4 @@
-// forest_blob v3 — the on-disk (and in-memory) model of depthpose. This header is the single
+// forest_blob v4 — the on-disk (and in-memory) model of depthpose. This header is the single
 // definition of the format; docs/blob_format.md mirrors it with a revision history.
 //
 // Layout (all integers little endian, all floats IEEE-754 binary32 little endian):
@@ -12,28 +12,32 @@
 //                   computed with the header_crc32 field itself set to zero.
 //   payload_crc32 = CRC-32 of bytes [header_bytes, total_bytes).
 //
-// Sections (each kind exactly once, kinds 1..8):
+// Trees. Tree t has node_count[t] nodes (ForestMeta), numbered 1.. in breadth-first order, node 1 the
+// root. A node is a split node (two children) or a leaf node; the tree is stored as one flag per
+// node (kSplitFlags) and the split nodes' TreeNodes (kNodes). Everything else follows from the
+// breadth-first order and is derived by the reader (for_each_tree_node in blob_loader.h):
+//   - the k-th split node of a tree (in node order, k = 1..) has children 2k and 2k + 1;
+//   - leaf node records are numbered in node order over the whole forest: the r-th leaf node met
+//     (tree after tree, node order within a tree; r from 0) owns leaf record r;
+//   - a traversal is exactly `depth` steps, child = left + [feature > threshold]; a walk that reaches
+//     a leaf node above level `depth` stays on it (runtime copies give a leaf node its own index as
+//     left child, the pad threshold and zero offsets, so the kernels need no branch).
+// A valid tree: node_count odd (a full binary tree has 2S + 1 nodes for S split nodes), every node
+// but the root is a split node's child, no split node at level ≥ depth (root level 0).
+//
+// Sections (each kind exactly once, kinds 1..7):
 //   kMeta      ForestMeta: method, tree count, depth, per-tree node counts, part/joint counts and
 //              names, reference focal length, leaf table shape, the maximum frame and arena size
 //              computed by the converter.
 //   kConfig    RuntimeConfig: per-joint aggregation parameters and the per-frame budget.
-//   kNodes     Σ node_count[t] TreeNode, tree after tree (tree t's nodes follow tree t − 1's). Only the
-//              nodes a tree has are stored, in breadth-first order: node m (1-based within its tree)
-//              is element m − 1; node 1 is the root. A node is either
-//                a split node: kLeftChild[m] = its left child's index (> m; right child = left + 1),
-//                  or a leaf node: kLeftChild[m] = m, threshold kPadThreshold (always left, so a
-//                  traversal that reaches it stays on it) and zero offsets.
-//              Every traversal is exactly `depth` steps, child = left_child[m] + [feature > threshold],
-//              and ends on a leaf node. Breadth-first is canonical: the k-th split node (in index
-//              order) has children 2k and 2k + 1, every node but the root is some split node's child,
-//              and no split node lies at level ≥ depth (root level 0). So the tree has no cycle but the
-//              leaves' self-loops and a walk of `depth` steps ends on a leaf.
-//   kLeafIndex Σ node_count[t] uint32, parallel to kNodes: a leaf node's record in kLeaves (shared by
-//              all trees, < leaf_count); 0 for a split node.
-//   kLeftChild Σ node_count[t] uint32, parallel to kNodes: the left-child index above (1-based,
-//              within the node's tree).
+//   kNodes     Σ (node_count[t] − 1) / 2 TreeNode: tree t's split nodes in node order, after tree
+//              t − 1's.
+//   kSplitFlags Σ ⌈node_count[t] / 8⌉ bytes: tree t's flags from byte Σ_{s<t} ⌈node_count[s] / 8⌉;
+//              node m's flag is bit (m − 1) % 8 of byte (m − 1) / 8, 1 = split node, 0 = leaf node;
+//              the bits past node_count[t] in a tree's last byte are zero.
 //   kLeafOffsets (leaf_count + 1) uint32: leaf record r owns entries [offsets[r], offsets[r + 1]);
-//              offsets[0] = 0, non-decreasing, offsets[leaf_count] = entry_count.
+//              offsets[0] = 0, non-decreasing, offsets[leaf_count] = entry_count. leaf_count is
+//              the forest's leaf-node count, Σ (node_count[t] + 1) / 2.
 //   kLeafEntries entry_count entries, leaf after leaf (compact leaves: only what a leaf holds):
 //                BPC: uint16 probability_q15 (1..32768; a record's entries sum to ≤ 32768).
 //                OJR: OjrVote (weight ≥ 1; |dx|,|dy|,|dz| ≤ kMaxVoteOffsetMm).
@@ -53,8 +57,9 @@ namespace dp::blob {
 
 constexpr uint32_t kMagic = 0x42465044u;      // "DPFB" read as little-endian bytes 'D''P''F''B'
 constexpr uint32_t kEndianTag = 0x01020304u;  // reads 0x04030201 on a big-endian host
-constexpr uint16_t kVersionMajor = 3;         // readers refuse any other major version (v1: dense leaves,
-                                              // v2: complete heap-order trees)
+constexpr uint16_t kVersionMajor = 4;         // readers refuse any other major version (v1: dense leaves,
+                                              // v2: complete heap-order trees, v3: stored child and
+                                              // leaf indices and leaf nodes)
 constexpr uint16_t kVersionMinor = 0;         // readers accept older and newer minors of their major
 constexpr uint32_t kSectionAlignment = 64;
 
@@ -77,13 +82,12 @@ enum class SectionKind : uint32_t {
   kMeta = 1,
   kConfig = 2,
   kNodes = 3,
-  kLeafIndex = 4,
+  kSplitFlags = 4,
   kLeafOffsets = 5,
   kLeafEntries = 6,
   kEntryTags = 7,
-  kLeftChild = 8,
 };
-constexpr uint32_t kSectionKinds = 8;  // kinds 1..kSectionKinds, each exactly once
+constexpr uint32_t kSectionKinds = 7;  // kinds 1..kSectionKinds, each exactly once
 
 struct BlobHeader {
   uint32_t magic;            // kMagic
@@ -95,7 +99,7 @@ struct BlobHeader {
   uint32_t section_count;    // 1..kMaxSections
   uint32_t header_crc32;
   uint32_t payload_crc32;
-  uint32_t flags;            // 0 in v3.0
+  uint32_t flags;            // 0 in v4.0
   uint8_t reserved[24];      // zero
 };
 static_assert(sizeof(BlobHeader) == 64, "BlobHeader is 64 bytes on disk");
@@ -117,7 +121,8 @@ struct ForestMeta {
   uint8_t votes_per_joint;   // OJR: 1..kMaxVotesPerLeafJoint; BPC: 0
   uint16_t reserved0;
   float reference_focal_px;  // focal length the offsets are expressed for, > 0
-  uint32_t leaf_count;       // leaf records (kLeafOffsets has leaf_count + 1 entries), ≥ 1
+  uint32_t leaf_count;       // leaf records = leaf nodes, Σ (node_count[t] + 1) / 2 (kLeafOffsets has
+                             // leaf_count + 1 entries)
   uint32_t entry_count;      // kLeafEntries / kEntryTags length, ≤ leaf_count · max_entries_per_leaf
   uint32_t max_width;        // frame size the converter sized arena_bytes for
   uint32_t max_height;
@@ -127,8 +132,8 @@ struct ForestMeta {
   uint32_t reserved2;        // zero
   char part_names[kMaxParts][kNameBytes];
   char joint_names[kMaxJoints][kNameBytes];
-  // Nodes of tree t (1..max_nodes_per_tree(depth)) for t < tree_count; zero beyond. v1 and v2 metas
-  // end before this field (kLegacyMetaBytes).
+  // Nodes of tree t (odd, 1..max_nodes_per_tree(depth)) for t < tree_count; zero beyond. v1 and v2
+  // metas end before this field (kLegacyMetaBytes).
   uint32_t node_count[kMaxTrees];
 };
 static_assert(sizeof(ForestMeta) == 48 + kMaxParts * kNameBytes + kMaxJoints * kNameBytes + 4 * kMaxTrees,
@@ -209,5 +214,11 @@ inline constexpr size_t max_nodes_per_tree(int depth) { return (size_t(2) << dep
 // v1/v2 trees (and PCL's) are complete and in implicit heap order: nodes_per_heap(depth) split nodes
 // (children of n at 2n+1, 2n+2), then leaves_per_tree(depth) leaf slots. Tools read them to upgrade.
 inline constexpr size_t nodes_per_heap(int depth) { return (size_t(1) << depth) - 1; }
+
+// A full binary tree of n (odd) nodes has (n − 1) / 2 split nodes and (n + 1) / 2 leaf nodes; its
+// kSplitFlags take ⌈n / 8⌉ bytes.
+inline constexpr uint32_t split_nodes_of(uint32_t node_count) { return (node_count - 1) / 2; }
+inline constexpr uint32_t leaf_nodes_of(uint32_t node_count) { return (node_count + 1) / 2; }
+inline constexpr uint32_t split_flag_bytes_of(uint32_t node_count) { return (node_count + 7) / 8; }
 
 }  // namespace dp::blob

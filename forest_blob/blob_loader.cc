@@ -14,9 +14,9 @@ const char* blob_status_message(BlobStatus s) {
     case BlobStatus::kWrongEndianness: return "blob was written big-endian; this build reads little-endian only";
     case BlobStatus::kBadEndianTag: return "corrupt endianness tag";
     case BlobStatus::kVersionTooOld:
-      return "blob format major version too old: versions 1 (dense leaves) and 2 (complete heap-order trees) are no "
-             "longer read, this build reads version 3 (sparse nodes, compact leaves); rewrite it with "
-             "`depthpose convert --upgrade-blob OLD.blob --out NEW.blob`";
+      return "blob format major version too old: versions 1 (dense leaves), 2 (complete heap-order trees) and 3 "
+             "(stored child and leaf indices) are no longer read, this build reads version 4 (split flags, "
+             "compact leaves); rewrite it with `depthpose convert --upgrade-blob OLD.blob --out NEW.blob`";
     case BlobStatus::kVersionTooNew: return "blob format major version too new for this build";
     case BlobStatus::kBadHeaderSize: return "header size disagrees with the section count";
     case BlobStatus::kTruncated: return "blob truncated (fewer bytes than its header declares)";
@@ -38,12 +38,11 @@ const char* blob_status_message(BlobStatus s) {
     case BlobStatus::kBadJointCount: return "joint count out of range";
     case BlobStatus::kBadVotesPerJoint: return "votes per joint out of range";
     case BlobStatus::kBadFocalLength: return "reference focal length not positive and finite";
-    case BlobStatus::kBadLeafCount: return "leaf count out of range";
+    case BlobStatus::kBadLeafCount: return "leaf count is not the forest's number of leaf nodes";
     case BlobStatus::kBadEntryCount: return "leaf entry count above leaf count times the entries a leaf can hold";
     case BlobStatus::kBadFrameSize: return "maximum frame size out of range";
     case BlobStatus::kBadName: return "a part or joint name is not NUL-terminated printable ASCII";
     case BlobStatus::kOffsetTooLarge: return "a node's probe offset exceeds the allowed radius";
-    case BlobStatus::kBadLeafIndex: return "a leaf index points outside the leaf table";
     case BlobStatus::kBadLeafDistribution: return "a BPC leaf entry is 0 or a leaf distribution sums above 1";
     case BlobStatus::kBadVote: return "an OJR vote has weight 0 or an offset beyond the allowed length";
     case BlobStatus::kBadPartMask: return "a joint's part mask names a part the forest lacks";
@@ -52,13 +51,10 @@ const char* blob_status_message(BlobStatus s) {
     case BlobStatus::kEmpty: return "blob is empty (0 bytes)";
     case BlobStatus::kBadLeafOffsets: return "leaf offsets do not start at 0, decrease, or do not end at the entry count";
     case BlobStatus::kBadEntryTag: return "a leaf entry's part or lane is out of range or not strictly increasing";
-    case BlobStatus::kBadNodeCount: return "a tree's node count is 0 or above what its depth allows";
-    case BlobStatus::kBadChildIndex: return "a node's child index points outside its tree";
-    case BlobStatus::kChildBeforeParent: return "a split node's child does not come after it (a cycle)";
-    case BlobStatus::kNotBreadthFirst: return "a tree's nodes are not in breadth-first order";
+    case BlobStatus::kBadNodeCount: return "a tree's node count is even, 0 or above what its depth allows";
+    case BlobStatus::kBadChildIndex: return "a split node's children lie outside its tree";
     case BlobStatus::kTreeTooDeep: return "a split node lies at or below the tree depth (a walk would not end on a leaf)";
     case BlobStatus::kUnreachedNode: return "a tree node is not reached from the root";
-    case BlobStatus::kBadLeafNode: return "a leaf node lacks the pad threshold or has nonzero probe offsets";
   }
   return "unknown status";
 }
@@ -119,21 +115,27 @@ BlobStatus validate_meta(const ForestMeta& m, BlobProblem* p) {
   if (!in_range(p, "meta.max_abs_offset_pxm", -1, m.max_abs_offset_pxm, 0, kMaxProbeOffsetPxm))
     return BlobStatus::kOffsetTooLarge;
   if (m.reserved0 != 0 || m.reserved1 != 0 || m.reserved2 != 0) return BlobStatus::kReservedNotZero;
-  for (int t = 0; t < kMaxTrees; ++t)
+  int64_t leaf_nodes = 0;
+  for (int t = 0; t < kMaxTrees; ++t) {
     if (!in_range(p, "meta.node_count[t]", -1, m.node_count[t], t < m.tree_count ? 1 : 0,
                   t < m.tree_count ? int64_t(max_nodes_per_tree(m.depth)) : 0))
       return BlobStatus::kBadNodeCount;
+    if (t < m.tree_count) {
+      if (m.node_count[t] % 2 == 0) return BlobStatus::kBadNodeCount;  // a full binary tree has 2S + 1 nodes
+      leaf_nodes += leaf_nodes_of(m.node_count[t]);
+    }
+  }
+  if (!in_range(p, "meta.leaf_count", -1, m.leaf_count, leaf_nodes, leaf_nodes)) return BlobStatus::kBadLeafCount;
   if (!names_ok(m.part_names, m.part_count, kMaxParts) || !names_ok(m.joint_names, m.joint_count, kMaxJoints))
     return BlobStatus::kBadName;
   return BlobStatus::kOk;
 }
 
-// One tree's nodes (blob_format.h kNodes): every split node's children inside the tree and after it,
-// in breadth-first order, above level `depth`; every node reached; every leaf node a pad node whose
-// record is < leaf_count. One forward sweep: in breadth-first order the level boundaries are known
-// from the children already seen, so no per-node state is kept.
-BlobStatus validate_tree(const TreeNode* nodes, const uint32_t* left_child, const uint32_t* leaf_index, uint32_t count,
-                         int depth, uint32_t leaf_count, int offset_limit) {
+// One tree's split flags (blob_format.h kSplitFlags): every node reached from the root, every split
+// node's children inside the tree and no split node at level ≥ `depth`; the flag bits past the node
+// count zero. One forward sweep: in breadth-first order the level boundaries are known from the
+// children already seen, so no per-node state is kept.
+BlobStatus validate_tree(const uint8_t* flags, uint32_t count, int depth) {
   uint32_t next_child = 2;    // the next split node's left child (breadth-first: 2k for the k-th)
   uint32_t level_last = 1;    // last node of the current level
   int level = 0;
@@ -143,24 +145,12 @@ BlobStatus validate_tree(const TreeNode* nodes, const uint32_t* left_child, cons
       level_last = next_child - 1;
       if (m > level_last) return BlobStatus::kUnreachedNode;
     }
-    const TreeNode& n = nodes[m - 1];
-    const uint32_t left = left_child[m - 1];
-    if (abs16(n.du1) > offset_limit || abs16(n.dv1) > offset_limit || abs16(n.du2) > offset_limit ||
-        abs16(n.dv2) > offset_limit)
-      return BlobStatus::kOffsetTooLarge;
-    if (left == m) {          // a leaf node
-      if (n.threshold_mm != kPadThreshold || n.du1 != 0 || n.dv1 != 0 || n.du2 != 0 || n.dv2 != 0)
-        return BlobStatus::kBadLeafNode;
-      if (leaf_index[m - 1] >= leaf_count) return BlobStatus::kBadLeafIndex;
-      continue;
-    }
-    if (left == 0 || left >= count) return BlobStatus::kBadChildIndex;  // left + 1 ≤ count
-    if (left < m) return BlobStatus::kChildBeforeParent;
-    if (left != next_child) return BlobStatus::kNotBreadthFirst;
+    if (!((flags[(m - 1) >> 3] >> ((m - 1) & 7)) & 1u)) continue;  // a leaf node
+    if (next_child >= count) return BlobStatus::kBadChildIndex;    // right child next_child + 1 ≤ count
     if (level >= depth) return BlobStatus::kTreeTooDeep;
-    if (leaf_index[m - 1] != 0) return BlobStatus::kBadLeafIndex;
-    next_child += 2;          // ≤ count + 1 by the range check: no overflow
+    next_child += 2;          // ≤ count + 1: no overflow
   }
+  if (count % 8 != 0 && (flags[count >> 3] >> (count % 8)) != 0) return BlobStatus::kReservedNotZero;
   return next_child - 1 == count ? BlobStatus::kOk : BlobStatus::kUnreachedNode;
 }
 
@@ -266,33 +256,42 @@ BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out, BlobProblem
   const RuntimeConfig* config = reinterpret_cast<const RuntimeConfig*>(bytes + config_s.offset);
   if (BlobStatus s = validate_config(*meta, *config, problem); s != BlobStatus::kOk) return s;
 
-  uint32_t tree_first[kMaxTrees] = {};
-  size_t node_count = 0;  // ≤ kMaxTrees · max_nodes_per_tree(kMaxDepth) < 2^24 by the meta
+  uint32_t tree_first[kMaxTrees] = {}, tree_first_split[kMaxTrees] = {}, tree_first_flag[kMaxTrees] = {},
+           tree_first_leaf[kMaxTrees] = {};
+  size_t node_count = 0, split_count = 0, flag_bytes = 0, leaf_nodes = 0;  // < 2^24 by the meta
   for (int t = 0; t < meta->tree_count; ++t) {
     tree_first[t] = uint32_t(node_count);
+    tree_first_split[t] = uint32_t(split_count);
+    tree_first_flag[t] = uint32_t(flag_bytes);
+    tree_first_leaf[t] = uint32_t(leaf_nodes);
     node_count += meta->node_count[t];
+    split_count += split_nodes_of(meta->node_count[t]);
+    flag_bytes += split_flag_bytes_of(meta->node_count[t]);
+    leaf_nodes += leaf_nodes_of(meta->node_count[t]);
   }
   const SectionEntry& nodes_s = *by_kind[int(SectionKind::kNodes)];
-  const SectionEntry& index_s = *by_kind[int(SectionKind::kLeafIndex)];
-  const SectionEntry& left_s = *by_kind[int(SectionKind::kLeftChild)];
+  const SectionEntry& flags_s = *by_kind[int(SectionKind::kSplitFlags)];
   const SectionEntry& offsets_s = *by_kind[int(SectionKind::kLeafOffsets)];
   const SectionEntry& entries_s = *by_kind[int(SectionKind::kLeafEntries)];
   const SectionEntry& tags_s = *by_kind[int(SectionKind::kEntryTags)];
-  if (nodes_s.size != node_count * sizeof(TreeNode)) return BlobStatus::kBadSectionSize;
-  if (index_s.size != node_count * sizeof(uint32_t) || left_s.size != node_count * sizeof(uint32_t))
-    return BlobStatus::kBadSectionSize;
+  if (nodes_s.size != split_count * sizeof(TreeNode) || flags_s.size != flag_bytes) return BlobStatus::kBadSectionSize;
   if (offsets_s.size != (size_t(meta->leaf_count) + 1) * sizeof(uint32_t) ||
       entries_s.size != size_t(meta->entry_count) * leaf_entry_bytes(*meta) ||
       tags_s.size != size_t(meta->entry_count))
     return BlobStatus::kBadSectionSize;
 
-  const TreeNode* nodes = reinterpret_cast<const TreeNode*>(bytes + nodes_s.offset);
-  const uint32_t* leaf_index = reinterpret_cast<const uint32_t*>(bytes + index_s.offset);
-  const uint32_t* left_child = reinterpret_cast<const uint32_t*>(bytes + left_s.offset);
+  const TreeNode* split_nodes = reinterpret_cast<const TreeNode*>(bytes + nodes_s.offset);
+  const uint8_t* split_flags = bytes + flags_s.offset;
   for (int t = 0; t < meta->tree_count; ++t) {
-    const BlobStatus s = validate_tree(nodes + tree_first[t], left_child + tree_first[t], leaf_index + tree_first[t],
-                                       meta->node_count[t], meta->depth, meta->leaf_count, int(meta->max_abs_offset_pxm));
+    const BlobStatus s = validate_tree(split_flags + tree_first_flag[t], meta->node_count[t], meta->depth);
     if (s != BlobStatus::kOk) return s;
+  }
+  const int offset_limit = int(meta->max_abs_offset_pxm);
+  for (size_t i = 0; i < split_count; ++i) {
+    const TreeNode& n = split_nodes[i];
+    if (abs16(n.du1) > offset_limit || abs16(n.dv1) > offset_limit || abs16(n.du2) > offset_limit ||
+        abs16(n.dv2) > offset_limit)
+      return BlobStatus::kOffsetTooLarge;
   }
 
   // Compact leaves: each record's entry range inside the table, its tags strictly increasing below
@@ -329,15 +328,30 @@ BlobStatus load_blob(const void* data, size_t size, LoadedBlob* out, BlobProblem
   out->header = reinterpret_cast<const BlobHeader*>(bytes);
   out->meta = meta;
   out->config = config;
-  out->nodes = nodes;
-  out->leaf_index = leaf_index;
-  out->left_child = left_child;
-  for (int t = 0; t < kMaxTrees; ++t) out->tree_first[t] = tree_first[t];
+  out->split_nodes = split_nodes;
+  out->split_flags = split_flags;
+  for (int t = 0; t < kMaxTrees; ++t) {
+    out->tree_first[t] = tree_first[t];
+    out->tree_first_split[t] = tree_first_split[t];
+    out->tree_first_flag[t] = tree_first_flag[t];
+    out->tree_first_leaf[t] = tree_first_leaf[t];
+  }
   out->total_nodes = node_count;
   out->leaf_offsets = offsets;
   out->leaf_entries = entries;
   out->entry_tags = tags;
   return BlobStatus::kOk;
+}
+
+void expand_tree_tables(const LoadedBlob& b, TreeNode* nodes, uint32_t* left_child, uint32_t* leaf_index) {
+  for (int t = 0; t < b.tree_count(); ++t) {
+    const size_t first = b.tree_first[t];
+    for_each_tree_node(b, t, [&](uint32_t m, const TreeNode& node, uint32_t left, uint32_t record) {
+      if (nodes) nodes[first + m - 1] = node;
+      if (left_child) left_child[first + m - 1] = left;
+      if (leaf_index) leaf_index[first + m - 1] = record;
+    });
+  }
 }
 
 }  // namespace dp::blob

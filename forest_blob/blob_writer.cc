@@ -46,6 +46,45 @@ void put_name(char (&dst)[kNameBytes], const std::string& name, const char* what
 size_t align_up(size_t v) { return (v + kSectionAlignment - 1) / kSectionAlignment * kSectionAlignment; }
 }  // namespace
 
+namespace {
+// Tree t of `in` as v4 stores it: checks that the sparse tables are breadth first (the k-th split node's
+// children are 2k, 2k + 1; a leaf node is its own left child, has the pad threshold and zero offsets,
+// and a record < records), then appends its split flags, split nodes and, per leaf node in node order,
+// the record it reads (v4 numbers records by leaf node: a record two leaf nodes share is stored
+// twice, one no leaf node reads is dropped).
+void append_v4_tree(const BlobContents& in, int t, size_t records, std::vector<uint8_t>* flags,
+                    std::vector<TreeNode>* splits, std::vector<uint32_t>* leaf_records) {
+  const auto& nodes = in.tree_nodes[size_t(t)];
+  const auto& left = in.tree_left_child[size_t(t)];
+  const auto& index = in.tree_leaf_index[size_t(t)];
+  const size_t n = nodes.size();
+  const std::string tree = "tree " + std::to_string(t);
+  if (n % 2 == 0) fail(tree + " has an even node count (" + std::to_string(n) + "): not a full binary tree");
+  const size_t first_flag = flags->size();
+  flags->resize(first_flag + split_flag_bytes_of(uint32_t(n)), 0);
+  uint32_t next_child = 2;
+  for (uint32_t m = 1; m <= n; ++m) {
+    const TreeNode& nd = nodes[m - 1];
+    if (left[m - 1] == m) {
+      if (nd.threshold_mm != kPadThreshold || nd.du1 != 0 || nd.dv1 != 0 || nd.du2 != 0 || nd.dv2 != 0)
+        fail(tree + ": leaf node " + std::to_string(m) + " lacks the pad threshold or has nonzero probe offsets");
+      if (index[m - 1] >= records)
+        fail(tree + ": leaf node " + std::to_string(m) + " reads record " + std::to_string(index[m - 1]) + " of " +
+             std::to_string(records));
+      leaf_records->push_back(index[m - 1]);
+      continue;
+    }
+    if (left[m - 1] != next_child || next_child + 1 > n)
+      fail(tree + ": split node " + std::to_string(m) + " has left child " + std::to_string(left[m - 1]) +
+           ", breadth-first order needs " + std::to_string(next_child) + " within " + std::to_string(n) + " nodes");
+    next_child += 2;
+    (*flags)[first_flag + (m - 1) / 8] |= uint8_t(1u << ((m - 1) % 8));
+    splits->push_back(nd);
+  }
+  if (next_child - 1 != n) fail(tree + ": " + std::to_string(n - (next_child - 1)) + " nodes are no split node's child");
+}
+}  // namespace
+
 std::vector<uint8_t> write_blob(const BlobContents& in) {
   const bool bpc = in.method == Method::kBpc;
   const int trees = int(in.tree_nodes.size());
@@ -66,39 +105,21 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
   meta.reference_focal_px = in.reference_focal_px;
   for (size_t i = 0; i < in.part_names.size(); ++i) put_name(meta.part_names[i], in.part_names[i], "part");
   for (size_t i = 0; i < in.joint_names.size(); ++i) put_name(meta.joint_names[i], in.joint_names[i], "joint");
-  // Compact leaves: per record the nonzero entries, tagged by part / lane (blob_format.h).
-  std::vector<uint32_t> leaf_offsets{0};
-  std::vector<uint8_t> entry_bytes, tags;
+  size_t per_leaf = 0;
   if (bpc) {
-    const size_t parts = in.part_names.size();
-    if (parts == 0 || in.bpc_leaves.size() % parts != 0) fail("BPC leaf table size is not a multiple of the part count");
-    meta.leaf_count = uint32_t(in.bpc_leaves.size() / parts);
-    for (size_t i = 0; i < in.bpc_leaves.size(); ++i) {
-      if (in.bpc_leaves[i] != 0) {
-        const uint16_t q = in.bpc_leaves[i];
-        entry_bytes.insert(entry_bytes.end(), reinterpret_cast<const uint8_t*>(&q), reinterpret_cast<const uint8_t*>(&q) + 2);
-        tags.push_back(uint8_t(i % parts));
-      }
-      if (i % parts == parts - 1) leaf_offsets.push_back(uint32_t(tags.size()));
-    }
+    per_leaf = in.part_names.size();
+    if (per_leaf == 0 || in.bpc_leaves.size() % per_leaf != 0) fail("BPC leaf table size is not a multiple of the part count");
   } else {
-    const size_t per_leaf = in.joint_names.size() * size_t(in.votes_per_joint);
+    per_leaf = in.joint_names.size() * size_t(in.votes_per_joint);
     if (per_leaf == 0 || in.ojr_leaves.size() % per_leaf != 0) fail("OJR vote table size is not a multiple of joints × K");
-    meta.leaf_count = uint32_t(in.ojr_leaves.size() / per_leaf);
-    for (size_t i = 0; i < in.ojr_leaves.size(); ++i) {
-      const OjrVote& v = in.ojr_leaves[i];
-      if (v.weight != 0) {
-        entry_bytes.insert(entry_bytes.end(), reinterpret_cast<const uint8_t*>(&v), reinterpret_cast<const uint8_t*>(&v) + sizeof v);
-        tags.push_back(uint8_t(i % per_leaf));
-      }
-      if (i % per_leaf == per_leaf - 1) leaf_offsets.push_back(uint32_t(tags.size()));
-    }
   }
-  meta.entry_count = uint32_t(tags.size());
-  meta.max_width = in.max_width;
-  meta.max_height = in.max_height;
+  const size_t records = (bpc ? in.bpc_leaves.size() : in.ojr_leaves.size()) / per_leaf;
+
+  // Trees: split flags and split nodes; the record each leaf node reads, in leaf-node order.
+  std::vector<uint8_t> flags;
+  std::vector<TreeNode> splits;
+  std::vector<uint32_t> leaf_records;
   uint32_t max_off = 0;
-  size_t total_nodes = 0;
   for (int t = 0; t < trees; ++t) {
     const size_t n = in.tree_nodes[size_t(t)].size();
     if (n < 1 || n > max_nodes_per_tree(in.depth)) fail("tree " + std::to_string(t) + " has " + std::to_string(n) +
@@ -107,20 +128,42 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
     if (in.tree_leaf_index[size_t(t)].size() != n || in.tree_left_child[size_t(t)].size() != n)
       fail("tree " + std::to_string(t) + ": leaf index or child table length differs from its node count");
     meta.node_count[t] = uint32_t(n);
-    total_nodes += n;
-    for (const TreeNode& nd : in.tree_nodes[size_t(t)])
-      for (int16_t d : {nd.du1, nd.dv1, nd.du2, nd.dv2}) max_off = std::max<uint32_t>(max_off, uint32_t(std::abs(int(d))));
+    append_v4_tree(in, t, records, &flags, &splits, &leaf_records);
   }
+  for (const TreeNode& nd : splits)
+    for (int16_t d : {nd.du1, nd.dv1, nd.du2, nd.dv2}) max_off = std::max<uint32_t>(max_off, uint32_t(std::abs(int(d))));
   meta.max_abs_offset_pxm = max_off;
 
-  // Sections in kind order: meta, config, nodes, leaf index, leaf offsets, leaf entries, entry tags, left child.
+  // Compact leaves, one record per leaf node: the record's nonzero entries, tagged by part / lane.
+  std::vector<uint32_t> leaf_offsets{0};
+  std::vector<uint8_t> entry_bytes, tags;
+  for (uint32_t r : leaf_records) {
+    for (size_t i = 0; i < per_leaf; ++i) {
+      const size_t at = size_t(r) * per_leaf + i;
+      if (bpc && in.bpc_leaves[at] != 0) {
+        const uint16_t q = in.bpc_leaves[at];
+        entry_bytes.insert(entry_bytes.end(), reinterpret_cast<const uint8_t*>(&q), reinterpret_cast<const uint8_t*>(&q) + 2);
+        tags.push_back(uint8_t(i));
+      } else if (!bpc && in.ojr_leaves[at].weight != 0) {
+        const OjrVote& v = in.ojr_leaves[at];
+        entry_bytes.insert(entry_bytes.end(), reinterpret_cast<const uint8_t*>(&v), reinterpret_cast<const uint8_t*>(&v) + sizeof v);
+        tags.push_back(uint8_t(i));
+      }
+    }
+    leaf_offsets.push_back(uint32_t(tags.size()));
+  }
+  meta.leaf_count = uint32_t(leaf_records.size());
+  meta.entry_count = uint32_t(tags.size());
+  meta.max_width = in.max_width;
+  meta.max_height = in.max_height;
+
+  // Sections in kind order: meta, config, split nodes, split flags, leaf offsets, leaf entries, entry tags.
   const uint32_t section_count = kSectionKinds;
   const size_t header_bytes = sizeof(BlobHeader) + section_count * sizeof(SectionEntry);
   SectionEntry entries[kSectionKinds]{};
-  const size_t sizes[kSectionKinds] = {sizeof(ForestMeta), sizeof(RuntimeConfig),
-                                       total_nodes * sizeof(TreeNode), total_nodes * sizeof(uint32_t),
-                                       leaf_offsets.size() * sizeof(uint32_t), entry_bytes.size(), tags.size(),
-                                       total_nodes * sizeof(uint32_t)};
+  const size_t sizes[kSectionKinds] = {sizeof(ForestMeta), sizeof(RuntimeConfig), splits.size() * sizeof(TreeNode),
+                                       flags.size(), leaf_offsets.size() * sizeof(uint32_t), entry_bytes.size(),
+                                       tags.size()};
   size_t at = align_up(header_bytes);
   for (uint32_t i = 0; i < section_count; ++i) {
     entries[i].kind = i + 1;
@@ -134,21 +177,8 @@ std::vector<uint8_t> write_blob(const BlobContents& in) {
   RuntimeConfig config = in.config;
   // Arena size for the declared maximum frame: computed from a provisional view of the blob.
   std::memcpy(out.data() + entries[1].offset, &config, sizeof config);
-  uint8_t* p = out.data() + entries[2].offset;
-  for (const auto& t : in.tree_nodes) {
-    std::memcpy(p, t.data(), t.size() * sizeof(TreeNode));
-    p += t.size() * sizeof(TreeNode);
-  }
-  p = out.data() + entries[3].offset;
-  for (const auto& t : in.tree_leaf_index) {
-    std::memcpy(p, t.data(), t.size() * sizeof(uint32_t));
-    p += t.size() * sizeof(uint32_t);
-  }
-  p = out.data() + entries[7].offset;
-  for (const auto& t : in.tree_left_child) {
-    std::memcpy(p, t.data(), t.size() * sizeof(uint32_t));
-    p += t.size() * sizeof(uint32_t);
-  }
+  if (!splits.empty()) std::memcpy(out.data() + entries[2].offset, splits.data(), splits.size() * sizeof(TreeNode));
+  std::memcpy(out.data() + entries[3].offset, flags.data(), flags.size());
   std::memcpy(out.data() + entries[4].offset, leaf_offsets.data(), leaf_offsets.size() * sizeof(uint32_t));
   if (!entry_bytes.empty()) std::memcpy(out.data() + entries[5].offset, entry_bytes.data(), entry_bytes.size());
   if (!tags.empty()) std::memcpy(out.data() + entries[6].offset, tags.data(), tags.size());
@@ -205,7 +235,7 @@ void append_heap_tree(BlobContents* c, const std::vector<TreeNode>& heap_nodes, 
     }
     uint64_t slot = h;  // always left from a pad node: its leftmost slot
     while (slot < first_slot) slot = 2 * slot + 1;
-    nodes.push_back(TreeNode{0, 0, 0, 0, kPadThreshold});
+    nodes.push_back(kLeafNode);
     leaf_index.push_back(slot_leaf_index[slot - first_slot]);
     left_child.push_back(m);
   }
@@ -242,10 +272,16 @@ BlobContents dense_contents(const LoadedBlob& b) {
   for (int i = 0; i < m.joint_count; ++i) c.joint_names.emplace_back(m.joint_names[i], strnlen(m.joint_names[i], kNameBytes));
   c.votes_per_joint = c.method == Method::kOjr ? m.votes_per_joint : 0;
   for (int t = 0; t < b.tree_count(); ++t) {
-    const uint32_t n = b.tree_node_count(t);
-    c.tree_nodes.emplace_back(b.tree_nodes(t), b.tree_nodes(t) + n);
-    c.tree_leaf_index.emplace_back(b.tree_leaf_index(t), b.tree_leaf_index(t) + n);
-    c.tree_left_child.emplace_back(b.tree_left_child(t), b.tree_left_child(t) + n);
+    std::vector<TreeNode> nodes;
+    std::vector<uint32_t> leaf_index, left_child;
+    for_each_tree_node(b, t, [&](uint32_t, const TreeNode& node, uint32_t left, uint32_t record) {
+      nodes.push_back(node);
+      left_child.push_back(left);
+      leaf_index.push_back(record);
+    });
+    c.tree_nodes.push_back(std::move(nodes));
+    c.tree_leaf_index.push_back(std::move(leaf_index));
+    c.tree_left_child.push_back(std::move(left_child));
   }
   add_dense_leaves(m, b.leaf_offsets, b.leaf_entries, b.entry_tags, &c);
   c.config = *b.config;

@@ -4,6 +4,10 @@
 // The contents are given dense (every part / every (joint, k) vote of every leaf); the writer stores
 // them compactly, without loss: a BPC probability of 0 and an OJR vote of weight 0 are simply not
 // stored (blob_format.h). Dropping small parts or long votes is the converter's choice, not the writer's.
+// Trees are given with explicit child and record tables (v3's form, which tools edit); the writer
+// stores what v4 keeps of them (split flags and split nodes) and numbers records by leaf node, so a
+// record two leaf nodes read is stored twice and one no leaf node reads is dropped. Every pixel
+// reaches the same leaf contents as the tables say.
 #pragma once
 #include <cstdint>
 #include <string>
@@ -21,9 +25,10 @@ struct BlobContents {
   std::vector<std::string> part_names;   // ≤ kMaxParts, each < kNameBytes
   std::vector<std::string> joint_names;  // ≤ kMaxJoints
   int votes_per_joint = 0;               // OJR K
-  // Per tree, sparse (blob_format.h kNodes, kLeafIndex, kLeftChild): the nodes in breadth-first order,
-  // each node's leaf record (0 for a split node) and left child (itself for a leaf node); node m at
-  // [m − 1]. append_heap_tree builds them from a complete heap-order tree.
+  // Per tree, sparse: the nodes in breadth-first order (the k-th split node's children at 2k, 2k + 1),
+  // each node's leaf record (0 for a split node) and left child (itself for a leaf node, which is
+  // kLeafNode); node m at [m − 1]. append_heap_tree builds them from a complete heap-order tree;
+  // dense_contents from a loaded blob (for_each_tree_node).
   std::vector<std::vector<TreeNode>> tree_nodes;
   std::vector<std::vector<uint32_t>> tree_leaf_index;
   std::vector<std::vector<uint32_t>> tree_left_child;
@@ -42,7 +47,8 @@ struct BlobContents {
 // its subtree is dropped. Every pixel reaches the same record as in the heap tree.
 void append_heap_tree(BlobContents* c, const std::vector<TreeNode>& heap_nodes, const std::vector<uint32_t>& slot_leaf_index);
 
-// Serializes, computing header, CRCs, max_abs_offset_pxm and arena_bytes.
+// Serializes, computing header, CRCs, max_abs_offset_pxm, leaf_count and arena_bytes. ToolError when
+// a tree is not breadth first (above) or a leaf node reads a record the table lacks.
 std::vector<uint8_t> write_blob(const BlobContents& contents);
 
 // The dense contents of a loaded blob (missing parts / votes as zeros): write_blob(dense_contents(b))

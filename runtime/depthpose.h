@@ -139,14 +139,15 @@ struct EvaluatedPixel {
   uint16_t reserved;
 };
 
-// Bytes init() needs for frames up to max_width × max_height (0 when the arguments are invalid),
-// including the optional copies: a split copy of every stored node, 16 bytes each (kernels::SplitNode:
-// the SIMD forest kernels read one line per visit from it; shipped BPC: 2.5 MB) and, for OJR, the
-// live-vote copy (ojr_votes.h: 4 bytes per leaf record and 9 per stored vote; shipped OJR: 5.5 MB),
-// which the fast vote caster reads instead of every stored vote.
+// Bytes init() needs for frames up to max_width × max_height (0 when the arguments are invalid):
+// the frame's scratch, the forest's traversal tables (20 bytes per tree node, made from the blob at
+// init: a 16-byte kernels::SplitNode, one cache line per visit, and the node's leaf record; shipped
+// BPC: 12.4 MB) and, for OJR, the optional live-vote copy (ojr_votes.h: 4 bytes per leaf record
+// and 9 per stored vote; shipped OJR: 5.5 MB), which the fast vote caster reads instead of every
+// stored vote.
 size_t required_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height);
-// The least init() accepts: the same without the optional copies (the kernels then read the blob's
-// nodes and votes in place; results are identical).
+// The least init() accepts: the same without the optional copy (the caster then reads the blob's
+// votes in place; results are identical). Equal to required_arena_bytes for BPC.
 size_t minimum_arena_bytes(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height);
 
 class Pipeline {
@@ -158,8 +159,8 @@ class Pipeline {
   Pipeline(Pipeline&& other) noexcept;
   Pipeline& operator=(Pipeline&& other) noexcept;
 
-  // Carves state out of `arena` (64-byte aligned, ≥ minimum_arena_bytes; the optional copies are
-  // made when it is ≥ required_arena_bytes). Copies the blob's RuntimeConfig into the arena
+  // Carves state out of `arena` (64-byte aligned, ≥ minimum_arena_bytes; the optional copy is
+  // made when it is ≥ required_arena_bytes) and builds the traversal tables in it. Copies the blob's RuntimeConfig into the arena
   // (set_config may change it later). Selects KernelIsa::kBest.
   // Returns kOk, kBadArgument, kArenaTooSmall (below minimum_arena_bytes) or kArenaMisaligned.
   Status init(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height, uint8_t* arena,
@@ -213,7 +214,7 @@ class Pipeline {
   void part_distribution(int32_t pixel_index, uint16_t* probability_q15) const;
 
   size_t arena_used_bytes() const { return s_.arena_used; }
-  bool uses_split_nodes() const { return s_.split_nodes != nullptr; }
+  bool uses_ojr_live_votes() const { return s_.ojr_live_offsets != nullptr; }
   const blob::LoadedBlob& blob() const { return s_.blob; }
 
  private:
@@ -239,7 +240,8 @@ class Pipeline {
     uint64_t* cell_keys = nullptr;       //   [kCellSlots]
     int32_t* cell_ids = nullptr;         //   [kCellSlots]
     // persistent (arena tail)
-    kernels::SplitNode* split_nodes = nullptr;  // split copy of the nodes (kernels::SplitNode), or nullptr
+    kernels::SplitNode* split_nodes = nullptr;  // traversal tables (forest.h build_forest_tables):
+    uint32_t* leaf_index = nullptr;             //   total_nodes of each
     uint16_t* joint_mass = nullptr;      // BPC joint-mass table (bpc_votes.h), or nullptr
     uint32_t* ojr_live_offsets = nullptr;  // OJR live-vote copy (ojr_votes.h), or nullptr
     blob::OjrVote* ojr_live_votes = nullptr;

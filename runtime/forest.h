@@ -10,16 +10,19 @@
 
 namespace dp {
 
-// The split node copy the SIMD kernels read fastest (kernels::SplitNode), made once at init:
-// blob.total_nodes nodes, in the blob's node order (tree t from blob.tree_first[t]).
-void copy_split_nodes(const blob::LoadedBlob& blob, kernels::SplitNode* nodes);
+// The traversal tables, made once at init from the blob's split flags and split nodes
+// (blob::for_each_tree_node): blob.total_nodes SplitNodes (kernels::SplitNode: offsets, left child
+// and threshold in one 16-byte node; a leaf node loops on itself) and as many leaf-record indices (a
+// leaf node's record, 0 for a split node), node m of tree t at [blob.tree_first[t] + m − 1].
+void build_forest_tables(const blob::LoadedBlob& blob, kernels::SplitNode* nodes, uint32_t* leaf_index);
 
 // Leaves of `count` (≥ 1) pixels in every tree: tree t's leaf for pixel i at leaves[t · leaf_stride + i].
-// probe_image: the frame's padded probe image (stage 1); split_nodes: the init copy or nullptr (the
-// kernels then read the blob's nodes). focal_px: the frame's focal length
+// probe_image: the frame's padded probe image (stage 1); split_nodes, leaf_index: the tables of
+// build_forest_tables. focal_px: the frame's focal length
 // (finite, > 0), scaled to the blob's reference focal length by focal_factor_mm.
 void evaluate_forest(kernels::ForestTreesKernelFn kernel, const blob::LoadedBlob& blob,
-                     const kernels::SplitNode* split_nodes, const uint16_t* probe_image, int32_t width, int32_t height,
+                     const kernels::SplitNode* split_nodes, const uint32_t* leaf_index, const uint16_t* probe_image,
+                     int32_t width, int32_t height,
                      float focal_px, const EvaluatedPixel* pixels, int32_t count, uint32_t* leaves,
                      int32_t leaf_stride);
 

@@ -56,25 +56,28 @@ struct Layout {
   uint16_t* guess_hist;
   blob::RuntimeConfig* config;
   kernels::SplitNode* split_nodes;
+  uint32_t* leaf_index;
   uint16_t* joint_mass;
   uint32_t* ojr_live_offsets;
   blob::OjrVote* ojr_live_votes;
   uint8_t* ojr_live_lanes;
 };
 
-// The SIMD kernels read split nodes (kernels::SplitNode: offsets, left child and threshold in one
-// 16-byte node, one cache line per visit) with the fewest ops per visit of the layouts measured
-// (docs/runtime_speed.md, the layout study), for an arena copy of 16 bytes per stored node
-// (blob_format.h kNodes: the blob's real nodes, leaf nodes included; shipped BPC: 2.5 MB). Without it
-// (a minimum arena) they read the blob's 10-byte nodes and its left children in place. The OJR
-// live-vote copy (ojr_votes.h) is the other optional copy: without it the fast caster scans the
-// blob's votes.
-bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, bool split, Layout* l) {
+// The kernels read split nodes (kernels::SplitNode: offsets, left child and threshold in one
+// 16-byte node, one cache line per visit; the fewest ops per visit of the layouts measured,
+// docs/runtime_speed.md) and a leaf-record index per node, both derived at init from the blob's split
+// flags and split nodes (blob_format.h: the blob stores neither child nor record indices nor leaf
+// nodes): 20 bytes per node, 10 per split node and 10 per leaf node. The OJR live-vote copy
+// (ojr_votes.h) is the optional copy: without it (a minimum arena) the fast caster scans the blob's
+// votes.
+bool carve(ArenaCarver& c, const blob::LoadedBlob& b, int32_t w, int32_t h, int32_t max_pixels, bool optional,
+           Layout* l) {
   l->config = c.tail<blob::RuntimeConfig>(1);
   const size_t nodes = b.total_nodes;
-  l->split_nodes = split ? c.tail<kernels::SplitNode>(nodes) : nullptr;
+  l->split_nodes = c.tail<kernels::SplitNode>(nodes);
+  l->leaf_index = c.tail<uint32_t>(nodes);
   l->joint_mass = use_joint_mass(b) ? c.tail<uint16_t>(size_t(b.meta->leaf_count) * blob::kMaxJoints) : nullptr;
-  const bool live = split && use_ojr_live_votes(b);
+  const bool live = optional && use_ojr_live_votes(b);
   l->ojr_live_offsets = live ? c.tail<uint32_t>(size_t(b.meta->leaf_count) + 1) : nullptr;
   l->ojr_live_votes = live ? c.tail<blob::OjrVote>(b.meta->entry_count) : nullptr;
   l->ojr_live_lanes = live ? c.tail<uint8_t>(b.meta->entry_count) : nullptr;
@@ -99,13 +102,13 @@ int32_t max_pixels_for(const blob::LoadedBlob& b, int32_t w, int32_t h) {
   return int32_t(frame < budget ? frame : budget);
 }
 
-size_t arena_bytes_for(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height, bool split) {
+size_t arena_bytes_for(const blob::LoadedBlob& blob, int32_t max_width, int32_t max_height, bool optional) {
   if (!blob.meta || max_width < 1 || max_height < 1 || max_width > blob::kMaxFrameDimension ||
       max_height > blob::kMaxFrameDimension)
     return 0;
   ArenaCarver counter(nullptr, size_t(-1) / 2);
   Layout l;
-  carve(counter, blob, max_width, max_height, max_pixels_for(blob, max_width, max_height), split, &l);
+  carve(counter, blob, max_width, max_height, max_pixels_for(blob, max_width, max_height), optional, &l);
   return counter.used();
 }
 
@@ -143,11 +146,11 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
     return Status::kBadArgument;
   if (reinterpret_cast<uintptr_t>(arena) % kArenaAlignment != 0) return Status::kArenaMisaligned;
   if (arena_bytes < minimum_arena_bytes(blob, max_width, max_height)) return Status::kArenaTooSmall;
-  const bool split = arena_bytes >= required_arena_bytes(blob, max_width, max_height);
+  const bool optional = arena_bytes >= required_arena_bytes(blob, max_width, max_height);
   ArenaCarver c(arena, arena_bytes);
   Layout l;
   const int32_t max_pixels = max_pixels_for(blob, max_width, max_height);
-  if (!carve(c, blob, max_width, max_height, max_pixels, split, &l)) return Status::kArenaTooSmall;
+  if (!carve(c, blob, max_width, max_height, max_pixels, optional, &l)) return Status::kArenaTooSmall;
   State s;
   s.blob = blob;
   s.max_width = max_width;
@@ -171,13 +174,14 @@ Status Pipeline::init(const blob::LoadedBlob& blob, int32_t max_width, int32_t m
   s.config = l.config;
   *s.config = *blob.config;
   s.split_nodes = l.split_nodes;
+  s.leaf_index = l.leaf_index;
   s.joint_mass = l.joint_mass;
   if (s.joint_mass) build_joint_mass(blob, *s.config, s.joint_mass);
   s.ojr_live_offsets = l.ojr_live_offsets;
   s.ojr_live_votes = l.ojr_live_votes;
   s.ojr_live_lanes = l.ojr_live_lanes;
   if (s.ojr_live_offsets) build_ojr_live_votes(blob, *s.config, s.ojr_live_offsets, s.ojr_live_votes, s.ojr_live_lanes);
-  if (s.split_nodes) copy_split_nodes(blob, s.split_nodes);
+  build_forest_tables(blob, s.split_nodes, s.leaf_index);
   s.initialized = true;
   s_ = s;
   set_kernel(KernelIsa::kBest);
@@ -280,7 +284,7 @@ Status Pipeline::process(const DepthFrame& f, FrameResult* r) {
   }
 
   // Stage 2: the forest.
-  evaluate_forest(k.forest, s_.blob, s_.split_nodes, s_.probe_image, f.width, f.height,
+  evaluate_forest(k.forest, s_.blob, s_.split_nodes, s_.leaf_index, s_.probe_image, f.width, f.height,
                   0.5f * (f.intrinsics.fx + f.intrinsics.fy), s_.pixels, n, s_.leaves, s_.max_pixels);
   const uint64_t t2 = cycle_count();
   r->stage_cycles[kStageForest] = t2 - t1;

@@ -86,17 +86,26 @@ TEST(BlobFormat, RoundTripBpc) {
   EXPECT_EQ(b.meta->part_count, 31);
   EXPECT_STREQ(b.meta->part_names[30], "part30");
   EXPECT_EQ(b.config->joints[0].push_back_mm, 33);
+  // The derived tables equal the given ones node for node; every leaf node's record holds the
+  // distribution of the record the contents gave it.
+  std::vector<TreeNode> nodes(b.total_nodes);
+  std::vector<uint32_t> left(b.total_nodes), record(b.total_nodes);
+  expand_tree_tables(b, nodes.data(), left.data(), record.data());
+  const BlobContents back = dense_contents(b);
   for (int t = 0; t < 3; ++t) {
     ASSERT_EQ(b.tree_node_count(t), contents.tree_nodes[t].size());
     for (size_t n = 0; n < contents.tree_nodes[t].size(); ++n) {
-      EXPECT_EQ(b.tree_nodes(t)[n].du1, contents.tree_nodes[t][n].du1);
-      EXPECT_EQ(b.tree_nodes(t)[n].threshold_mm, contents.tree_nodes[t][n].threshold_mm);
-      EXPECT_EQ(b.tree_left_child(t)[n], contents.tree_left_child[t][n]);
-      EXPECT_EQ(b.tree_leaf_index(t)[n], contents.tree_leaf_index[t][n]);
+      const size_t i = b.tree_first[t] + n;
+      EXPECT_EQ(nodes[i].du1, contents.tree_nodes[t][n].du1);
+      EXPECT_EQ(nodes[i].threshold_mm, contents.tree_nodes[t][n].threshold_mm);
+      EXPECT_EQ(left[i], contents.tree_left_child[t][n]);
+      if (left[i] != n + 1) continue;
+      const size_t given = contents.tree_leaf_index[t][n];
+      EXPECT_TRUE(std::equal(back.bpc_leaves.begin() + record[i] * 31, back.bpc_leaves.begin() + record[i] * 31 + 31,
+                             contents.bpc_leaves.begin() + given * 31))
+          << "compact leaves must hold exactly the dense distributions";
     }
   }
-  const BlobContents back = dense_contents(b);
-  EXPECT_EQ(back.bpc_leaves, contents.bpc_leaves) << "compact leaves must hold exactly the dense distributions";
   EXPECT_EQ(write_blob(back), bytes);
   EXPECT_LT(b.meta->entry_count, b.meta->leaf_count * 31u) << "zero probabilities are not stored";
   EXPECT_GT(b.meta->arena_bytes, 0u);
@@ -190,24 +199,56 @@ BlobContents sparse_contents(const HeapForest& f) {
   return c;
 }
 
-// A format-1 (dense leaves, five sections) or format-2 (compact leaves, seven sections) blob of `f`,
-// written here independently of the current writer, as those writers laid it out: v1 BPC records
-// padded to a multiple of 4 bytes; v2's compact leaf sections are byte for byte the current ones.
+// A format-1 (dense leaves, five sections), format-2 (compact leaves, seven sections) or format-3
+// (sparse breadth-first nodes with leaf-index and left-child sections, eight) blob of `f`, written
+// here independently of the current writer, as those writers laid it out: v1 BPC records padded to a
+// multiple of 4 bytes; v2 and v3 compact leaves in the forest's own record order (records shared by
+// slots stored once).
 std::vector<uint8_t> legacy_blob(const HeapForest& f, int version) {
   const BlobContents& c = f.leaves;
   const bool bpc = c.method == Method::kBpc;
   const size_t parts = c.part_names.size(), per_leaf = c.joint_names.size() * size_t(c.votes_per_joint);
   const uint32_t stride = bpc ? uint32_t((2 * parts + 3) / 4 * 4) : uint32_t(per_leaf * sizeof(OjrVote));
   const uint32_t leaves = uint32_t(bpc ? c.bpc_leaves.size() / parts : c.ojr_leaves.size() / per_leaf);
+  const size_t width = bpc ? parts : per_leaf;
   const size_t trees = f.nodes.size(), heap = nodes_per_heap(f.depth), slots = leaves_per_tree(f.depth);
-  const std::vector<uint8_t> current = write_blob(sparse_contents(f));
-  const SectionKind compact[3] = {SectionKind::kLeafOffsets, SectionKind::kLeafEntries, SectionKind::kEntryTags};
-  const int kinds = version == 1 ? 5 : 7;
-  std::vector<size_t> sizes = {kLegacyMetaBytes, sizeof(RuntimeConfig), trees * heap * sizeof(TreeNode), trees * slots * 4};
-  if (version == 1)
+  const BlobContents sparse = sparse_contents(f);  // v3's trees (append_heap_tree: sparse breadth first)
+  std::vector<uint32_t> offsets{0};
+  std::vector<uint8_t> entries, tags;
+  for (uint32_t l = 0; l < leaves; ++l) {
+    for (size_t i = 0; i < width; ++i) {
+      const size_t at = size_t(l) * width + i;
+      if (bpc && c.bpc_leaves[at] != 0) {
+        entries.push_back(uint8_t(c.bpc_leaves[at]));
+        entries.push_back(uint8_t(c.bpc_leaves[at] >> 8));
+        tags.push_back(uint8_t(i));
+      } else if (!bpc && c.ojr_leaves[at].weight != 0) {
+        const uint8_t* v = reinterpret_cast<const uint8_t*>(&c.ojr_leaves[at]);
+        entries.insert(entries.end(), v, v + sizeof(OjrVote));
+        tags.push_back(uint8_t(i));
+      }
+    }
+    offsets.push_back(uint32_t(tags.size()));
+  }
+  size_t v3_nodes = 0;
+  for (const auto& t : sparse.tree_nodes) v3_nodes += t.size();
+  const int kinds = version == 1 ? 5 : version == 2 ? 7 : 8;
+  std::vector<size_t> sizes = {version == 3 ? sizeof(ForestMeta) : kLegacyMetaBytes, sizeof(RuntimeConfig)};
+  if (version == 3) {
+    sizes.push_back(v3_nodes * sizeof(TreeNode));
+    sizes.push_back(v3_nodes * 4);
+  } else {
+    sizes.push_back(trees * heap * sizeof(TreeNode));
+    sizes.push_back(trees * slots * 4);
+  }
+  if (version == 1) {
     sizes.push_back(size_t(leaves) * stride);
-  else
-    for (SectionKind k : compact) sizes.push_back(section(current, k).size);
+  } else {
+    sizes.push_back(offsets.size() * 4);
+    sizes.push_back(entries.size());
+    sizes.push_back(tags.size());
+  }
+  if (version == 3) sizes.push_back(v3_nodes * 4);
   const size_t header = sizeof(BlobHeader) + kinds * sizeof(SectionEntry);
   std::vector<SectionEntry> e(static_cast<size_t>(kinds), SectionEntry{});
   size_t at = (header + 63) / 64 * 64;
@@ -217,14 +258,28 @@ std::vector<uint8_t> legacy_blob(const HeapForest& f, int version) {
   }
   std::vector<uint8_t> out(e.back().offset + e.back().size, 0);
   ForestMeta m{};
+  const std::vector<uint8_t> current = write_blob(sparse);
   std::memcpy(&m, current.data() + section(current, SectionKind::kMeta).offset, sizeof m);
   m.arena_bytes = 0;
-  if (version == 1) m.entry_count = stride;  // v1: leaf_stride_bytes
-  std::memcpy(out.data() + e[0].offset, &m, kLegacyMetaBytes);
+  m.leaf_count = leaves;
+  m.entry_count = version == 1 ? stride : uint32_t(tags.size());  // v1: leaf_stride_bytes
+  for (size_t t = 0; t < trees; ++t) m.node_count[t] = version == 3 ? uint32_t(sparse.tree_nodes[t].size()) : 0;
+  std::memcpy(out.data() + e[0].offset, &m, sizes[0]);
   std::memcpy(out.data() + e[1].offset, &c.config, sizeof c.config);
-  for (size_t t = 0; t < trees; ++t) {
-    std::memcpy(out.data() + e[2].offset + t * heap * sizeof(TreeNode), f.nodes[t].data(), heap * sizeof(TreeNode));
-    std::memcpy(out.data() + e[3].offset + t * slots * 4, f.slots[t].data(), slots * 4);
+  if (version == 3) {
+    size_t n = 0;
+    for (size_t t = 0; t < trees; ++t) {
+      const size_t count = sparse.tree_nodes[t].size();
+      std::memcpy(out.data() + e[2].offset + n * sizeof(TreeNode), sparse.tree_nodes[t].data(), count * sizeof(TreeNode));
+      std::memcpy(out.data() + e[3].offset + n * 4, sparse.tree_leaf_index[t].data(), count * 4);
+      std::memcpy(out.data() + e[7].offset + n * 4, sparse.tree_left_child[t].data(), count * 4);
+      n += count;
+    }
+  } else {
+    for (size_t t = 0; t < trees; ++t) {
+      std::memcpy(out.data() + e[2].offset + t * heap * sizeof(TreeNode), f.nodes[t].data(), heap * sizeof(TreeNode));
+      std::memcpy(out.data() + e[3].offset + t * slots * 4, f.slots[t].data(), slots * 4);
+    }
   }
   if (version == 1) {
     for (uint32_t l = 0; l < leaves; ++l) {
@@ -233,10 +288,9 @@ std::vector<uint8_t> legacy_blob(const HeapForest& f, int version) {
       else std::memcpy(rec, &c.ojr_leaves[l * per_leaf], per_leaf * sizeof(OjrVote));
     }
   } else {
-    for (int k = 0; k < 3; ++k) {
-      const SectionEntry s = section(current, compact[k]);
-      std::memcpy(out.data() + e[4 + k].offset, current.data() + s.offset, s.size);
-    }
+    std::memcpy(out.data() + e[4].offset, offsets.data(), offsets.size() * 4);
+    if (!entries.empty()) std::memcpy(out.data() + e[5].offset, entries.data(), entries.size());
+    if (!tags.empty()) std::memcpy(out.data() + e[6].offset, tags.data(), tags.size());
   }
   BlobHeader h{};
   h.magic = kMagic;
@@ -252,14 +306,14 @@ std::vector<uint8_t> legacy_blob(const HeapForest& f, int version) {
 }
 }  // namespace
 
-TEST(BlobFormat, Versions1And2AreRefusedByNameAndUpgradeLosslessly) {
+TEST(BlobFormat, Versions1To3AreRefusedByNameAndUpgradeLosslessly) {
   const HeapForest f = random_heap_forest(3, 2, 6);
   const std::vector<uint8_t> expected = write_blob(sparse_contents(f));
-  for (int version : {1, 2}) {
+  for (int version : {1, 2, 3}) {
     const std::vector<uint8_t> old = legacy_blob(f, version);
     EXPECT_EQ(load(old), BlobStatus::kVersionTooOld) << "version " << version;
     const std::string message = blob_status_message(BlobStatus::kVersionTooOld);
-    EXPECT_NE(message.find("versions 1 (dense leaves) and 2 (complete heap-order trees)"), std::string::npos);
+    EXPECT_NE(message.find("versions 1 (dense leaves), 2 (complete heap-order trees) and 3"), std::string::npos);
     EXPECT_NE(message.find("depthpose convert --upgrade-blob OLD.blob --out NEW.blob"), std::string::npos);
     int read_version = 0;
     const std::vector<uint8_t> upgraded = write_blob(tools::read_old_blob(old, "old.blob", &read_version));
@@ -269,7 +323,18 @@ TEST(BlobFormat, Versions1And2AreRefusedByNameAndUpgradeLosslessly) {
     corrupt.back() ^= 1;
     EXPECT_THROW(tools::read_old_blob(corrupt, "old.blob"), tools::ToolError);
   }
-  EXPECT_THROW(tools::read_old_blob(expected, "new.blob"), tools::ToolError) << "a v3 blob is not an old blob";
+  // A v3 tree out of breadth-first order is refused by the upgrade, naming the tree.
+  auto v3 = legacy_blob(f, 3);
+  const SectionEntry left = section(v3, SectionKind(8));  // v3's left-child section
+  edit<uint32_t>(v3, left.offset, 3);  // the root's left child: 3 instead of 2
+  reseal(v3);
+  try {
+    write_blob(tools::read_old_blob(v3, "old.blob"));
+    ADD_FAILURE() << "an out-of-order v3 tree was upgraded";
+  } catch (const tools::ToolError& e) {
+    EXPECT_NE(std::string(e.what()).find("tree 0: split node 1 has left child 3"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(tools::read_old_blob(expected, "new.blob"), tools::ToolError) << "a v4 blob is not an old blob";
 }
 
 TEST(BlobFormat, UpgradedTreesReachTheSameLeafForEveryPixel) {
@@ -281,6 +346,10 @@ TEST(BlobFormat, UpgradedTreesReachTheSameLeafForEveryPixel) {
   LoadedBlob b;
   ASSERT_EQ(load_blob(a.data(), a.size, &b), BlobStatus::kOk);
   EXPECT_LT(b.total_nodes, 3 * max_nodes_per_tree(8)) << "pad subtrees are dropped";
+  std::vector<TreeNode> nodes(b.total_nodes);
+  std::vector<uint32_t> left(b.total_nodes), record(b.total_nodes);
+  expand_tree_tables(b, nodes.data(), left.data(), record.data());
+  const BlobContents back = dense_contents(b);
   const int w = 64, h = 48;
   std::mt19937_64 rng(10);
   std::uniform_int_distribution<int> depth(500, 3000), hole(0, 9);
@@ -304,8 +373,9 @@ TEST(BlobFormat, UpgradedTreesReachTheSameLeafForEveryPixel) {
   for (int t = 0; t < 3; ++t) {
     std::vector<uint32_t> out(pixels.size());
     const kernels::ForestKernelArgs args{probe.data(), w + 2, w, h, focal, pixels.data(), int32_t(pixels.size()),
-                                         b.tree_nodes(t), nullptr, b.tree_left_child(t), b.tree_leaf_index(t),
-                                         b.depth(), b.tree_node_count(t), out.data(), nullptr, nullptr};
+                                         nodes.data() + b.tree_first[t], nullptr, left.data() + b.tree_first[t],
+                                         record.data() + b.tree_first[t], b.depth(), b.tree_node_count(t), out.data(),
+                                         nullptr, nullptr};
     kernels::forest_kernel(KernelIsa::kScalar)(args);
     for (size_t i = 0; i < pixels.size(); ++i) {
       const EvaluatedPixel p = pixels[i];
@@ -317,8 +387,12 @@ TEST(BlobFormat, UpgradedTreesReachTheSameLeafForEveryPixel) {
         const int32_t d2 = depth_at(p.u + probe_offset_px(nd.du2, s), p.v + probe_offset_px(nd.dv2, s));
         n = 2 * n + 1 + (d1 - d2 > nd.threshold_mm ? 1 : 0);
       }
+      // v4 numbers records by leaf node: the record reached holds the slot's record's distribution.
       const uint32_t want = f.slots[size_t(t)][n - nodes_per_heap(f.depth)];
-      EXPECT_EQ(out[i], want) << "tree " << t << " pixel " << i;
+      ASSERT_LT(out[i], b.meta->leaf_count);
+      EXPECT_TRUE(std::equal(back.bpc_leaves.begin() + out[i] * 31, back.bpc_leaves.begin() + out[i] * 31 + 31,
+                             f.leaves.bpc_leaves.begin() + want * 31))
+          << "tree " << t << " pixel " << i;
       reached.insert(uint32_t(t) * 4 + want);
     }
   }
@@ -354,7 +428,10 @@ TEST(BlobFormat, HeaderRefusals) {
   edit<uint16_t>(b, offsetof(BlobHeader, version_major), 2);
   EXPECT_EQ(load(b), BlobStatus::kVersionTooOld);
   b = good;
-  edit<uint16_t>(b, offsetof(BlobHeader, version_major), 4);
+  edit<uint16_t>(b, offsetof(BlobHeader, version_major), 3);
+  EXPECT_EQ(load(b), BlobStatus::kVersionTooOld);
+  b = good;
+  edit<uint16_t>(b, offsetof(BlobHeader, version_major), 5);
   EXPECT_EQ(load(b), BlobStatus::kVersionTooNew);
   b = good;
   edit<uint16_t>(b, offsetof(BlobHeader, version_minor), 7);  // newer minor of our major: accepted
@@ -407,7 +484,7 @@ TEST(BlobFormat, SectionTableRefusals) {
   reseal(b);
   EXPECT_EQ(load(b), BlobStatus::kSectionOutOfBounds);
   b = good;
-  edit<uint64_t>(b, table + 3 * entry + 8, section(good, SectionKind::kNodes).offset);  // index over nodes
+  edit<uint64_t>(b, table + 4 * entry + 8, section(good, SectionKind::kSplitFlags).offset);  // offsets over the flags
   reseal(b);
   EXPECT_EQ(load(b), BlobStatus::kSectionOverlap);
   b = good;
@@ -434,8 +511,7 @@ TEST(BlobFormat, ContentRefusals) {
   const auto good = small_bpc();
   const size_t meta = section(good, SectionKind::kMeta).offset;
   const size_t config = section(good, SectionKind::kConfig).offset;
-  const size_t nodes = section(good, SectionKind::kNodes).offset;
-  const size_t index = section(good, SectionKind::kLeafIndex).offset;
+  const size_t flags = section(good, SectionKind::kSplitFlags).offset;
   const size_t offsets = section(good, SectionKind::kLeafOffsets).offset;
   const size_t entries = section(good, SectionKind::kLeafEntries).offset;
   const size_t tags = section(good, SectionKind::kEntryTags).offset;
@@ -463,21 +539,23 @@ TEST(BlobFormat, ContentRefusals) {
       {meta + offsetof(ForestMeta, votes_per_joint), u8(1), BlobStatus::kBadVotesPerJoint},
       {meta + offsetof(ForestMeta, reference_focal_px), u32(bad_focal_bits), BlobStatus::kBadFocalLength},
       {meta + offsetof(ForestMeta, leaf_count), u32(0), BlobStatus::kBadLeafCount},
-      {meta + offsetof(ForestMeta, entry_count), u32(6), BlobStatus::kBadEntryCount},  // > 1 leaf · 5 parts
+      {meta + offsetof(ForestMeta, leaf_count), u32(3), BlobStatus::kBadLeafCount},  // two trees of one leaf node
+      {meta + offsetof(ForestMeta, entry_count), u32(11), BlobStatus::kBadEntryCount},  // > 2 leaves · 5 parts
       {meta + offsetof(ForestMeta, max_width), u32(0), BlobStatus::kBadFrameSize},
       {meta + offsetof(ForestMeta, max_abs_offset_pxm), u32(5000), BlobStatus::kOffsetTooLarge},
       {meta + offsetof(ForestMeta, reserved2), u32(1), BlobStatus::kReservedNotZero},
       {meta + offsetof(ForestMeta, part_names) + 2, u8(0x01), BlobStatus::kBadName},
       {meta + offsetof(ForestMeta, joint_names) + 5 * kNameBytes, u8('x'), BlobStatus::kBadName},
-      {nodes + offsetof(TreeNode, dv2), u16(uint16_t(int16_t(-5))), BlobStatus::kOffsetTooLarge},
-      {index + 4, u32(1), BlobStatus::kBadLeafIndex},  // tree 1's leaf node: record 1 of 1
+      {flags, u8(1), BlobStatus::kBadChildIndex},  // tree 0's only node a split: its children lie outside
+      {flags + 1, u8(2), BlobStatus::kReservedNotZero},  // tree 1's flag byte: a bit past its one node
       {meta + offsetof(ForestMeta, node_count) + 4 * 2, u32(1), BlobStatus::kBadNodeCount},  // a third tree's count
       {meta + offsetof(ForestMeta, node_count), u32(0), BlobStatus::kBadNodeCount},
-      {meta + offsetof(ForestMeta, node_count), u32(16), BlobStatus::kBadNodeCount},  // depth 3 holds ≤ 15
+      {meta + offsetof(ForestMeta, node_count), u32(2), BlobStatus::kBadNodeCount},   // even: not a full binary tree
+      {meta + offsetof(ForestMeta, node_count), u32(17), BlobStatus::kBadNodeCount},  // depth 3 holds ≤ 15
       {entries, u16(0), BlobStatus::kBadLeafDistribution},  // a stored probability of 0
       {entries, u16(40000), BlobStatus::kBadLeafDistribution},
       {offsets, u32(1), BlobStatus::kBadLeafOffsets},
-      {offsets + 4, u32(0), BlobStatus::kBadLeafOffsets},  // must end at entry_count (1)
+      {offsets + 8, u32(1), BlobStatus::kBadLeafOffsets},  // must end at entry_count (2)
       {tags, u8(5), BlobStatus::kBadEntryTag},             // part 5 of a 5-part forest
       {config + offsetof(RuntimeConfig, joints) + 0, u32(1u << 6), BlobStatus::kBadPartMask},
       {config + offsetof(RuntimeConfig, joints) + 0, u32(0), BlobStatus::kBadPartMask},
@@ -519,9 +597,10 @@ TEST(BlobFormat, ContentRefusals) {
 namespace {
 // One depth-3 tree, unbalanced, in breadth-first order (levels 0; 1 1; 2 2; 3 3):
 //   1 split (children 2, 3)   2 split (4, 5)   3 leaf   4 split (6, 7)   5 leaf   6 leaf   7 leaf
+// Split flags 0b0000'1011; leaf nodes 3, 5, 6, 7 read records 0..3 (all of part 3).
 BlobContents chain_tree() {
   BlobContents c = tools::single_part_bpc(5, 3, 2, 40, 3, 1);
-  const TreeNode leaf{0, 0, 0, 0, kPadThreshold};
+  const TreeNode leaf = kLeafNode;
   c.tree_nodes[0] = {TreeNode{10, 0, 0, 0, 5}, TreeNode{0, 10, 0, 0, 6}, leaf, TreeNode{-10, 0, 0, 0, 7}, leaf, leaf, leaf};
   c.tree_left_child[0] = {2, 4, 3, 6, 5, 6, 7};
   c.tree_leaf_index[0] = {0, 0, 0, 0, 0, 0, 0};
@@ -534,42 +613,33 @@ TEST(BlobFormat, SparseTreeRefusals) {
   ASSERT_EQ(load(good), BlobStatus::kOk);
   const size_t meta = section(good, SectionKind::kMeta).offset;
   const size_t nodes = section(good, SectionKind::kNodes).offset;
-  const size_t left = section(good, SectionKind::kLeftChild).offset;
-  const size_t index = section(good, SectionKind::kLeafIndex).offset;
-  auto node_at = [&](uint32_t m) { return nodes + (m - 1) * sizeof(TreeNode); };
-  auto left_at = [&](uint32_t m) { return left + (m - 1) * 4; };
-  auto index_at = [&](uint32_t m) { return index + (m - 1) * 4; };
+  const size_t flags = section(good, SectionKind::kSplitFlags).offset;
+  ASSERT_EQ(section(good, SectionKind::kNodes).size, 3 * sizeof(TreeNode)) << "only the split nodes are stored";
+  ASSERT_EQ(section(good, SectionKind::kSplitFlags).size, 1u);
+  ASSERT_EQ(good[flags], 0x0B);
   struct Case {
     const char* what;
     std::function<void(std::vector<uint8_t>&)> edit;
     BlobStatus want;
   };
   const std::vector<Case> cases = {
-      {"left child past the tree (its right child would be node 8)", [&](auto& b) { edit<uint32_t>(b, left_at(4), 7); },
+      {"node 5 a split: its children would be nodes 8 and 9", [&](auto& b) { edit<uint8_t>(b, flags, 0x1B); },
        BlobStatus::kBadChildIndex},
-      {"left child 0", [&](auto& b) { edit<uint32_t>(b, left_at(2), 0); }, BlobStatus::kBadChildIndex},
-      {"a cycle: node 4's child is the root", [&](auto& b) { edit<uint32_t>(b, left_at(4), 1); },
-       BlobStatus::kChildBeforeParent},
-      {"a cycle: node 2's child is node 2's parent", [&](auto& b) { edit<uint32_t>(b, left_at(2), 1); },
-       BlobStatus::kChildBeforeParent},
-      {"children out of breadth-first order", [&](auto& b) { edit<uint32_t>(b, left_at(2), 5); },
-       BlobStatus::kNotBreadthFirst},
       {"a split node at level depth", [&](auto& b) { edit<uint8_t>(b, meta + offsetof(ForestMeta, depth), 2); },
        BlobStatus::kTreeTooDeep},
-      {"nodes 6 and 7 unreached (node 4 made a leaf)",
-       [&](auto& b) {
-         edit<uint32_t>(b, left_at(4), 4);
-         edit(b, node_at(4), TreeNode{0, 0, 0, 0, kPadThreshold});
-       },
+      {"nodes 6 and 7 unreached (node 4 made a leaf)", [&](auto& b) { edit<uint8_t>(b, flags, 0x03); },
        BlobStatus::kUnreachedNode},
-      {"a leaf node's record past the table", [&](auto& b) { edit<uint32_t>(b, index_at(6), 1); },
-       BlobStatus::kBadLeafIndex},
-      {"a split node with a record", [&](auto& b) { edit<uint32_t>(b, index_at(2), 1); }, BlobStatus::kBadLeafIndex},
-      {"a leaf node without the pad threshold", [&](auto& b) { edit<int16_t>(b, node_at(5) + 8, 100); },
-       BlobStatus::kBadLeafNode},
-      {"a leaf node with an offset", [&](auto& b) { edit<int16_t>(b, node_at(3), 3); }, BlobStatus::kBadLeafNode},
-      {"a split node turned leaf without its pad threshold", [&](auto& b) { edit<uint32_t>(b, left_at(4), 4); },
-       BlobStatus::kBadLeafNode},
+      {"the root a leaf", [&](auto& b) { edit<uint8_t>(b, flags, 0x0A); }, BlobStatus::kUnreachedNode},
+      {"a flag bit past the node count", [&](auto& b) { edit<uint8_t>(b, flags, 0x8B); }, BlobStatus::kReservedNotZero},
+      {"a split node's probe offset beyond the meta's maximum",
+       [&](auto& b) { edit<int16_t>(b, nodes + sizeof(TreeNode) + offsetof(TreeNode, dv1), 11); },
+       BlobStatus::kOffsetTooLarge},
+      {"node count 5 (the split nodes' section holds 3)",
+       [&](auto& b) {
+         edit<uint32_t>(b, meta + offsetof(ForestMeta, node_count), 5);
+         edit<uint32_t>(b, meta + offsetof(ForestMeta, leaf_count), 3);
+       },
+       BlobStatus::kBadSectionSize},
   };
   for (const Case& c : cases) {
     auto b = good;
@@ -577,15 +647,51 @@ TEST(BlobFormat, SparseTreeRefusals) {
     reseal(b);
     EXPECT_EQ(load(b), c.want) << c.what << ": got " << blob_status_message(load(b));
   }
-  // The writer refuses the same shapes before writing.
-  BlobContents bad = chain_tree();
-  bad.tree_left_child[0][3] = 1;
-  EXPECT_THROW(write_blob(bad), tools::ToolError);
+  // The writer refuses what v4 cannot store before writing, naming the tree and node.
+  for (auto change : std::vector<std::function<void(BlobContents&)>>{
+           [](BlobContents& c) { c.tree_left_child[0][3] = 1; },          // a cycle
+           [](BlobContents& c) { c.tree_left_child[0][1] = 5; },          // children out of breadth-first order
+           [](BlobContents& c) { c.tree_nodes[0][4].threshold_mm = 9; },  // a leaf node without the pad threshold
+           [](BlobContents& c) { c.tree_leaf_index[0][6] = 1; },          // a record the table lacks
+           [](BlobContents& c) {                                          // nodes 6, 7 unreached
+             c.tree_left_child[0][3] = 4;
+             c.tree_nodes[0][3] = kLeafNode;
+           }}) {
+    BlobContents bad = chain_tree();
+    change(bad);
+    EXPECT_THROW(write_blob(bad), tools::ToolError);
+  }
+}
+
+// v4 numbers leaf records by leaf node: a record two leaf nodes read is stored once per node, a
+// record no leaf node reads is dropped, and each stored record holds the distribution given.
+TEST(BlobFormat, WriterNumbersRecordsByLeafNode) {
+  BlobContents c = chain_tree();
+  c.bpc_leaves.assign(5 * 3, 0);  // records 0, 1, 2 of 5 parts: part 0, part 1, part 2 (record 1 unread)
+  for (int r = 0; r < 3; ++r) c.bpc_leaves[size_t(r) * 5 + size_t(r)] = 32768;
+  c.tree_leaf_index[0] = {0, 0, 2, 0, 0, 2, 0};  // leaf nodes 3, 5, 6, 7 read records 2, 0, 2, 0
+  const std::vector<uint8_t> bytes = write_blob(c);
+  AlignedBytes a(bytes);
+  LoadedBlob b;
+  ASSERT_EQ(load_blob(a.data(), a.size, &b), BlobStatus::kOk);
+  ASSERT_EQ(b.meta->leaf_count, 4u);
+  const uint8_t part_of_leaf[4] = {2, 0, 2, 0};
+  for (uint32_t r = 0; r < 4; ++r) {
+    ASSERT_EQ(b.leaf_size(r), 1u);
+    EXPECT_EQ(b.entry_tags[b.leaf_first(r)], part_of_leaf[r]) << "record " << r;
+  }
+  std::vector<uint32_t> left(b.total_nodes), record(b.total_nodes);
+  expand_tree_tables(b, nullptr, left.data(), record.data());
+  EXPECT_EQ(left, (std::vector<uint32_t>{2, 4, 3, 6, 5, 6, 7}));
+  EXPECT_EQ(record, (std::vector<uint32_t>{0, 0, 0, 0, 1, 2, 3}));
 }
 
 TEST(BlobFormat, LeafOffsetsAndSumsAreRefusedAcrossRecords) {
-  // Two records of two parts each (tags 0, 3 and 1, 3); offsets [0, 2, 4].
+  // One split node, two leaf nodes: two records of two parts each (tags 0, 3 and 1, 3); offsets [0, 2, 4].
   auto c = tools::single_part_bpc(5, 3, 2, 40);
+  c.tree_nodes[0] = {TreeNode{10, 0, 0, 0, 5}, kLeafNode, kLeafNode};
+  c.tree_left_child[0] = {2, 2, 3};
+  c.tree_leaf_index[0] = {0, 0, 1};
   c.bpc_leaves = {16384, 0, 0, 16384, 0, 0, 8192, 0, 8192, 0};
   const auto good = write_blob(c);
   ASSERT_EQ(load(good), BlobStatus::kOk);
@@ -617,9 +723,8 @@ TEST(BlobFormat, LeafOffsetsAndSumsAreRefusedAcrossRecords) {
 TEST(BlobFormat, TruncationAtEverySectionBoundaryIsRefused) {
   const auto good = small_bpc();
   std::vector<size_t> cuts = {0, 1, sizeof(BlobHeader) - 1, sizeof(BlobHeader), header_of(good).header_bytes};
-  for (SectionKind k : {SectionKind::kMeta, SectionKind::kConfig, SectionKind::kNodes, SectionKind::kLeafIndex,
-                        SectionKind::kLeafOffsets, SectionKind::kLeafEntries, SectionKind::kEntryTags,
-                        SectionKind::kLeftChild}) {
+  for (SectionKind k : {SectionKind::kMeta, SectionKind::kConfig, SectionKind::kNodes, SectionKind::kSplitFlags,
+                        SectionKind::kLeafOffsets, SectionKind::kLeafEntries, SectionKind::kEntryTags}) {
     const SectionEntry e = section(good, k);
     cuts.push_back(e.offset);
     cuts.push_back(e.offset + e.size / 2);

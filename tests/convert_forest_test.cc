@@ -177,16 +177,17 @@ TEST(ConvertPcl, ReadsTheTreeFormatAndWritesABlob) {
   blob::LoadedBlob b;
   ASSERT_EQ(blob::load_blob(bytes.data(), bytes.size(), &b), blob::BlobStatus::kOk);
   EXPECT_EQ(b.tree_count(), 2);
-  // Labels used: 3, 10, 19, 24 → records 0..3, one-hot on their part.
-  EXPECT_EQ(b.meta->leaf_count, 4u);
-  ASSERT_EQ(b.tree_node_count(1), 7u);               // 3 split nodes, then the 4 leaf slots as nodes 4..7
-  EXPECT_EQ(b.tree_leaf_index(1)[6], 3u);            // slot 3 (label 24) = node 7
-  for (uint32_t record : {0u, 3u}) {
+  // One record per leaf node (blob_format.h), one-hot on the slot's label: each tree's 3 split nodes,
+  // then its 4 leaf slots as nodes 4..7, records tree_first_leaf[t] + 0..3 with labels 19, 3, 10, 24.
+  ASSERT_EQ(b.tree_node_count(1), 7u);
+  EXPECT_EQ(b.tree_first_leaf[1], 4u);
+  EXPECT_EQ(b.meta->leaf_count, 8u);
+  const uint8_t labels[4] = {19, 3, 10, 24};
+  for (uint32_t record = 0; record < 8; ++record) {
     ASSERT_EQ(b.leaf_size(record), 1u) << "a one-hot record stores one entry";
     EXPECT_EQ(b.bpc_probabilities()[b.leaf_first(record)], 32768);
+    EXPECT_EQ(b.entry_tags[b.leaf_first(record)], labels[record % 4]) << "record " << record;
   }
-  EXPECT_EQ(b.entry_tags[b.leaf_first(3)], 24);
-  EXPECT_EQ(b.entry_tags[b.leaf_first(0)], 3);
   EXPECT_STREQ(b.meta->part_names[24], "Lchest");
 }
 

@@ -333,7 +333,9 @@ TEST(ConvertPrune, CommandPrunesToTheBudgetAndRefusesBadValues) {
   const std::string forest = dir.path + "/f.forest", out = dir.path + "/p.blob";
   const train::TrainedForest f = random_counted_forest(15, 2, 11);
   train::write_forest(forest, f);
-  const size_t budget = blob_bytes_at(f, 0) * 2 / 3;
+  const size_t lossless = blob_bytes_at(f, 0), smallest = blob_bytes_at(f, train::prune_everything_threshold(f));
+  ASSERT_LT(smallest, lossless);
+  const size_t budget = (lossless + smallest) / 2;
   ASSERT_EQ(run_cli({"convert", forest, "--out", out, "--max-bytes", std::to_string(budget), "--check-frames", "2"}),
             0);
   EXPECT_LE(blob::read_blob_file(out).size(), budget);

@@ -53,7 +53,11 @@ TEST(EvalTune, BlobRebuildIsLossless) {
     const std::vector<uint8_t> tuned = tools::blob_with_config(b, cfg);
     const blob::LoadedBlob t = load(tuned);
     EXPECT_EQ(t.config->joints[0].bandwidth_mm, 77);
-    EXPECT_EQ(std::memcmp(t.nodes, b.nodes, b.total_nodes * sizeof(blob::TreeNode)), 0);
+    ASSERT_EQ(t.total_nodes, b.total_nodes);
+    EXPECT_EQ(std::memcmp(t.split_nodes, b.split_nodes, (b.total_nodes - b.meta->leaf_count) * sizeof(blob::TreeNode)), 0);
+    EXPECT_EQ(std::memcmp(t.split_flags, b.split_flags, b.tree_first_flag[b.tree_count() - 1] +
+                                                           blob::split_flag_bytes_of(b.tree_node_count(b.tree_count() - 1))),
+              0);
     ASSERT_EQ(t.meta->entry_count, b.meta->entry_count);
     EXPECT_EQ(std::memcmp(t.leaf_offsets, b.leaf_offsets, (size_t(b.meta->leaf_count) + 1) * sizeof(uint32_t)), 0);
     EXPECT_EQ(std::memcmp(t.leaf_entries, b.leaf_entries, size_t(b.meta->entry_count) * blob::leaf_entry_bytes(*b.meta)), 0);

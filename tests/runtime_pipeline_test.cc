@@ -166,45 +166,53 @@ TEST(Pipeline, RefusesFramesBeyondItsSizeAndBadArenas) {
   EXPECT_GE(L.arena_bytes, L.pipeline.arena_used_bytes());
 }
 
-// The split node copy (8 + 2 bytes per node) is the difference between required and minimum
-// arena; without it the kernels read the blob's nodes, and every output is the same.
-TEST(Pipeline, MinimumArenaSkipsTheSplitCopyWithIdenticalResults) {
-  const blob::BlobContents c = tools::random_bpc_forest(31, 3, 12, 6, 300, 300);
-  Loaded split(c, 160, 120);
-  ASSERT_TRUE(split.pipeline.uses_split_nodes());
-  const size_t minimum = minimum_arena_bytes(split.view, 160, 120);
-  const size_t copy = split.view.total_nodes * 16;
-  EXPECT_GE(split.arena_bytes - minimum, copy);
-  EXPECT_LT(split.arena_bytes - minimum, copy + 128);  // the split nodes and their alignment, nothing else
-  std::unique_ptr<uint8_t, decltype(&std::free)> small(static_cast<uint8_t*>(std::aligned_alloc(64, (minimum + 63) / 64 * 64)),
-                                                       &std::free);
-  Pipeline in_place;
-  ASSERT_EQ(in_place.init(split.view, 160, 120, small.get(), minimum), Status::kOk);
-  EXPECT_FALSE(in_place.uses_split_nodes());
-  EXPECT_LE(in_place.arena_used_bytes(), minimum);
-  Pipeline too_small;
-  EXPECT_EQ(too_small.init(split.view, 160, 120, small.get(), minimum - 1), Status::kArenaTooSmall);
-  int compared = 0;
-  for (KernelIsa isa : {KernelIsa::kScalar, KernelIsa::kAvx2, KernelIsa::kAvx512}) {
+// The blob stores split flags and split nodes only; init derives the traversal tables (a 16-byte
+// SplitNode and a leaf record per node) into the arena. Every pixel's leaf in every tree, in every
+// kernel, is the leaf the feature rule reaches walking the blob's own tables (expand_tree_tables),
+// and a BPC arena has no optional part (minimum = required).
+TEST(Pipeline, DerivesTheForestTablesAtInitForEveryKernel) {
+  const blob::BlobContents c = tools::random_sparse_bpc_forest(31, 3, 14, 6, 300, 300, 800, 3000);
+  Loaded L(c, 160, 120);
+  const blob::LoadedBlob& b = L.view;
+  EXPECT_EQ(minimum_arena_bytes(b, 160, 120), L.arena_bytes);
+  EXPECT_GE(L.arena_bytes, b.total_nodes * 20) << "16-byte split nodes and a 4-byte record per node";
+  std::vector<blob::TreeNode> nodes(b.total_nodes);
+  std::vector<uint32_t> left(b.total_nodes), record(b.total_nodes);
+  blob::expand_tree_tables(b, nodes.data(), left.data(), record.data());
+  int checked = 0;
+  for (KernelIsa isa : {KernelIsa::kScalar, KernelIsa::kAvx2, KernelIsa::kAvx512, KernelIsa::kNeon}) {
     if (!kernel_isa_supported(isa)) continue;
-    ASSERT_EQ(split.pipeline.set_kernel(isa), Status::kOk);
-    ASSERT_EQ(in_place.set_kernel(isa), Status::kOk);
-    for (int i = 0; i < 3; ++i) {
-      const SyntheticFrame f = tools::make_disc_frame(160, 120, 60.0f + 15 * i, 55.0f, 30.0f, uint16_t(1500 + 300 * i));
-      FrameResult a, b;
-      ASSERT_EQ(split.pipeline.process(f.view(), &a), Status::kOk);
-      ASSERT_EQ(in_place.process(f.view(), &b), Status::kOk);
-      EXPECT_GT(a.evaluated_pixels, 0);
-      for (int j = 0; j < int(split.view.meta->joint_count); ++j) {
-        ASSERT_EQ(a.proposal_count[j], b.proposal_count[j]) << kernel_isa_name(isa) << " joint " << j;
-        for (int k = 0; k < a.proposal_count[j]; ++k, ++compared) {
-          EXPECT_EQ(a.proposals[j][k].x_m, b.proposals[j][k].x_m);
-          EXPECT_EQ(a.proposals[j][k].confidence, b.proposals[j][k].confidence);
+    ASSERT_EQ(L.pipeline.set_kernel(isa), Status::kOk);
+    for (int i = 0; i < 2; ++i) {
+      const SyntheticFrame f = tools::make_disc_frame(160, 120, 60.0f + 25 * i, 55.0f, 30.0f, uint16_t(1500 + 400 * i));
+      FrameResult r;
+      ASSERT_EQ(L.pipeline.process(f.view(), &r), Status::kOk);
+      ASSERT_GT(L.pipeline.evaluated_pixel_count(), 100);
+      auto depth_at = [&](int32_t u, int32_t v) -> int32_t {
+        if (u < 0 || v < 0 || u >= f.width || v >= f.height) return kBackgroundDepthMm;
+        const uint16_t z = f.depth_mm[size_t(v) * f.width + u];
+        return z == 0 ? kBackgroundDepthMm : z;
+      };
+      const int32_t focal = focal_factor_mm(f.intrinsics.fx, b.meta->reference_focal_px);
+      for (int32_t p = 0; p < L.pipeline.evaluated_pixel_count(); p += 7) {
+        const EvaluatedPixel px = L.pipeline.evaluated_pixels()[p];
+        const int32_t s = scale_q13(focal, px.z_mm);
+        for (int t = 0; t < b.tree_count(); ++t, ++checked) {
+          const size_t first = b.tree_first[t];
+          uint32_t m = 1;
+          for (int level = 0; level < b.depth(); ++level) {
+            const blob::TreeNode& n = nodes[first + m - 1];
+            const int32_t d1 = depth_at(px.u + probe_offset_px(n.du1, s), px.v + probe_offset_px(n.dv1, s));
+            const int32_t d2 = depth_at(px.u + probe_offset_px(n.du2, s), px.v + probe_offset_px(n.dv2, s));
+            m = left[first + m - 1] + (d1 - d2 > n.threshold_mm ? 1u : 0u);
+          }
+          ASSERT_EQ(left[first + m - 1], m) << "the walk ends on a leaf node";
+          ASSERT_EQ(L.pipeline.leaf_of(p, t), record[first + m - 1]) << kernel_isa_name(isa) << " pixel " << p << " tree " << t;
         }
       }
     }
   }
-  EXPECT_GT(compared, 3);
+  EXPECT_GT(checked, 500);
 }
 
 TEST(Pipeline, BudgetStridesPixelsAndFlagsIt) {

@@ -74,8 +74,8 @@ inline PackedNode pack_node(const blob::TreeNode& n) {
 }  // namespace
 
 // Node layouts (the layout study, `make bench`; docs/runtime_speed.md), all read by the same kernel
-// code. The pipeline copies the blob's nodes into kSplit at init (or, in a minimum arena, the kernels
-// read the blob's kBlob10 nodes in place); kPacked8 and kWide16 are kept for the study.
+// code. The pipeline builds kSplit at init from the blob (forest.h build_forest_tables); kBlob10 (the
+// TreeNode tables of blob::expand_tree_tables), kPacked8 and kWide16 are kept for the study.
 enum class NodeLayout : int32_t { kBlob10, kPacked8, kWide16, kSplit };
 // kSplit: one tree's nodes as 16-byte SplitNodes, node m at [m − 1] (the blob's breadth-first order):
 // offsets holds 4·du1, 4·dv1, 4·du2, 4·dv2 as 4 little-endian int16 (what one 8-byte load puts in a
@@ -116,10 +116,11 @@ struct ForestKernelArgs {
   int32_t focal_factor;           // runtime/fixed_point.h
   const EvaluatedPixel* pixels;   // pixels to classify; z_mm > 0, u < width, v < height
   int32_t pixel_count;
-  // One tree as the blob stores it (blob_format.h kNodes): node m (1-based, root 1) at [m − 1] of
-  // nodes, left_child and leaf_index; node_count of each. A visit of node m goes to
-  // left_child[m − 1] + [feature > threshold]; after `depth` visits the node reached is a leaf node
-  // whose record is leaf_index[m − 1] (validated at load).
+  // One tree in breadth-first node order (blob_format.h): node m (1-based, root 1) at [m − 1] of
+  // nodes, left_child and leaf_index (blob::expand_tree_tables; a leaf node is blob::kLeafNode, its
+  // own left child); node_count of each. A visit of node m goes to left_child[m − 1] +
+  // [feature > threshold]; after `depth` visits the node reached is a leaf node whose record is
+  // leaf_index[m − 1]. The pipeline gives only `split` and leaf_index (nodes and left_child nullptr).
   const blob::TreeNode* nodes;
   const PackedNode* packed_nodes; // the same tree packed (same order), or nullptr
   const uint32_t* left_child;
@@ -127,8 +128,8 @@ struct ForestKernelArgs {
   int32_t depth;                  // validated 1..kMaxDepth
   uint32_t node_count;            // validated 1..max_nodes_per_tree(depth)
   uint32_t* leaf_out;             // pixel_count outputs: leaf-record index reached
-  const SplitTree* split;         // the same tree split (kSplit), or nullptr. The SIMD kernels read
-                                  // split, else packed_nodes, else nodes; the result is the same
+  const SplitTree* split;         // the same tree split (kSplit), or nullptr. The kernels read
+                                  // split, else packed_nodes (SIMD), else nodes; the result is the same
   const WideNode* study_nodes;    // evaluate_trees_study(kWide16) only: the same tree, 16-byte nodes
 };
 

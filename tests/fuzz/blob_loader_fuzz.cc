@@ -1,8 +1,9 @@
 // libFuzzer target: the loader must refuse or accept any byte string without crashing, and an
-// accepted blob must be internally consistent: a walk of `depth` steps from every tree's root, along
-// either child, stays inside the tree and ends on a leaf node whose record is inside the leaf table;
-// every leaf record's entries inside the entry table (read here, so ASan sees any read past it), no
-// record above its capacity, every tag below it.
+// accepted blob must be internally consistent: the tables derived from its split flags
+// (blob::expand_tree_tables) give every split node children inside its tree and after it, and a walk
+// of `depth` steps from every tree's root, along either child, ends on a leaf node whose record is
+// inside the leaf table; every leaf record's entries inside the entry table (read here, so ASan sees
+// any read past it), no record above its capacity, every tag below it.
 #include <stdint.h>
 #include <string.h>
 
@@ -10,16 +11,21 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static uint64_t storage[1 << 14];
+  // A blob of ≤ 128 KiB holds fewer nodes than this: ≥ 4 bytes of leaf offsets per leaf node.
+  static uint32_t left_table[1 << 16], record_table[1 << 16];
   if (size > sizeof storage) return 0;
   memcpy(storage, data, size);
   dp::blob::LoadedBlob b;
   if (dp::blob::load_blob(storage, size, &b) != dp::blob::BlobStatus::kOk) return 0;
+  if (b.total_nodes > (1u << 16)) __builtin_trap();
+  dp::blob::expand_tree_tables(b, nullptr, left_table, record_table);
   for (int t = 0; t < b.tree_count(); ++t) {
     const uint32_t count = b.tree_node_count(t);
-    const uint32_t* left = b.tree_left_child(t);
+    const uint32_t* left = left_table + b.tree_first[t];
+    const uint32_t* record = record_table + b.tree_first[t];
     for (uint32_t m = 1; m <= count; ++m) {
       if (left[m - 1] == m) {  // a leaf node: its record in the table
-        if (b.tree_leaf_index(t)[m - 1] >= b.meta->leaf_count) __builtin_trap();
+        if (record[m - 1] >= b.meta->leaf_count) __builtin_trap();
         continue;
       }
       if (left[m - 1] <= m || left[m - 1] + 1 > count) __builtin_trap();

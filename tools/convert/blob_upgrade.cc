@@ -9,24 +9,28 @@ namespace dp::tools {
 
 namespace {
 // Section kinds of the old formats (blob_upgrade.h): v1 meta, config, nodes, leaf index, dense
-// leaves; v2 the same four, then leaf offsets, leaf entries, entry tags.
+// leaves; v2 the same four, then leaf offsets, leaf entries, entry tags; v3 those seven, then left
+// children.
 constexpr uint32_t kV1SectionCount = 5;
 constexpr uint32_t kV2SectionCount = 7;
+constexpr uint32_t kV3SectionCount = 8;
+constexpr uint32_t kMaxOldSections = kV3SectionCount;
 }  // namespace
 
 blob::BlobContents read_old_blob(const std::vector<uint8_t>& bytes, const std::string& what, int* version) {
   using namespace dp::blob;
-  auto refuse = [&](const std::string& why) { fail(what + ": not a readable v1 or v2 blob: " + why); };
+  auto refuse = [&](const std::string& why) { fail(what + ": not a readable v1, v2 or v3 blob: " + why); };
   if (bytes.size() < sizeof(BlobHeader)) refuse("shorter than a header");
   BlobHeader h;
   std::memcpy(&h, bytes.data(), sizeof h);
   if (h.magic != kMagic || h.endian_tag != kEndianTag) refuse("bad magic or endianness tag");
-  if (h.version_major != 1 && h.version_major != 2)
+  if (h.version_major < 1 || h.version_major > 3)
     refuse("format version " + std::to_string(h.version_major) + "." + std::to_string(h.version_minor) +
-           ", not 1.x or 2.x");
-  const bool v2 = h.version_major == 2;
+           ", not 1.x, 2.x or 3.x");
+  const bool v3 = h.version_major == 3;
+  const bool v2 = h.version_major >= 2;  // v2's compact leaves (v3 has them too)
   if (version) *version = h.version_major;
-  const uint32_t kinds = v2 ? kV2SectionCount : kV1SectionCount;
+  const uint32_t kinds = v3 ? kV3SectionCount : v2 ? kV2SectionCount : kV1SectionCount;
   if (h.section_count != kinds || h.header_bytes != sizeof(BlobHeader) + kinds * sizeof(SectionEntry) ||
       h.total_bytes != bytes.size())
     refuse("header sizes disagree with the file (" + std::to_string(bytes.size()) + " bytes)");
@@ -37,10 +41,10 @@ blob::BlobContents read_old_blob(const std::vector<uint8_t>& bytes, const std::s
   if (crc32(head.data(), head.size()) != h.header_crc32) refuse("header checksum mismatch");
   if (crc32(bytes.data() + h.header_bytes, bytes.size() - h.header_bytes) != h.payload_crc32)
     refuse("payload checksum mismatch");
-  SectionEntry s[kV2SectionCount];
+  SectionEntry s[kMaxOldSections];
   std::memcpy(s, bytes.data() + sizeof h, kinds * sizeof(SectionEntry));
-  const uint8_t* section[kV2SectionCount + 1] = {};
-  uint64_t size[kV2SectionCount + 1] = {};
+  const uint8_t* section[kMaxOldSections + 1] = {};
+  uint64_t size[kMaxOldSections + 1] = {};
   for (uint32_t i = 0; i < kinds; ++i) {
     const SectionEntry& e = s[i];
     if (e.kind < 1 || e.kind > kinds || section[e.kind]) refuse("section table lists an unknown or repeated kind");
@@ -49,9 +53,10 @@ blob::BlobContents read_old_blob(const std::vector<uint8_t>& bytes, const std::s
     section[e.kind] = bytes.data() + e.offset;
     size[e.kind] = e.size;
   }
-  if (size[1] != kLegacyMetaBytes || size[2] != sizeof(RuntimeConfig)) refuse("meta or config section size");
-  ForestMeta m{};  // node_count stays 0: the old formats had none
-  std::memcpy(&m, section[1], kLegacyMetaBytes);
+  if (size[1] != (v3 ? sizeof(ForestMeta) : kLegacyMetaBytes) || size[2] != sizeof(RuntimeConfig))
+    refuse("meta or config section size");
+  ForestMeta m{};  // v1, v2: node_count stays 0 (they had none)
+  std::memcpy(&m, section[1], size[1]);
   const bool bpc = m.method == uint8_t(Method::kBpc);
   if ((!bpc && m.method != uint8_t(Method::kOjr)) || m.tree_count < 1 || m.tree_count > kMaxTrees || m.depth < 1 ||
       m.depth > kMaxDepth || m.part_count > kMaxParts || m.joint_count > kMaxJoints ||
@@ -59,7 +64,14 @@ blob::BlobContents read_old_blob(const std::vector<uint8_t>& bytes, const std::s
       (!bpc && m.joint_count * m.votes_per_joint == 0))
     refuse("meta counts out of range");
   const size_t nodes = nodes_per_heap(m.depth), slots = leaves_per_tree(m.depth);
-  if (size[3] != m.tree_count * nodes * sizeof(TreeNode) || size[4] != m.tree_count * slots * sizeof(uint32_t))
+  size_t v3_nodes = 0;  // v3: Σ node_count
+  for (int t = 0; v3 && t < m.tree_count; ++t) {
+    if (m.node_count[t] < 1 || m.node_count[t] > max_nodes_per_tree(m.depth)) refuse("a tree's node count is out of range");
+    v3_nodes += m.node_count[t];
+  }
+  if (v3 ? size[3] != v3_nodes * sizeof(TreeNode) || size[4] != v3_nodes * sizeof(uint32_t) ||
+               size[8] != v3_nodes * sizeof(uint32_t)
+         : size[3] != m.tree_count * nodes * sizeof(TreeNode) || size[4] != m.tree_count * slots * sizeof(uint32_t))
     refuse("a tree section's size disagrees with the meta");
 
   BlobContents c;
@@ -69,7 +81,19 @@ blob::BlobContents read_old_blob(const std::vector<uint8_t>& bytes, const std::s
   for (int i = 0; i < m.part_count; ++i) c.part_names.emplace_back(m.part_names[i], strnlen(m.part_names[i], kNameBytes));
   for (int i = 0; i < m.joint_count; ++i) c.joint_names.emplace_back(m.joint_names[i], strnlen(m.joint_names[i], kNameBytes));
   c.votes_per_joint = bpc ? 0 : m.votes_per_joint;
-  for (int t = 0; t < m.tree_count; ++t) {
+  for (int t = 0, first = 0; v3 && t < m.tree_count; first += int(m.node_count[t]), ++t) {
+    // Sparse already: copied as stored; write_blob checks the order and the records.
+    const size_t n = m.node_count[t];
+    std::vector<TreeNode> tn(n);
+    std::vector<uint32_t> index(n), left(n);
+    std::memcpy(tn.data(), section[3] + size_t(first) * sizeof(TreeNode), n * sizeof(TreeNode));
+    std::memcpy(index.data(), section[4] + size_t(first) * sizeof(uint32_t), n * sizeof(uint32_t));
+    std::memcpy(left.data(), section[8] + size_t(first) * sizeof(uint32_t), n * sizeof(uint32_t));
+    c.tree_nodes.push_back(std::move(tn));
+    c.tree_leaf_index.push_back(std::move(index));
+    c.tree_left_child.push_back(std::move(left));
+  }
+  for (int t = 0; !v3 && t < m.tree_count; ++t) {
     std::vector<TreeNode> tn(nodes);
     std::memcpy(tn.data(), section[3] + t * nodes * sizeof(TreeNode), nodes * sizeof(TreeNode));
     std::vector<uint32_t> ti(slots);

@@ -388,8 +388,18 @@ LeafCheck check_leaves(const train::TrainedForest& forest, const std::vector<uin
   blob::LoadedBlob b;
   if (blob::load_blob(blob_bytes.data(), blob_bytes.size(), &b) != blob::BlobStatus::kOk)
     fail("check_leaves: the blob does not load");
-  std::vector<uint32_t> record_base(forest.trees.size(), 0);
-  for (size_t t = 1; t < forest.trees.size(); ++t) record_base[t] = record_base[t - 1] + uint32_t(forest.trees[t - 1].leaf_count());
+  if (size_t(b.tree_count()) != forest.trees.size()) fail("check_leaves: the blob's tree count differs from the forest's");
+  // The blob numbers records by leaf node in breadth-first order (blob_format.h): the trained node at
+  // position i (sorted by heap index: sparse node i + 1) reads record tree_first_leaf[t] + (leaf nodes
+  // before it).
+  std::vector<std::vector<uint32_t>> record_of(forest.trees.size());
+  for (size_t t = 0; t < forest.trees.size(); ++t) {
+    uint32_t r = b.tree_first_leaf[t];
+    for (const train::TrainedNode& n : forest.trees[t].nodes) record_of[t].push_back(n.is_leaf() ? r++ : 0);
+  }
+  std::vector<blob::TreeNode> nodes(b.total_nodes);
+  std::vector<uint32_t> left_child(b.total_nodes), leaf_index(b.total_nodes);
+  blob::expand_tree_tables(b, nodes.data(), left_child.data(), leaf_index.data());
   const int32_t focal = focal_factor_mm(focal_px, forest.reference_focal_px);
   LeafCheck check;
   for (const auto& depth : frames) {
@@ -407,15 +417,15 @@ LeafCheck check_leaves(const train::TrainedForest& forest, const std::vector<uin
     std::vector<uint32_t> ref(pixels.size()), best(pixels.size());
     for (size_t t = 0; t < forest.trees.size(); ++t) {
       kernels::ForestKernelArgs a{padded.data(), width + 2, width, height, focal, pixels.data(), int32_t(pixels.size()),
-                                  b.tree_nodes(int(t)), nullptr, b.tree_left_child(int(t)), b.tree_leaf_index(int(t)),
-                                  b.depth(), b.tree_node_count(int(t)), ref.data()};
+                                  nodes.data() + b.tree_first[t], nullptr, left_child.data() + b.tree_first[t],
+                                  leaf_index.data() + b.tree_first[t], b.depth(), b.tree_node_count(int(t)), ref.data()};
       kernels::forest_kernel(KernelIsa::kScalar)(a);
       a.leaf_out = best.data();
       kernels::forest_kernel(KernelIsa::kBest)(a);
       const train::TrainedTree& tree = forest.trees[t];
       for (size_t i = 0; i < pixels.size(); ++i) {
         const int pos = train::leaf_node_for_pixel(tree, probe.data(), width, height, pixels[i].u, pixels[i].v, focal);
-        const uint32_t expected = record_base[t] + uint32_t(tree.nodes[size_t(pos)].leaf);
+        const uint32_t expected = record_of[t][size_t(pos)];
         ++check.pixels;
         check.mismatches += (ref[i] != expected) + (best[i] != expected) > 0;
       }

@@ -6,6 +6,7 @@
 #include "forest_blob/blob_loader.h"
 #include "forest_blob/blob_writer.h"
 #include "runtime/depthpose.h"
+#include "runtime/kernels/forest_kernel.h"
 #include "tools/cli/command.h"
 #include "tools/common/args.h"
 #include "tools/common/error.h"
@@ -18,12 +19,11 @@ static const char* kind_name(uint32_t k) {
   switch (k) {
     case 1: return "meta";
     case 2: return "config";
-    case 3: return "nodes";
-    case 4: return "leaf_index";
+    case 3: return "split_nodes";
+    case 4: return "split_flags";
     case 5: return "leaf_offsets";
     case 6: return "leaf_entries";
     case 7: return "entry_tags";
-    case 8: return "left_child";
   }
   return "?";
 }
@@ -43,17 +43,14 @@ void describe_blob(const blob::LoadedBlob& b, FILE* out) {
                bpc ? "part probabilities" : "votes", double(m.entry_count) / double(m.leaf_count), m.reference_focal_px);
   // The recorded figure is what the converting runtime needed; a later runtime may carve more
   // scratch, so the figure to size an arena by is the linked runtime's own.
-  std::fprintf(out, "max probe offset %u pixel·m; arena for %ux%u frames: %zu bytes with this runtime, "
-               "%zu at least without the split node copy (%llu recorded at conversion)\n", m.max_abs_offset_pxm,
+  std::fprintf(out, "max probe offset %u pixel·m; arena for %ux%u frames: %zu bytes with this runtime "
+               "(traversal tables %zu), %zu at least (%llu recorded at conversion)\n", m.max_abs_offset_pxm,
                m.max_width, m.max_height, required_arena_bytes(b, int32_t(m.max_width), int32_t(m.max_height)),
-               minimum_arena_bytes(b, int32_t(m.max_width), int32_t(m.max_height)), (unsigned long long)m.arena_bytes);
-  // Per-tree statistics: split and leaf nodes (a leaf node's left child is itself).
-  for (int t = 0; t < m.tree_count; ++t) {
-    const uint32_t* left = b.tree_left_child(t);
-    size_t leaves = 0, n = b.tree_node_count(t);
-    for (size_t i = 0; i < n; ++i) leaves += left[i] == i + 1;
-    std::fprintf(out, "  tree %d: %zu split nodes, %zu leaf nodes\n", t, n - leaves, leaves);
-  }
+               b.total_nodes * (sizeof(kernels::SplitNode) + sizeof(uint32_t)), minimum_arena_bytes(b, int32_t(m.max_width), int32_t(m.max_height)), (unsigned long long)m.arena_bytes);
+  // Per-tree statistics: split and leaf nodes (a full binary tree of n nodes has (n − 1) / 2 splits).
+  for (int t = 0; t < m.tree_count; ++t)
+    std::fprintf(out, "  tree %d: %u split nodes, %u leaf nodes\n", t, blob::split_nodes_of(b.tree_node_count(t)),
+                 blob::leaf_nodes_of(b.tree_node_count(t)));
   std::fprintf(out, "parts (%d):", m.part_count);
   for (int i = 0; i < m.part_count; ++i) std::fprintf(out, " %s", m.part_names[i]);
   std::fprintf(out, "\njoints (%d):", m.joint_count);
