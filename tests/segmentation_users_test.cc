@@ -393,3 +393,37 @@ TEST(SegmentationUsers, TwoSimilarGonePeopleAreNotGuessedAndTheWindowEnds) {
   EXPECT_EQ(arrivals[1], kUserReturned);
   EXPECT_EQ(ids[1], first);
 }
+
+// Height alone does not tell two people apart: a newcomer of the gone person's height but of a
+// clearly smaller build (silhouette area beyond reid_area_ratio), where that person was, gets a
+// new id; the person itself, back, gets its id again.
+TEST(SegmentationUsers, ANewcomerOfTheSameHeightButAnotherBuildIsNotTakenForTheGonePerson) {
+  SegmenterHarness h(reid_config());
+  const Person gone{-0.8f, 3.0f, 1.70f, 1}, stays{0.8f, 2.5f, 1.40f, 2};
+  int ids[8] = {}, arrivals[8] = {};
+  for (int i = 0; i < 12; ++i) show(h, {gone, stays}, ids, arrivals);
+  const int gone_id = ids[1], stays_id = ids[2];
+  for (int i = 0; i < 10; ++i) show(h, {stays}, ids, arrivals);  // person 1 gone (> 5 frames)
+  // 2 cm taller, 0.24 m wide instead of 0.4 m (area ratio 1.6), where person 1 stood: a new id.
+  tools::Scene s = room();
+  s.cylinders.push_back(person_at(stays.x, stays.z, stays.truth, stays.height));
+  s.cylinders.push_back(tools::SceneCylinder{-0.8f, 3.1f, 0.12f, 0.0f, 1.72f, 3});
+  const tools::RenderedScene f = tools::render_scene(s);
+  ASSERT_EQ(h.run(f), Status::kOk);
+  const int newcomer_id = id_of(h, f, 3);
+  const UserInfo* u = h.user(newcomer_id);
+  ASSERT_TRUE(u);
+  EXPECT_NEAR(u->top_height_m, 1.72f, 0.03f);  // within reid_height_tolerance_m of person 1's
+  EXPECT_EQ(u->arrival, kUserNew);
+  EXPECT_NE(newcomer_id, gone_id);
+  EXPECT_NE(newcomer_id, stays_id);
+  for (int i = 0; i < 8; ++i) ASSERT_EQ(h.run(tools::render_scene([&] {  // the newcomer leaves
+                                           tools::Scene t = room();
+                                           t.cylinders.push_back(person_at(stays.x, stays.z, stays.truth, stays.height));
+                                           return t;
+                                         }())), Status::kOk);
+  // Person 1 itself comes back: its id again.
+  show(h, {stays, gone}, ids, arrivals);
+  EXPECT_EQ(ids[1], gone_id);
+  EXPECT_EQ(arrivals[1], kUserReturned);
+}

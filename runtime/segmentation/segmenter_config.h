@@ -105,7 +105,8 @@ constexpr double kConfigIntUnbounded = double(INT32_MAX);
   X(float, association_growth_m, 0.08f, 0, kConfigUnbounded, kRangeClosed, "m/frame", "reach added per frame a track has been lost") \
   X(int32_t, track_keep_frames, 30, 0, 65535, kRangeClosed, "frames", "a lost user keeps its id this long") \
   X(int32_t, reid_window_frames, 150, 0, 65535, kRangeClosed, "frames", "a dropped user's id waits this long since last seen for its person (by height); 0 = off") \
-  X(float, reid_height_tolerance_m, 0.05f, 0, kConfigUnbounded, kRangeClosed, "m", "... when its height differs by at most this (and no other gone user's does)") \
+  X(float, reid_height_tolerance_m, 0.08f, 0, kConfigUnbounded, kRangeClosed, "m", "... when its height differs by at most this (and no other gone user's does)") \
+  X(float, reid_area_ratio, 1.25f, 0, kConfigUnbounded, kRangeClosed, "", "... and its silhouette area is within this ratio of that user's (either way); 0 = off") \
   X(float, reid_speed_m, 0.1f, 0, kConfigUnbounded, kRangeClosed, "m/frame", "... and it reappears within association_distance_m + this per frame gone") \
   /* Top-border and bridge rules */ \
   X(float, cut_gap_min_share, 0.05f, 0, 1, kRangeClosed, "of the rows", "legs together cut by the top border qualify with this share of gap rows; 0 = off") \

@@ -15,6 +15,13 @@ const char* user_arrival_name(int32_t arrival) {
 
 namespace dp::seg {
 
+namespace {
+// A candidate's silhouette area in m²: its pixels at its centroid depth z (users.h).
+float silhouette_area(const DepthFrame& f, const Candidate& c, float z) {
+  return float(c.pixels) * z * z / (f.intrinsics.fx * f.intrinsics.fy);
+}
+}  // namespace
+
 // The per-frame verdicts on the candidates and the tracks they matched (assign_users).
 struct UserStage::Verdicts {
   bool strict[kMaxCandidates];   // meets the full person test (or as someone low): may become a new user
@@ -207,7 +214,8 @@ int32_t UserStage::admit_new_users(const DepthFrame& f, int32_t n, Verdicts* v, 
     }
     const float centroid[3] = {v->cx[best_k], v->cy[best_k], v->cz[best_k]};
     bool returned = false;
-    const int32_t slot = slot_for_new_user(candidates_[best_k], centroid, &returned);
+    const int32_t slot = slot_for_new_user(candidates_[best_k], silhouette_area(f, candidates_[best_k], centroid[2]),
+                                           centroid, &returned);
     if (slot < 0) {
       r->flags |= kSegFlagUsersTruncated;
       break;
@@ -230,9 +238,9 @@ int32_t UserStage::admit_new_users(const DepthFrame& f, int32_t n, Verdicts* v, 
 }
 
 // The id of a new user (slot, −1 when every id is in use): a gone track's whose person it is by
-// height and reach (*returned = true; none when two gone tracks' heights fit), else the lowest id
-// neither in use nor gone, else the one gone longest.
-int32_t UserStage::slot_for_new_user(const Candidate& c, const float* centroid, bool* returned) const {
+// height, silhouette area and reach (*returned = true; none when two gone tracks' heights fit),
+// else the lowest id neither in use nor gone, else the one gone longest.
+int32_t UserStage::slot_for_new_user(const Candidate& c, float area_m2, const float* centroid, bool* returned) const {
   const SegmenterConfig& cfg = *config_;
   int32_t match = -1, height_matches = 0, free_slot = -1, oldest = -1;
   for (int32_t t = 0; t < cfg.max_users; ++t) {
@@ -244,7 +252,11 @@ int32_t UserStage::slot_for_new_user(const Candidate& c, const float* centroid, 
     }
     if (oldest < 0 || tr.lost_frames > tracks_[oldest].lost_frames) oldest = t;
     if (fabsf(c.top - tr.height_m) > cfg.reid_height_tolerance_m) continue;
+    // The area test comes after the count: two gone people of one height still leave the
+    // newcomer alone, whatever their areas.
     ++height_matches;
+    const float ratio = cfg.reid_area_ratio;
+    if (ratio > 0.0f && (area_m2 > ratio * tr.area_m2 || tr.area_m2 > ratio * area_m2)) continue;
     const float dx = centroid[0] - tr.centroid[0], dy = centroid[1] - tr.centroid[1], dz = centroid[2] - tr.centroid[2];
     const float reach = cfg.association_distance_m + cfg.reid_speed_m * float(tr.lost_frames);
     if (dx * dx + dy * dy + dz * dz <= reach * reach) match = t;
@@ -255,12 +267,11 @@ int32_t UserStage::slot_for_new_user(const Candidate& c, const float* centroid, 
 }
 
 namespace {
-// The median of a track's height samples (at most kReidHeightSamples, insertion sort).
-float median_height(const Track& tr) {
+// The median of the first n ≤ kReidHeightSamples samples (insertion sort).
+float median_of(const float* samples, int32_t n) {
   float sorted[kReidHeightSamples];
-  const int32_t n = tr.height_count;
   for (int32_t i = 0; i < n; ++i) {
-    const float h = tr.heights[i];
+    const float h = samples[i];
     int32_t k = i;
     for (; k > 0 && sorted[k - 1] > h; --k) sorted[k] = sorted[k - 1];
     sorted[k] = h;
@@ -271,7 +282,7 @@ float median_height(const Track& tr) {
 
 // Tracks (matched: moved and counted; unmatched: lost, dropped after track_keep_frames) and the
 // visible users, by id.
-void UserStage::update_tracks(const Verdicts& v, SegmentationResult* r) {
+void UserStage::update_tracks(const DepthFrame& f, const Verdicts& v, SegmentationResult* r) {
   const SegmenterConfig& cfg = *config_;
   for (int32_t t = 0; t < kMaxUsers; ++t) {
     Track& tr = tracks_[t];
@@ -284,7 +295,8 @@ void UserStage::update_tracks(const Verdicts& v, SegmentationResult* r) {
       if (++tr.lost_frames > cfg.track_keep_frames) {
         tr.active = 0;
         tr.gone = cfg.reid_window_frames > cfg.track_keep_frames && tr.height_count >= kReidHeightSamplesNeeded;
-        tr.height_m = median_height(tr);
+        tr.height_m = median_of(tr.heights, tr.height_count);
+        tr.area_m2 = median_of(tr.areas, tr.height_count);
       }
       continue;
     }
@@ -303,6 +315,7 @@ void UserStage::update_tracks(const Verdicts& v, SegmentationResult* r) {
     tr.lost_frames = 0;
     if (tr.frames_tracked < 0x7fffffff) ++tr.frames_tracked;
     tr.heights[tr.height_next] = c.top;
+    tr.areas[tr.height_next] = silhouette_area(f, c, v.cz[k]);
     tr.height_next = (tr.height_next + 1) % kReidHeightSamples;
     if (tr.height_count < kReidHeightSamples) ++tr.height_count;
     UserInfo& u = r->users[r->user_count++];
@@ -339,7 +352,7 @@ void UserStage::assign_users(const DepthFrame& f, int32_t candidate_count, Segme
   drop_tracked_furniture(f, candidate_count, &v);
   keep_marked_furniture_out(candidate_count, &v);
   admit_new_users(f, candidate_count, &v, r);
-  update_tracks(v, r);
+  update_tracks(f, v, r);
   write_labels(f, r);
 }
 

@@ -10,10 +10,13 @@
 //     result->users (by increasing id), user_count, user_pixels and the labels (height ×
 //     stride_px bytes, 0 = background).
 //   - Re-identification: a track dropped after track_keep_frames stays `gone` for up to
-//     reid_window_frames since last seen, with the median of its last kReidHeightSamples heights.
-//     A new user takes a gone track's id when its height is within reid_height_tolerance_m of that
-//     track's and of no other gone track's, and its centroid within association_distance_m +
-//     reid_speed_m per frame gone of where the track was last seen (arrival kUserReturned).
+//     reid_window_frames since last seen, with the medians of its last kReidHeightSamples heights
+//     and silhouette areas. A new user takes a gone track's id when its height is within
+//     reid_height_tolerance_m of that track's and of no other gone track's, its silhouette area
+//     within a factor reid_area_ratio of that track's (either way; 0 = no area test), and its
+//     centroid within association_distance_m + reid_speed_m per frame gone of where the track was
+//     last seen (arrival kUserReturned). Silhouette area: pixels × z² / (fx · fy), z the centroid
+//     depth (m²): the body's size as seen, which height alone does not tell apart.
 //     Otherwise it takes the lowest id that is neither in use nor gone, else the id gone longest
 //     (arrival kUserNew): a gone person's id is not handed to someone else while others are free.
 //   - Furniture taken for a person: a tracked user whose component has been furniture-shaped
@@ -36,7 +39,7 @@
 
 namespace dp::seg {
 
-// Heights (top_height_m) a track keeps, the last ones seen; re-identification needs
+// Heights (top_height_m) and silhouette areas a track keeps, the last ones seen; re-identification needs
 // kReidHeightSamplesNeeded of them (a person seen about a third of a second at 30 fps).
 constexpr int32_t kReidHeightSamples = 15;  // odd: a true median
 constexpr int32_t kReidHeightSamplesNeeded = 10;
@@ -54,6 +57,8 @@ struct Track {
   int32_t height_next;   // ring position of the next sample
   float heights[kReidHeightSamples];
   float height_m;        // median of the samples when the track was dropped
+  float areas[kReidHeightSamples];  // silhouette areas (m²), sampled with the heights (same ring)
+  float area_m2;                    // median of the areas when the track was dropped
   // Furniture re-judged while tracked (furniture_track_frames, furniture_track_window,
   // furniture_static_m): bit i of furniture_history is set when the component was furniture-shaped
   // (PersonTests::furniture) i matched frames ago; every frame since the evidence began had its
@@ -90,8 +95,8 @@ struct UserStage : PersonTests {
   void mark_furniture(const Candidate& c, const float* centroid);
   void keep_marked_furniture_out(int32_t candidate_count, Verdicts* v);
   int32_t admit_new_users(const DepthFrame& frame, int32_t candidate_count, Verdicts* v, SegmentationResult* r);
-  int32_t slot_for_new_user(const Candidate& c, const float* centroid, bool* returned) const;
-  void update_tracks(const Verdicts& v, SegmentationResult* r);
+  int32_t slot_for_new_user(const Candidate& c, float area_m2, const float* centroid, bool* returned) const;
+  void update_tracks(const DepthFrame& frame, const Verdicts& v, SegmentationResult* r);
   void write_labels(const DepthFrame& frame, SegmentationResult* r) const;
 };
 
