@@ -26,7 +26,7 @@ struct FloorPlane {
 enum UserArrival : int32_t {
   kUserContinued = 0,   // the id's track matched (also after a short occlusion within track_keep_frames)
   kUserNew = 1,         // a new person: an id nobody held within reid_window_frames, or the oldest
-  kUserReturned = 2,    // a person gone longer than track_keep_frames re-identified by height
+  kUserReturned = 2,    // a person gone longer than track_keep_frames re-identified by height and silhouette area
 };
 
 const char* user_arrival_name(int32_t arrival);  // "continued", "new", "returned"; "?" otherwise
