@@ -159,8 +159,8 @@ constexpr int32_t kFilterLimitMinEvidence = 5;
 // Refitted when the bone slack went 0.02 → 0.05 / 0.10 m: the looser bone term raises the fit
 // scores, so each class's joints are within 0.1 m less often (ojr class 9 0.81 → 0.77, class 5
 // 0.37 → 0.30). Held-out figures: docs/skeleton.md, "States and confidences".
-constexpr float kCalibrationOjr[kEvidenceClasses] = {0.05f, 0.11f, 0.14f, 0.23f, 0.26f, 0.30f, 0.38f, 0.47f,
-                                                     0.57f, 0.77f, 0.21f, 0.16f, 0.14f, 0.10f, 0.08f, 0.08f};
+constexpr float kCalibrationOjr[kEvidenceClasses] = {0.07f, 0.16f, 0.16f, 0.20f, 0.24f, 0.29f, 0.38f, 0.46f,
+                                                     0.57f, 0.79f, 0.25f, 0.17f, 0.13f, 0.07f, 0.01f, 0.45f};
 constexpr float kCalibrationBpc[kEvidenceClasses] = {0.05f, 0.12f, 0.21f, 0.26f, 0.31f, 0.36f, 0.45f, 0.54f,
                                                      0.62f, 0.78f, 0.20f, 0.14f, 0.10f, 0.10f, 0.09f, 0.02f};
 
