@@ -132,13 +132,33 @@ if [ -n "${OLD_MODELS:-}" ]; then
   done
 fi
 
-bpc_train=("$CLI" train --data "$train_dirs" --method bpc --trees "${MODEL_TREES:-3}" --depth "${MODEL_DEPTH:-20}"
-  --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --offsets "$OFFSETS" --thresholds "$THRESHOLDS"
-  --min-samples "$MIN_SAMPLES" --seed 1 --out "$D/bpc.forest" --resume)
-if made "$D/bpc.forest" "${bpc_train[@]}"; then skip train_bpc "$D/bpc.forest"; else
-  # Checkpointed after every level; an interrupted run continues from it (train prints level ETAs).
-  rm -f "$D/ojr.forest.cmd" "$D/bpc.blob" "$D/ojr.blob"  # everything made from the old forest
-  make_file train_bpc "$D/bpc.forest" "${bpc_train[@]}"
+# BPC: one run of MODEL_TREES trees per seed of BPC_SEEDS (each checkpointed after every level: an
+# interrupted run continues from it, train prints level ETAs); several runs are merged into one
+# forest (`train --merge`: a tree is decided by its seed and index, so runs can be trained one per
+# session or on other machines).
+read -r -a bpc_seeds <<< "${BPC_SEEDS:-1}"
+[ "${#bpc_seeds[@]}" -ge 1 ] || { echo "make_model: BPC_SEEDS names no seed" >&2; exit 2; }
+bpc_runs=()
+for s in "${bpc_seeds[@]}"; do
+  [[ "$s" =~ ^[0-9]+$ ]] || { echo "make_model: BPC_SEEDS must be whole numbers, got '$s'" >&2; exit 2; }
+  run="$D/bpc_seed$s.forest"; [ "${#bpc_seeds[@]}" = 1 ] && run="$D/bpc.forest"
+  bpc_train=("$CLI" train --data "$train_dirs" --method bpc --trees "${MODEL_TREES:-3}" --depth "${MODEL_DEPTH:-20}"
+    --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --offsets "$OFFSETS" --thresholds "$THRESHOLDS"
+    --min-samples "$MIN_SAMPLES" --seed "$s" --out "$run" --resume)
+  if made "$run" "${bpc_train[@]}"; then skip "train_bpc (seed $s)" "$run"; else
+    # everything made from the old forest (OJR: from the first run's)
+    [ "$s" = "${bpc_seeds[0]}" ] && rm -f "$D/ojr.forest.cmd" "$D/ojr.blob"
+    rm -f "$D/bpc.blob" "$D/bpc.forest.cmd"
+    make_file "train_bpc (seed $s)" "$run" "${bpc_train[@]}"
+  fi
+  bpc_runs+=("$run")
+done
+if [ "${#bpc_runs[@]}" -gt 1 ]; then
+  merge=("$CLI" train --merge "$(IFS=,; echo "${bpc_runs[*]}")" --out "$D/bpc.forest")
+  if made "$D/bpc.forest" "${merge[@]}"; then skip merge_bpc "$D/bpc.forest"; else
+    rm -f "$D/bpc.blob"
+    make_file merge_bpc "$D/bpc.forest" "${merge[@]}"
+  fi
 fi
 # OJR: the BPC structure cut back to OJR_STRUCTURE_DEPTH and pruned to OJR_MAX_LEAVES leaves by
 # information gain (or to subtrees of at least OJR_MIN_PIXELS training pixels), vote leaves
@@ -147,7 +167,8 @@ fi
 prune=()
 [ "$OJR_MIN_PIXELS" -gt 0 ] && prune=(--structure-min-pixels "$OJR_MIN_PIXELS")
 [ "$OJR_MAX_LEAVES" -gt 0 ] && prune=(--structure-max-leaves "$OJR_MAX_LEAVES")
-ojr_train=("$CLI" train --data "$train_dirs" --method ojr --structure "$D/bpc.forest" --structure-depth "$OJR_DEPTH"
+# OJR's structure is the first BPC run's trees (BPC_SEEDS's first seed).
+ojr_train=("$CLI" train --data "$train_dirs" --method ojr --structure "${bpc_runs[0]}" --structure-depth "$OJR_DEPTH"
   "${prune[@]}" --images-per-tree "$IMAGES_PER_TREE" --pixels-per-image "$PIXELS" --seed 1 --out "$D/ojr.forest" --resume)
 if made "$D/ojr.forest" "${ojr_train[@]}"; then skip train_ojr "$D/ojr.forest"; else
   rm -f "$D/ojr.blob"

@@ -43,6 +43,8 @@ VAL_FRAMES    ?= 1000              # tune's validation set
 TEST_FRAMES   ?= 3000              # the held-out test set the report scores
 MODEL_TREES   ?= 1                 # BPC trees grown; OJR is retro-fitted on them (one tree: OJR test 0.776 vs
                                    # 0.753 from three, docs/results.md; the shipped BPC blob is from MODEL_TREES=3 BPC_BLOB_TREES=2)
+BPC_SEEDS     ?= 1                 # one BPC run of MODEL_TREES trees per seed, merged (train --merge); OJR is
+                                   # retro-fitted on the first run's trees
 MODEL_DEPTH   ?= 20                # BPC tree depth
 OJR_STRUCTURE_DEPTH ?= 20          # OJR reuses the BPC trees cut to this depth (leaf votes are retro-fitted)
 OJR_MAX_LEAVES ?= 200000           # ...and pruned to this many leaves over all trees by information gain
@@ -75,7 +77,7 @@ DEMO_FRAMES   ?= 45
 DEMO_CLIPS    ?= 02_06
 
 MODEL_VARS := ASSETS MODEL_DIR MODEL_OUT OLD_MODELS MODEL_W MODEL_H TRAIN_FRAMES SHARD_FRAMES VAL_FRAMES TEST_FRAMES \
-  MODEL_TREES MODEL_DEPTH OJR_STRUCTURE_DEPTH OJR_MIN_PIXELS OJR_MAX_LEAVES OJR_CUT_TUNED MODEL_MAX_BYTES MODEL_PRUNE BPC_BLOB_TREES OJR_BLOB_TREES TRAIN_PIXELS TRAIN_OFFSETS TRAIN_THRESHOLDS TRAIN_MIN_SAMPLES \
+  MODEL_TREES BPC_SEEDS MODEL_DEPTH OJR_STRUCTURE_DEPTH OJR_MIN_PIXELS OJR_MAX_LEAVES OJR_CUT_TUNED MODEL_MAX_BYTES MODEL_PRUNE BPC_BLOB_TREES OJR_BLOB_TREES TRAIN_PIXELS TRAIN_OFFSETS TRAIN_THRESHOLDS TRAIN_MIN_SAMPLES \
   TRAIN_IMAGES_PER_TREE POSE_STRIDE SYNTH_LANES POSE_POOL BODIES CLOTHED CAMERA_HEIGHT CAMERA_PITCH CAMERA_ROLL \
   TRAIN_CLIPS VAL_CLIPS TEST_CLIPS TRAIN_SEED DEMO_FRAMES DEMO_CLIPS
 

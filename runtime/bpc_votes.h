@@ -14,11 +14,12 @@ namespace dp {
 // The joint-mass table: per leaf record, kMaxJoints uint16 = Σ of its Q15 probabilities over each
 // joint's part mask (0 for joints ≥ joint_count; ≤ 32768, validated at load). It replaces 3·parts
 // additions per pixel by 3 loads of 16 lanes, and is kept up to kMaxJointMassLeaves records
-// (16 MB; PCL: 25 records, the shipped depth-20 blob 310 868 records, a 10 MB table). Without it
+// (32 bytes per record in the arena, at most 32 MB; PCL: 25 records, a depth-20 blob pruned to
+// 16 MB in format v4 about 630 000 records, a 20 MB table). Without it
 // the fast caster falls back to the reference: on a depth-20 blob of 313 064 records, bench_runtime's rendered
 // people at 320×240 spend 2.8–3.3 M cycles per frame in votes without the table (a cap of 2^18)
 // against 0.76–0.88 M with it (BPC 504–523 → 848–966 frames/s, two alternated runs).
-constexpr uint32_t kMaxJointMassLeaves = 1u << 19;  // leaf records
+constexpr uint32_t kMaxJointMassLeaves = 1u << 20;  // leaf records
 inline bool use_joint_mass(const blob::LoadedBlob& b) {
   return b.method() == blob::Method::kBpc && b.meta->leaf_count <= kMaxJointMassLeaves;
 }

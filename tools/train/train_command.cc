@@ -12,6 +12,7 @@
 #include "tools/common/error.h"
 #include "tools/train/communicator.h"
 #include "tools/train/forest_trainer.h"
+#include "tools/train/forest_merge.h"
 #include "tools/train/forest_truncate.h"
 
 namespace dp::train {
@@ -19,6 +20,7 @@ namespace {
 
 const std::string kUsage = std::string() +
     "usage: depthpose train --data DIR[,DIR...] --method bpc|ojr --out FILE.forest [options]\n"
+    "       depthpose train --merge A.forest,B.forest[,...] --out FILE.forest\n"
     "  --trees T              trees (default 3)\n"
     "  --depth D              maximum depth, leaves at level <= D (default 20)\n"
     "  --objective O          classification (Eq. 8, default) or regression (Eq. 9-11)\n"
@@ -58,7 +60,10 @@ const std::string kUsage = std::string() +
     "                         the ranks (default " + std::to_string(kDefaultNodeParallelPixels) + ", 0 = never); the same forest\n"
     "                         either way (docs/training.md \"What is communicated per level\")\n"
     "  --distributed          run as one rank of an MPI job even when no launcher is detected\n"
-    "                         (mpirun/srun are detected; docs/training.md \"Distributed training\")\n";
+    "                         (mpirun/srun are detected; docs/training.md \"Distributed training\")\n"
+    "  --merge A,B[,...]      write one forest of the trees of A, B, ...: runs trained on the same data with\n"
+    "                         the same options but other --seed (refused otherwise, naming what differs);\n"
+    "                         trees can so be trained one run at a time (docs/training.md \"Merging runs\")\n";
 
 std::string format_duration(double s) {
   char b[32];
@@ -141,18 +146,39 @@ size_t peak_resident_bytes() {
   return 0;
 }
 
+// `train --merge`: no training, only the inputs' trees written as one forest.
+int merge_main(const tools::Args& args, Communicator* comm) {
+  if (comm && comm->size() > 1) tools::fail("--merge runs as one process, not as an MPI job");
+  for (const char* other : {"--data", "--method", "--trees", "--structure", "--resume"})
+    if (args.has(other)) tools::fail(std::string("--merge takes only --out (and --quiet), not ") + other);
+  const std::vector<std::string> names = tools::split_list(args.get("--merge"));
+  const std::string out_path = args.get("--out");
+  std::vector<TrainedForest> inputs;
+  for (const std::string& name : names) inputs.push_back(read_forest(name));
+  const TrainedForest merged = merge_forests(inputs, names);
+  write_forest(out_path, merged);
+  if (!args.flag("--quiet")) {
+    size_t leaves = 0;
+    for (const TrainedTree& t : merged.trees) leaves += t.leaf_count();
+    std::fprintf(stderr, "train: wrote %s: %zu tree(s) from %zu forests, %zu leaves\n", out_path.c_str(),
+                 merged.trees.size(), inputs.size(), leaves);
+  }
+  return 0;
+}
+
 int train_main(int argc, char** argv, Communicator* comm) {
   tools::Args args(argc, argv, kUsage,
                    {"--data", "--method", "--trees", "--depth", "--out", "--objective", "--pixels-per-image",
                     "--images-per-tree", "--offsets", "--thresholds", "--max-offset", "--reference-focal",
                     "--min-samples", "--rho", "--nres", "--bandwidth", "--votes-per-leaf", "--vote-length",
                     "--structure", "--structure-min-pixels", "--structure-max-leaves", "--structure-depth", "--proposal", "--seed", "--threads", "--checkpoint", "--stop-after",
-                    "--node-parallel-below"},
+                    "--node-parallel-below", "--merge"},
                    {"--quiet", "--resume", "--distributed", "--no-timings"});
   if (args.help_requested()) {
     std::cout << kUsage;
     return 0;
   }
+  if (args.has("--merge")) return merge_main(args, comm);
   const std::vector<std::string> dirs = tools::split_list(args.get("--data"));
   const std::string method = args.get("--method");
   const std::string out_path = args.get("--out");
