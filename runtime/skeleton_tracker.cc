@@ -51,6 +51,8 @@ constexpr float kBoneToleranceGeneric = 0.35f;
 // 0.618 / 0.629 / 0.633 / 0.627 and 0.611 / 0.611 / 0.615 / 0.616 (ojr), 0.638 / 0.639 / 0.637 /
 // 0.646 and 0.610 / 0.614 / 0.620 / 0.616 (bpc); with the mirror cost 3, 0.25 / 0.30 gave 0.634 /
 // 0.629, 0.614 / 0.615, 0.640 / 0.640, 0.623 / 0.624: 0.25 has the best sum of the four gains.
+// With the one-tree OJR blob (selection rule, at the cost weights below) 0.20 / 0.30 gave +0.062 /
+// +0.063, 66.0 / 65.6 ‰, 32.1 / 32.8 mm (0.25: +0.063, 65.1 ‰, 32.0 mm).
 constexpr float kBoneToleranceMeasured = 0.25f;
 constexpr float kBoneToleranceHipSpan = 0.35f;
 // Added to a bone's tolerance (metres): the noise of the two proposals a bone is measured between
@@ -75,15 +77,30 @@ constexpr float kBoneToleranceHipSpan = 0.35f;
 // - With the weight's floor kMinContinuityWeight 0.7: generic 0.02 / 0.05 / 0.10 (measured 0.10)
 //   +0.067 / +0.066 / +0.060, jitter 35.6 / 30.4 / 29.5 mm; measured 0.08 / 0.10 / 0.12 (generic
 //   0.05) +0.057 / +0.066 / +0.062.
+// - With the one-tree OJR blob (selection rule, at the cost weights below; 0.10 / 0.05 m: +0.063,
+//   65.1 ‰, 32.0 mm): measured 0.08 / 0.12 m +0.061 / +0.064, 67.7 / 65.5 ‰, 32.1 / 32.0 mm;
+//   generic 0.02 / 0.08 m +0.064 / +0.063, 70.9 / 68.2 ‰, 35.8 / 32.2 mm.
 constexpr float kBoneSlackMeasuredM = 0.10f;
 constexpr float kBoneSlackGenericM = 0.05f;
 
 // Cost weights (dimensionless: each term is a squared normalised deviation, capped so that one bad
-// term cannot dominate). Set by hand, except the continuity scale, chosen on the validation
-// sequences (docs/skeleton.md).
+// term cannot dominate). Set by hand, except those whose comment gives the values tried on the
+// validation sequences (docs/skeleton.md, "Measurements").
+// "The selection rule" below: on the validation sequences (default filter; W = seeds 11–14 / 41–44,
+// V = tall clutter 191–196; with models/ojr.blob and models/bpc.blob), the largest sum of the four
+// gains of the tracker over the first proposal within 0.1 m whose sum of the four swap rates and
+// whose mean still-joint jitter are at most the current tracker's; ties within 0.001 go to fewer
+// swaps. With the shipped one-tree models/ojr.blob (held-out mAP 0.776) and the weights before
+// the mirror, orphan and side-cap values below (mirror 3, orphan 4, side cap 6): gains ojr W / V,
+// bpc W / V +0.012 / +0.020 / +0.012 / +0.019 (sum +0.063), swaps 16.5 / 15.5 / 15.9 / 17.2 ‰
+// (sum 65.1), mean jitter 32.0 mm; one weight changed at a time, sum of gains / sum of swaps
+// ‰ / mean jitter mm, unless stated with the chosen values: see each constant.
 constexpr float kWeightProposal = 1.0f;    // per unit of −log(confidence ratio)
 constexpr float kMaxProposalCost = 6.0f;
-constexpr float kMotionScaleM = 0.2f;      // continuity: distance per frame that costs 1 (validation: 0.08 / 0.12 / 0.2 / 0.3 m gave 0.702 / 0.700 / 0.711 / 0.703 within 0.1 m)
+// Continuity: distance per frame that costs 1 (validation: 0.08 / 0.12 / 0.2 / 0.3 m gave 0.702 /
+// 0.700 / 0.711 / 0.703 within 0.1 m; with the one-tree OJR blob, by the selection rule, 0.15 /
+// 0.25 m gave +0.048 / +0.062, 68.4 / 72.8 ‰, 31.0 / 37.0 mm).
+constexpr float kMotionScaleM = 0.2f;
 constexpr float kMaxContinuityCost = 6.0f;
 // The least weight of the continuity term (the last position's confidence over the best tracked
 // class's, see update()), range 0–1 (1: no weighting). Chosen on the validation sequences by the
@@ -92,24 +109,53 @@ constexpr float kMaxContinuityCost = 6.0f;
 // the first proposal +0.073 / +0.071 / +0.071 / +0.066 / +0.064 / +0.053, swaps 66.3 / 66.7 / 65.0 /
 // 63.9 / 65.3 / 65.5 ‰ (sum of the four) and jitter 36.2 / 32.4 / 31.2 / 30.4 / 30.4 / 27.2 mm: a
 // weak last position no longer holds a wrong choice, but without a floor the choice hops more.
+// With the one-tree OJR blob (selection rule, above): 0.5 / 0.6 / 0.8 gave +0.068 / +0.067 /
+// +0.063, 67.5 / 67.0 / 64.1 ‰, 34.6 / 32.6 / 31.9 mm (0.7: +0.063, 65.1 ‰, 32.0 mm); with the
+// chosen mirror and orphan costs 0.8 gave +0.064 against +0.066.
 constexpr float kMinContinuityWeight = 0.7f;
 constexpr float kWeightBone = 1.0f;
 constexpr float kMaxBoneCost = 9.0f;
 constexpr float kFitBoneCost = 4.0f;       // bone cost above which a proposal "does not fit" (2 tolerances)
 // Side: distance on the wrong side of the mid-plane that costs 1. Chosen on the validation
-// sequences (V, W below) with the shipped blobs, tracker within 0.1 m minus the first proposal's
-// summed over ojr V / W and bpc V / W: 0.06 m +0.018, 0.08 +0.012, 0.12 +0.025, 0.16 +0.032,
-// 0.20 +0.032, 0.25 +0.034, with fewer swaps on all four sets from 0.16 on; 0.20 sits in the
-// middle of that plateau (ojr +0.017 / +0.001, bpc +0.008 / +0.006; swaps ‰ 16.6 / 18.5, 19.9 / 19.2).
+// sequences (V, W below) with the previous three-tree OJR blob, tracker within 0.1 m minus the
+// first proposal's summed over ojr V / W and bpc V / W: 0.06 m +0.018, 0.08 +0.012, 0.12 +0.025,
+// 0.16 +0.032, 0.20 +0.032, 0.25 +0.034, with fewer swaps on all four sets from 0.16 on; 0.20 sits
+// in the middle of that plateau (ojr +0.017 / +0.001, bpc +0.008 / +0.006; swaps ‰ 16.6 / 18.5,
+// 19.9 / 19.2). Re-checked with the one-tree OJR blob (selection rule, above): 0.06 / 0.10 / 0.15
+// / 0.25 / 0.30 / 0.40 m gave +0.044 / +0.049 / +0.060 / +0.062 / +0.060 / +0.061, 78.6 / 77.1 /
+// 66.2 / 67.3 / 67.8 / 68.3 ‰ (0.20: +0.063, 65.1 ‰): 0.20 stays, with the fewest swaps.
 constexpr float kSideScaleM = 0.20f;
-constexpr float kMaxSideCost = 6.0f;
+// The side term's cap (in units of the weight below), range tried 2–9. With the one-tree OJR blob
+// (selection rule, above), alone 3 / 9 gave +0.065 / +0.062, 63.4 / 65.4 ‰, 32.2 / 32.0 mm (6:
+// +0.063, 65.1 ‰, 32.0 mm); with mirror cost 4 and orphan cost 3, cap 2 / 3 / 4 / 6 gave +0.065 /
+// +0.066 / +0.066 / +0.066, 61.9 / 61.5 / 62.2 / 63.0 ‰, 32.4 / 32.05 / 31.9 / 32.0 mm: 4 is the
+// one of the best gain whose jitter stays within the bound (3 has 0.7 ‰ fewer swaps, 0.05 mm more
+// jitter). A capped side cost lets a limb joint cross the mid-plane (a crossed arm, a turned body)
+// when its bones and proposal say so.
+constexpr float kMaxSideCost = 4.0f;
+// Per joint (elbows and knees 1, wrists, hands, ankles and feet 0.5). With the one-tree OJR blob
+// (selection rule, above), one group at a time: ankles and feet 0.25 / 1 / 1.5 +0.063 / +0.055 /
+// +0.054, 65.3 / 69.6 / 68.6 ‰; knees 0.5 / 2 +0.060 / +0.059, 66.4 / 67.4 ‰; wrists and hands
+// 0.25 / 1 +0.060 / +0.062, 67.6 / 64.6 ‰; elbows 0.5 / 2 +0.062 / +0.063, 66.9 / 65.1 ‰ (these
+// weights: +0.063, 65.1 ‰): none gains.
 constexpr float kSideWeight[kSkeletonJoints] = {0, 0, 0, 0, 1.0f, 1.0f, 0.5f, 0.5f, 0.5f, 0.5f,
                                                 1.0f, 1.0f, 0.5f, 0.5f, 0.5f, 0.5f};
-constexpr float kWeightFacingTurn = 3.0f;  // × (1 − cos) of the facing change since the last frame
-constexpr float kWeightFacingAway = 1.0f;  // new user: × the facing's component away from the camera
+// × (1 − cos) of the facing change since the last frame. With the one-tree OJR blob (selection
+// rule, above) 1 / 2 / 4 / 6 gave +0.060 / +0.062 / +0.063 / +0.062, 66.5 / 66.2 / 65.1 / 66.0 ‰
+// (3: +0.063, 65.1 ‰).
+constexpr float kWeightFacingTurn = 3.0f;
+// New user: × the facing's component away from the camera. 0 / 0.5 / 1 / 2 gave the same figures
+// to the digit on the validation sequences (the users there start facing the camera).
+constexpr float kWeightFacingAway = 1.0f;
 constexpr float kMinShoulderSpanM = 0.10f; // two shoulders closer than this are one place
 constexpr float kShoulderOverlapCost = 6.0f;
-constexpr float kMinLimbSeparationM = 0.08f;  // a left and a right limb joint closer than this coincide
+// A left and a right limb joint closer than this coincide (metres). With the one-tree OJR blob
+// (selection rule, above) 0.06 / 0.10 m gave +0.066 / +0.056, 76.4 / 63.2 ‰ (0.08: +0.063, 65.1 ‰).
+constexpr float kMinLimbSeparationM = 0.08f;
+// With the one-tree OJR blob (selection rule, above) 2 / 3 / 3.5 / 5 / 6 / 8 gave +0.075 / +0.069
+// / +0.064 / +0.061 / +0.061 / +0.060, 95.1 / 71.7 / 66.0 / 65.4 / 65.3 / 65.9 ‰ (4: +0.063, 65.1
+// ‰); below 4 the gains rise with the swaps, above it both worsen; with mirror cost 4, 3.5 gave
+// +0.066, 64.8 ‰, 32.1 mm.
 constexpr float kCoincideCost = 4.0f;
 // Taking the mirror joint's proposal (cost units as above), range tried 1–4. On the validation
 // sequences (as for kBoneToleranceMeasured, tolerance 0.20, orphan cost 6), 1 / 1.5 / 2 / 3 / 4
@@ -117,9 +163,15 @@ constexpr float kCoincideCost = 4.0f;
 // / 0.609 / 0.611 with models/ojr.blob, 0.625 / 0.639 / 0.639 / 0.639 / 0.638 and 0.614 / 0.614 /
 // 0.618 / 0.622 / 0.620 with models/bpc.blob; swaps per 1000 (same order) ojr 24.0 / 19.6 / 17.7 /
 // 16.7 / 16.2 and 24.5 / 23.0 / 21.3 / 21.6 / 21.6, bpc 40.1 / 26.3 / 24.6 / 22.5 / 22.2 and 28.5 /
-// 27.5 / 23.8 / 20.5 / 20.8: 3 has the best sum of the four rates.
-constexpr float kMirrorCost = 3.0f;
-constexpr float kPredictedCost = 3.0f;     // choosing the last position instead of any proposal
+// 27.5 / 23.8 / 20.5 / 20.8: 3 had the best sum of the four rates with the previous three-tree OJR
+// blob. With the one-tree OJR blob (selection rule, above) 2 / 2.5 / 3 / 3.5 / 4 / 4.5 / 5 / 6 gave
+// +0.057 / +0.059 / +0.063 / +0.064 / +0.065 / +0.065 / +0.064 / +0.064, swaps 71.5 / 69.0 / 65.1
+// / 64.9 / 63.7 / 63.7 / 63.7 / 63.6 ‰, jitter 30.1 / 31.2 / 32.0 / 32.1 / 32.05 / 32.05 / 32.2 /
+// 32.2 mm: from 4 on the swaps stop falling (ojr V 14.6 ‰ against 15.5 at 3).
+constexpr float kMirrorCost = 4.0f;
+// Choosing the last position instead of any proposal. With the one-tree OJR blob (selection rule,
+// above) 2 / 4 gave +0.064 / +0.057, 68.7 / 68.9 ‰, 35.0 / 31.8 mm (3: +0.063, 65.1 ‰, 32.0 mm).
+constexpr float kPredictedCost = 3.0f;
 constexpr float kAbsentCost = 8.0f;        // choosing nothing
 // A proposal whose parent is an "absent" neck or shoulder: the bone to it is unmeasured, and this
 // is its cost. Without it (0) an absent neck or shoulder cut every bone to its children (and the
@@ -135,8 +187,12 @@ constexpr float kAbsentCost = 8.0f;        // choosing nothing
 // on the validation sequences (tall clutter; without) cost 4 / 6 / 8 gave within 0.1 m ojr 0.635 /
 // 0.634 / 0.634, 0.614 / 0.614 / 0.614, bpc 0.640 / 0.640 / 0.636, 0.623 / 0.623 / 0.623, and swaps
 // per 1000 ojr 17.2 / 19.7 / 19.8, 19.7 / 20.0 / 20.4, bpc 21.7 / 22.3 / 26.1, 20.6 / 20.5 / 21.0:
-// 4 keeps the rates and has the fewest swaps.
-constexpr float kOrphanCost = 4.0f;
+// 4 kept the rates and had the fewest swaps with the previous three-tree OJR blob. With the one-tree
+// OJR blob (selection rule, above), alone 1 / 2 / 3 / 6 gave +0.064 / +0.064 / +0.064 / +0.062,
+// 63.0 / 63.7 / 64.4 / 65.5 ‰, 32.2 / 32.1 / 32.0 / 32.0 mm (4: +0.063, 65.1 ‰, 32.0 mm); with
+// mirror cost 4, 2 / 3 gave +0.066 / +0.066, 62.2 / 63.0 ‰, 32.1 / 32.0 mm, and with the side cap
+// 4 (the chosen combination), 3: +0.066, 62.2 ‰, 31.9 mm.
+constexpr float kOrphanCost = 3.0f;
 constexpr int32_t kMaxPredictedFrames = 10;  // a joint unseen longer than this is missing
 // The joints the filter's offset limit (SkeletonFilterParams::max_offset_m) holds near their chosen
 // proposal: tracked with a fit score exp(−local cost / 2) ≥ 0.5, evidence classes
@@ -148,9 +204,10 @@ constexpr int32_t kFilterLimitMinEvidence = 5;
 
 // Calibration of the confidence (probability of being within 0.1 m of the truth) per evidence
 // class (TrackedJoint::evidence), with the default filter, one table per forest method: the two
-// shipped forests (models/ojr.blob, 200 000 leaves on the BPC structure, and models/bpc.blob, 2 of
-// the forest's 3 trees pruned to 16 MB by information gain; depth 20) are calibrated differently:
-// in nearly every class bpc's joints lie within 0.1 m more often. Each table is its blob's fit by
+// shipped forests (models/ojr.blob, one BPC tree's structure pruned to 200 000 leaves with OJR
+// votes, and models/bpc.blob, 2 of the forest's 3 trees pruned to 16 MB by information gain; depth
+// 20) are calibrated differently: in most classes bpc's joints lie within 0.1 m more often. Each
+// table is its blob's fit by
 // `depthpose skeleton-eval --blob BLOB --fit-calibration` on the 14 validation sequences (seeds
 // 11–14 and 41–44; 191–196 with tall clutter; 3330 body-frames) with this tracker: each class's
 // fraction within 0.1 m, made monotone over the tracked classes 0–9 by pool adjacent violators.
@@ -158,11 +215,12 @@ constexpr int32_t kFilterLimitMinEvidence = 5;
 // the fit was repeated with the fitted table in place until it returned itself (three rounds).
 // Refitted when the bone slack went 0.02 → 0.05 / 0.10 m: the looser bone term raises the fit
 // scores, so each class's joints are within 0.1 m less often (ojr class 9 0.81 → 0.77, class 5
-// 0.37 → 0.30). Held-out figures: docs/skeleton.md, "States and confidences".
-constexpr float kCalibrationOjr[kEvidenceClasses] = {0.07f, 0.16f, 0.16f, 0.20f, 0.24f, 0.29f, 0.38f, 0.46f,
-                                                     0.57f, 0.79f, 0.25f, 0.17f, 0.13f, 0.07f, 0.01f, 0.45f};
-constexpr float kCalibrationBpc[kEvidenceClasses] = {0.05f, 0.12f, 0.21f, 0.26f, 0.31f, 0.36f, 0.45f, 0.54f,
-                                                     0.62f, 0.78f, 0.20f, 0.14f, 0.10f, 0.10f, 0.09f, 0.02f};
+// 0.37 → 0.30). Both refitted with the mirror cost 4, orphan cost 3 and side cap 4 (one round
+// returned the same tables). Held-out figures: docs/skeleton.md, "States and confidences".
+constexpr float kCalibrationOjr[kEvidenceClasses] = {0.07f, 0.18f, 0.18f, 0.21f, 0.24f, 0.30f, 0.38f, 0.46f,
+                                                     0.57f, 0.79f, 0.25f, 0.17f, 0.14f, 0.07f, 0.01f, 0.56f};
+constexpr float kCalibrationBpc[kEvidenceClasses] = {0.00f, 0.15f, 0.22f, 0.26f, 0.31f, 0.36f, 0.45f, 0.54f,
+                                                     0.62f, 0.78f, 0.20f, 0.15f, 0.11f, 0.12f, 0.09f, 0.02f};
 
 // The tracked evidence class of the best fit (exp(−local cost / 2) ≥ 0.9); its calibrated
 // confidence is the highest of the tracked classes (the tables are monotone over 0..9).
