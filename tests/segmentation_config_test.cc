@@ -64,7 +64,7 @@ SegmenterConfig parse(const std::string& text) {
 }  // namespace
 
 TEST(SegmentationConfig, OneTableDeclaresEveryFieldWithItsDefaultInRange) {
-  EXPECT_EQ(dp::kSegmenterConfigFieldCount, 87);
+  EXPECT_EQ(dp::kSegmenterConfigFieldCount, 88);
   const SegmenterConfig c;
   int32_t bad = 0;
   EXPECT_TRUE(dp::segmenter_config_check(c, &bad)) << bad;

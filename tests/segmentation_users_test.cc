@@ -427,3 +427,52 @@ TEST(SegmentationUsers, ANewcomerOfTheSameHeightButAnotherBuildIsNotTakenForTheG
   EXPECT_EQ(ids[1], gone_id);
   EXPECT_EQ(arrivals[1], kUserReturned);
 }
+
+// A lost track's reach grows each frame it is lost; a piece of clutter within it must not continue
+// the track (lost_min_height_ratio), else the person is never gone, no id is kept for it, and it
+// comes back under a new one. A 1.1 m person stands 0.7 m from a 0.6 m box, vanishes for 10 frames
+// (beyond track_keep_frames) and comes back where it was.
+TEST(SegmentationUsers, ALostPersonsTrackDoesNotTakeTheBoxBesideIt) {
+  const Person person{-0.5f, 3.0f, 1.1f, 1};
+  const tools::SceneBox box{0.0f, 0.4f, 0.0f, 0.6f, 2.9f, 3.3f, 0};
+  auto frame = [&](bool with_person) {
+    tools::Scene s = room();
+    if (with_person) s.cylinders.push_back(person_at(person.x, person.z, person.truth, person.height));
+    s.boxes.push_back(box);
+    return tools::render_scene(s);
+  };
+  // Runs the scene; returns the frames in which the box (the only thing in view) was labelled a user
+  // while the person was away, and the person's id and arrival before and after.
+  struct Outcome { int box_user_frames = 0, id_before = 0, id_back = 0, arrival_back = -1; };
+  auto run = [&](float ratio) {
+    SegmenterConfig cfg = reid_config();
+    cfg.lost_min_height_ratio = ratio;
+    SegmenterHarness h(cfg);
+    Outcome o;
+    for (int i = 0; i < 12; ++i) {
+      const tools::RenderedScene f = frame(true);
+      EXPECT_EQ(h.run(f), Status::kOk);
+      EXPECT_EQ(h.result.user_count, 1) << "the box is no user while the person is in view";
+      o.id_before = id_of(h, f, person.truth);
+    }
+    for (int i = 0; i < 10; ++i) {
+      EXPECT_EQ(h.run(frame(false)), Status::kOk);
+      o.box_user_frames += h.result.user_count > 0;
+    }
+    const tools::RenderedScene back = frame(true);
+    EXPECT_EQ(h.run(back), Status::kOk);
+    o.id_back = id_of(h, back, person.truth);
+    if (const UserInfo* u = h.user(o.id_back)) o.arrival_back = u->arrival;
+    return o;
+  };
+  // The scene does what it is for: with the test off, the lost track takes the box.
+  const Outcome off = run(0.0f);
+  EXPECT_GT(off.box_user_frames, 0);
+  EXPECT_NE(off.arrival_back, kUserReturned);
+  // With it (the default), the box is never a user, and the person gets its id back.
+  const Outcome on = run(default_segmenter_config(false).lost_min_height_ratio);
+  EXPECT_EQ(on.box_user_frames, 0);
+  ASSERT_NE(on.id_before, 0);
+  EXPECT_EQ(on.id_back, on.id_before);
+  EXPECT_EQ(on.arrival_back, kUserReturned);
+}

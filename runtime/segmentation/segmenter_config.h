@@ -104,6 +104,12 @@ constexpr double kConfigIntUnbounded = double(INT32_MAX);
   X(float, association_distance_m, 0.6f, 0, kConfigUnbounded, kRangeOpenMin, "m", "a component within this of a track's prediction keeps its id") \
   X(float, association_growth_m, 0.08f, 0, kConfigUnbounded, kRangeClosed, "m/frame", "reach added per frame a track has been lost") \
   X(int32_t, track_keep_frames, 30, 0, 65535, kRangeClosed, "frames", "a lost user keeps its id this long") \
+  /* lost_min_height_ratio: tried 0.5-0.9 on 32 validation sequences (reid-eval, docs/skeleton.md \
+     "Ids across leaving and re-entering"): 0.75-0.9 keep seq72's id (a 1.04 m person's lost track \
+     took a 0.75 m box), 0.7 and below do not; 0.8, the middle. segeval --live on the validation \
+     sequences of docs/segmentation.md (seeds 101-106): people found 1800/1800 with and without tall \
+     clutter either way, false users 0.904 -> 0.900 per frame with it */ \
+  X(float, lost_min_height_ratio, 0.8f, 0, 1, kRangeClosed, "of its height", "a lost user is not continued by a component whose top is below this times its median height (kReidHeightSamplesNeeded samples); 0 = off") \
   X(int32_t, reid_window_frames, 150, 0, 65535, kRangeClosed, "frames", "a dropped user's id waits this long since last seen for its person (by height and area); 0 = off") \
   /* reid_height_tolerance_m and reid_area_ratio: chosen on 32 validation sequences (reid-eval, \
      docs/skeleton.md "Ids across leaving and re-entering"): newcomers given the gone id 9 -> 3, \

@@ -20,6 +20,18 @@ namespace {
 float silhouette_area(const DepthFrame& f, const Candidate& c, float z) {
   return float(c.pixels) * z * z / (f.intrinsics.fx * f.intrinsics.fy);
 }
+
+// The median of the first n ≤ kReidHeightSamples samples (insertion sort).
+float median_of(const float* samples, int32_t n) {
+  float sorted[kReidHeightSamples];
+  for (int32_t i = 0; i < n; ++i) {
+    const float h = samples[i];
+    int32_t k = i;
+    for (; k > 0 && sorted[k - 1] > h; --k) sorted[k] = sorted[k - 1];
+    sorted[k] = h;
+  }
+  return n > 0 ? sorted[n / 2] : 0.0f;
+}
 }  // namespace
 
 // The per-frame verdicts on the candidates and the tracks they matched (assign_users).
@@ -64,12 +76,16 @@ void UserStage::judge_candidates(const DepthFrame& f, int32_t n, Verdicts* v) {
 // distance measured against each track's reach from its predicted position.
 void UserStage::associate_tracks(int32_t n, Verdicts* v) {
   const SegmenterConfig& cfg = *config_;
-  float predicted[kMaxUsers][3], reach[kMaxUsers];
+  float predicted[kMaxUsers][3], reach[kMaxUsers], min_top[kMaxUsers];
   for (int32_t t = 0; t < kMaxUsers; ++t) {
     const Track& tr = tracks_[t];
     const float steps = float(tr.lost_frames + 1);
     for (int k = 0; k < 3; ++k) predicted[t][k] = tr.centroid[k] + tr.velocity[k] * steps;
     reach[t] = cfg.association_distance_m + cfg.association_growth_m * float(tr.lost_frames);
+    // A lost track's reach grows over the clutter around it: what it may take back must be about
+    // as tall as its person was (lost_min_height_ratio).
+    const bool known = tr.active && tr.lost_frames > 0 && tr.height_count >= kReidHeightSamplesNeeded;
+    min_top[t] = known ? cfg.lost_min_height_ratio * median_of(tr.heights, tr.height_count) : -1e30f;
   }
   for (int round = 0; round < kMaxUsers; ++round) {
     int32_t best_t = -1, best_k = -1;
@@ -78,6 +94,7 @@ void UserStage::associate_tracks(int32_t n, Verdicts* v) {
       if (!tracks_[t].active || v->track_matched[t]) continue;
       for (int32_t k = 0; k < n; ++k) {
         if (!v->relaxed[k] || candidates_[k].user) continue;
+        if (candidates_[k].top < min_top[t]) continue;
         const float dx = v->cx[k] - predicted[t][0], dy = v->cy[k] - predicted[t][1], dz = v->cz[k] - predicted[t][2];
         const float ratio = sqrtf(dx * dx + dy * dy + dz * dz) / reach[t];
         if (ratio <= best_ratio) { best_ratio = ratio; best_t = t; best_k = k; }
@@ -265,20 +282,6 @@ int32_t UserStage::slot_for_new_user(const Candidate& c, float area_m2, const fl
   if (*returned) return match;
   return free_slot >= 0 ? free_slot : oldest;
 }
-
-namespace {
-// The median of the first n ≤ kReidHeightSamples samples (insertion sort).
-float median_of(const float* samples, int32_t n) {
-  float sorted[kReidHeightSamples];
-  for (int32_t i = 0; i < n; ++i) {
-    const float h = samples[i];
-    int32_t k = i;
-    for (; k > 0 && sorted[k - 1] > h; --k) sorted[k] = sorted[k - 1];
-    sorted[k] = h;
-  }
-  return n > 0 ? sorted[n / 2] : 0.0f;
-}
-}  // namespace
 
 // Tracks (matched: moved and counted; unmatched: lost, dropped after track_keep_frames) and the
 // visible users, by id.

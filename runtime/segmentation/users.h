@@ -5,7 +5,9 @@
 //   - tracks_ ([kMaxUsers], slot i ↔ id i + 1) is persistent state in the Segmenter's arena; the
 //     candidates and pixel views are the component stage's (components.h). Owns nothing.
 //   - assign_users: merge fragments, judge every candidate, match tracks to candidates (greedy,
-//     nearest centroid relative to each track's reach), admit new users (largest first, lowest
+//     nearest centroid relative to each track's reach; a lost track, with kReidHeightSamplesNeeded
+//     heights seen, only by a candidate whose top is at least lost_min_height_ratio × the median
+//     of its heights: its reach grows over the clutter around it), admit new users (largest first, lowest
 //     free id, at most max_users; kSegFlagUsersTruncated beyond; re-identification below), update the tracks, fill
 //     result->users (by increasing id), user_count, user_pixels and the labels (height ×
 //     stride_px bytes, 0 = background).
@@ -27,7 +29,8 @@
 //     still, but a body's width changes with height in almost every frame. The piece is then
 //     remembered (FurnitureMark, at most kMaxUsers, the one unseen longest replaced) and a
 //     component at its place and height becomes no new user while it stays in view.
-//   - Bounded: kMaxUsers × kMaxCandidates per matching round, kMaxUsers rounds; one sweep over the
+//   - Bounded: kMaxUsers medians of kReidHeightSamples heights (an insertion sort on the stack) and
+//     kMaxUsers × kMaxCandidates per matching round, kMaxUsers rounds; one sweep over the
 //     image box of each matched user for the furniture re-judgment; kMaxUsers × kMaxCandidates
 //     comparisons with the furniture marks; kMaxCandidates admission rounds; one sweep over the
 //     frame for the labels.
