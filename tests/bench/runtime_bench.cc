@@ -442,14 +442,20 @@ int main(int argc, char** argv) {
                 {"shipped BPC rendered 320x240", &ship_bpc_qvga, &people_qvga, {}, {}},
                 {"shipped OJR rendered 640x480", &ship_ojr_vga, &people_vga, {}, {}},
                 {"shipped OJR rendered 320x240", &ship_ojr_qvga, &people_qvga, {}, {}}};
-  // A trained depth-20 OJR blob (too large for the repository; docs/convert.md "OJR leaf compaction"
-  // makes one) when DP_BENCH_OJR_BLOB names it: its rows follow the others, outside the json.
-  std::unique_ptr<Runner> deep_ojr_qvga;
+  // Another OJR or BPC blob (a previous model, one too large for the repository; docs/convert.md
+  // "OJR leaf compaction" makes one) when DP_BENCH_OJR_BLOB / DP_BENCH_BPC_BLOB names it, measured
+  // beside the shipped ones in the same run: its rows follow the others, outside the json.
+  std::unique_ptr<Runner> deep_ojr_qvga, other_bpc_qvga;
   std::vector<E2E> deep_runs;
   if (const char* path = std::getenv("DP_BENCH_OJR_BLOB"); path && *path) {
     deep_ojr_qvga = std::make_unique<Runner>(blob::read_blob_file(path), 320, 240);
-    deep_runs = {{"DP_BENCH_OJR_BLOB skeltrack 320x240", deep_ojr_qvga.get(), &real_qvga, {}, {}},
-                 {"DP_BENCH_OJR_BLOB rendered 320x240", deep_ojr_qvga.get(), &people_qvga, {}, {}}};
+    deep_runs.push_back({"DP_BENCH_OJR_BLOB skeltrack 320x240", deep_ojr_qvga.get(), &real_qvga, {}, {}});
+    deep_runs.push_back({"DP_BENCH_OJR_BLOB rendered 320x240", deep_ojr_qvga.get(), &people_qvga, {}, {}});
+  }
+  if (const char* path = std::getenv("DP_BENCH_BPC_BLOB"); path && *path) {
+    other_bpc_qvga = std::make_unique<Runner>(blob::read_blob_file(path), 320, 240);
+    deep_runs.push_back({"DP_BENCH_BPC_BLOB skeltrack 320x240", other_bpc_qvga.get(), &real_qvga, {}, {}});
+    deep_runs.push_back({"DP_BENCH_BPC_BLOB rendered 320x240", other_bpc_qvga.get(), &people_qvga, {}, {}});
   }
   std::vector<E2E*> all_runs;
   for (E2E& e : runs) all_runs.push_back(&e);
