@@ -18,6 +18,7 @@
 #include "tests/shared_data.h"
 #include "tools/app/overlay.h"
 #include "tools/app/run.h"
+#include "tools/app/skeleton_eval.h"
 #include "tools/cli/command.h"
 #include "tools/common/error.h"
 #include "tools/demo/fixtures.h"
@@ -373,4 +374,52 @@ TEST(AppCli, SubcommandsAreRegisteredWithHelp) {
     std::string out = testing::internal::GetCapturedStdout();
     EXPECT_NE(out.find(std::string("depthpose ") + name), std::string::npos) << out;
   }
+}
+
+// skeleton-eval --swap-causes: a tracker swap is classified by what the tracker took and by the
+// state of the torso, the parent and the mirror joint around it.
+TEST(SkeletonEvalSwapCause, ClassifiesChoiceFacingParentPairAndFirstProposal) {
+  // A body facing the camera (−z) 2.5 m away, its left at +x.
+  std::array<Position, kSkeletonJoints> truth{};
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    const double side = j >= kShoulderL ? ((j - kShoulderL) % 2 == 0 ? 1.0 : -1.0) : 0.0;
+    truth[size_t(j)] = {side * 0.2, 0.8 - 0.1 * j, 2.5};
+  }
+  Skeleton sk{};
+  sk.facing_known = 1;
+  sk.facing[2] = -1.0f;  // as the truth's
+  std::array<Position, kSkeletonJoints> out = truth;
+  std::array<bool, kSkeletonJoints> located{};
+  located.fill(true);
+  // The left wrist on the right wrist's place, its own second proposal; the right wrist 0.2 m
+  // further right: not crossed. The first proposal was right.
+  out[kWristL] = truth[kWristR];
+  out[kWristR] = {truth[kWristR][0] - 0.2, truth[kWristR][1], truth[kWristR][2]};
+  sk.joints[kWristL].proposal = 1;
+  sk.joints[kWristL].proposal_joint = kWristL;
+  SwapCause c = swap_cause(kWristL, sk, out, located, truth, true, truth[kWristL]);
+  EXPECT_EQ(c.choice, SwapChoice::kOwnOther);
+  EXPECT_FALSE(c.facing_crossed);
+  EXPECT_FALSE(c.parent_swapped);
+  EXPECT_FALSE(c.pair_crossed);
+  EXPECT_TRUE(c.first_right);
+  // The right wrist on the left one's place, left of the left wrist: crossed; the tracker faced
+  // away, the left elbow is swapped too, the first proposal was elsewhere.
+  out[kWristR] = {truth[kWristL][0] + 0.05, truth[kWristL][1], truth[kWristL][2]};
+  out[kElbowL] = truth[kElbowR];
+  sk.facing[2] = 1.0f;
+  sk.joints[kWristL].proposal = 0;
+  c = swap_cause(kWristL, sk, out, located, truth, true, truth[kWristR]);
+  EXPECT_EQ(c.choice, SwapChoice::kOwnFirst);
+  EXPECT_TRUE(c.facing_crossed);
+  EXPECT_TRUE(c.parent_swapped);
+  EXPECT_TRUE(c.pair_crossed);
+  EXPECT_FALSE(c.first_right);
+  sk.joints[kWristL].proposal_joint = kWristR;
+  EXPECT_EQ(swap_cause(kWristL, sk, out, located, truth, false, truth[kWristL]).choice, SwapChoice::kMirrorProposal);
+  EXPECT_FALSE(swap_cause(kWristL, sk, out, located, truth, false, truth[kWristL]).first_right);
+  sk.joints[kWristL].proposal = -1;
+  EXPECT_EQ(swap_cause(kWristL, sk, out, located, truth, false, truth[kWristL]).choice, SwapChoice::kPrediction);
+  sk.facing_known = 0;
+  EXPECT_FALSE(swap_cause(kWristL, sk, out, located, truth, false, truth[kWristL]).facing_crossed);
 }

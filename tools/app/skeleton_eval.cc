@@ -117,6 +117,32 @@ void add_filter_figures(const std::vector<Track>& tracks, size_t f, FilterFigure
 
 }  // namespace
 
+SwapCause swap_cause(int j, const Skeleton& sk, const std::array<Position, kSkeletonJoints>& out,
+                     const std::array<bool, kSkeletonJoints>& located, const std::array<Position, kSkeletonJoints>& truth,
+                     bool has_first, const Position& first) {
+  const TrackedJoint& tj = sk.joints[j];
+  SwapCause c{};
+  c.choice = tj.proposal < 0 ? SwapChoice::kPrediction
+             : tj.proposal_joint != j ? SwapChoice::kMirrorProposal
+             : tj.proposal == 0 ? SwapChoice::kOwnFirst
+                                : SwapChoice::kOwnOther;
+  // The true facing, up × (shoulder_l − shoulder_r) in the horizontal plane, against the tracker's.
+  const Vec& tl = truth[size_t(kShoulderL)];
+  const Vec& tr = truth[size_t(kShoulderR)];
+  const double true_facing_x = tl[2] - tr[2], true_facing_z = -(tl[0] - tr[0]);
+  c.facing_crossed = sk.facing_known && sk.facing[0] * true_facing_x + sk.facing[2] * true_facing_z < 0.0;
+  const int parent = skeleton_parent(j);
+  c.parent_swapped = is_left_right(parent) && located[size_t(parent)] && swapped(parent, out[size_t(parent)], truth);
+  // Left-minus-right along the true axis to the subject's left: negative when the pair is crossed.
+  const int m = mirror(j);
+  const double side = (j - kShoulderL) % 2 == 0 ? 1.0 : -1.0;  // +1 for a left joint
+  double order = 0;
+  for (size_t a = 0; a < 3; ++a) order += side * (out[size_t(j)][a] - out[size_t(m)][a]) * (tl[a] - tr[a]);
+  c.pair_crossed = located[size_t(m)] && order < 0.0;
+  c.first_right = has_first && dist(first, truth[size_t(j)]) <= kHitM;
+  return c;
+}
+
 SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& o) {
   std::vector<uint8_t> blob_bytes = blob::read_blob_file(o.blob_path);
   const blob::LoadedBlob b = load_blob_or_fail(blob_bytes, o.blob_path);
@@ -241,6 +267,14 @@ SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& o) {
                 rep.proposal_nearer_mirror += has_proposal && nearer_mirror(j, first, truth);
                 rep.tracker_nearer_mirror += located[size_t(j)] && nearer_mirror(j, out[size_t(j)], truth);
                 rep.tracker_swaps_by_joint[size_t(j)] += tracker_swap;
+                if (tracker_swap) {
+                  const SwapCause cause = swap_cause(j, sk, out, located, truth, has_proposal, first);
+                  ++rep.tracker_swap_choice[size_t(j)][size_t(cause.choice)];
+                  rep.tracker_swap_facing_flipped[size_t(j)] += cause.facing_crossed;
+                  rep.tracker_swap_parent_swapped[size_t(j)] += cause.parent_swapped;
+                  rep.tracker_swap_pair_crossed[size_t(j)] += cause.pair_crossed;
+                  rep.tracker_swap_first_right[size_t(j)] += cause.first_right;
+                }
               }
             }
           }

@@ -44,6 +44,11 @@ struct SkeletonEvalReport {
   long lr_joint_frames = 0, proposal_swaps = 0, tracker_swaps = 0;
   long proposal_nearer_mirror = 0, tracker_nearer_mirror = 0;
   std::array<long, kSkeletonJoints> proposal_swaps_by_joint{}, tracker_swaps_by_joint{};
+  // The tracker's swaps (default filter), per joint, by their SwapCause (below): by choice, and
+  // how many had the facing crossed, the parent swapped, the pair crossed, the first proposal right.
+  std::array<std::array<long, 4>, kSkeletonJoints> tracker_swap_choice{};
+  std::array<long, kSkeletonJoints> tracker_swap_facing_flipped{}, tracker_swap_parent_swapped{};
+  std::array<long, kSkeletonJoints> tracker_swap_pair_crossed{}, tracker_swap_first_right{};
   // Evidence classes of the tracker's confidence (skeleton_tracker.cc): count and hits.
   std::array<long, kEvidenceClasses> class_count{}, class_hits{};
   // Reliability: 10 confidence bins (of the reported confidence): count, Σ confidence, hits.
@@ -54,6 +59,22 @@ struct SkeletonEvalReport {
   double tracker_cycles_per_user_frame = 0;
   double pipeline_cycles_per_user_frame = 0;
 };
+
+// What lies behind a tracker swap of left/right joint `joint` (skeleton-eval --swap-causes).
+// Positions in metres, camera frame, indexed by SkeletonJoint; `out`/`located` the tracker's
+// reported joints, `first` the joint's first proposal (when `has_first`).
+enum class SwapChoice : int { kOwnFirst = 0, kOwnOther, kMirrorProposal, kPrediction };
+struct SwapCause {
+  SwapChoice choice;    // what the tracker took: its own first or other proposal, the mirror's, its last position
+  bool facing_crossed;  // the tracker's facing (Skeleton::facing) points away from the true shoulders' facing
+  bool parent_swapped;  // the parent is a left/right joint and is swapped too
+  bool pair_crossed;    // the joint and its mirror lie in reverse order along the true shoulder_r → shoulder_l axis
+  bool first_right;     // the first proposal was within 0.1 m of the truth: the tracker made this swap
+};
+using Position = std::array<double, 3>;
+SwapCause swap_cause(int joint, const Skeleton& sk, const std::array<Position, kSkeletonJoints>& out,
+                     const std::array<bool, kSkeletonJoints>& located, const std::array<Position, kSkeletonJoints>& truth,
+                     bool has_first, const Position& first);
 
 // Throws ToolError for a missing/bad blob or dataset (naming it) or a blob whose joints are not the
 // tracker's 16.

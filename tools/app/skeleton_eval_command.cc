@@ -13,7 +13,7 @@ namespace {
 
 const char* kUsage =
     "usage: depthpose skeleton-eval --blob BLOB --data DIR[,DIR...] [--frames N] [--filter-sweep]\n"
-    "                               [--fit-calibration]\n"
+    "                               [--fit-calibration] [--swap-causes]\n"
     "  Runs the pipeline and the skeleton tracker over synthetic sequences (depthpose synth --sequence,\n"
     "  one or more --people; each body cut out by its ground-truth mask) and prints, as Markdown:\n"
     "  per joint the within-0.1 m rate of the first proposal and of the tracker's joint, left/right\n"
@@ -23,7 +23,12 @@ const char* kUsage =
     "  --filter-sweep      also measure a grid of 1€ settings (min cutoff × beta)\n"
     "  --fit-calibration   print the calibration table fitted on these sequences (isotonic over the\n"
     "                      tracked classes), to paste into runtime/skeleton_tracker.cc as the\n"
-    "                      table of the blob's forest method (BPC or OJR)\n";
+    "                      table of the blob's forest method (BPC or OJR)\n"
+    "  --swap-causes       per left/right joint, the tracker's swaps by what it chose (its own first\n"
+    "                      proposal, another own proposal, the mirror joint's, its last position), and\n"
+    "                      how many of them had the torso's facing crossed, the parent joint swapped,\n"
+    "                      the joint and its mirror in reverse order across the body, the first\n"
+    "                      proposal right\n";
 
 void print_filter_row(const FilterFigures& f, const char* name) {
   if (f.params.enabled)
@@ -34,7 +39,7 @@ void print_filter_row(const FilterFigures& f, const char* name) {
 }
 
 int skeleton_eval_main(int argc, char** argv) {
-  Args args(argc, argv, kUsage, {"--blob", "--data", "--frames"}, {"--filter-sweep", "--fit-calibration"});
+  Args args(argc, argv, kUsage, {"--blob", "--data", "--frames"}, {"--filter-sweep", "--fit-calibration", "--swap-causes"});
   if (args.help_requested()) {
     std::printf("%s", kUsage);
     return 0;
@@ -71,6 +76,23 @@ int skeleton_eval_main(int argc, char** argv) {
   const double lr = double(std::max(1L, r.lr_joint_frames));
   std::printf("left/right swaps per 1000 left/right joint-frames: first proposal %.1f, tracker %.1f (%ld joint-frames)\n\n",
               1000.0 * double(r.proposal_swaps) / lr, 1000.0 * double(r.tracker_swaps) / lr, r.lr_joint_frames);
+  if (args.flag("--swap-causes")) {
+    std::printf("Tracker swaps per 1000 joint-frames by the choice (default filter); then, of those swaps, per 1000\n"
+                "joint-frames: torso facing crossed (tracker shoulders' facing against the truth's), parent swapped,\n"
+                "joint and mirror in reverse order across the body, first proposal within 0.1 m.\n\n"
+                "| joint | swaps ‰ | own first | own other | mirror's | last position | facing crossed | parent swapped "
+                "| pair crossed | first right |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    for (int j = kShoulderL; j < kSkeletonJoints; ++j) {
+      const double n = double(std::max(1L, r.joint_frames[size_t(j)])) / 1000.0;
+      const auto& c = r.tracker_swap_choice[size_t(j)];  // by SwapChoice
+      std::printf("| %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", skeleton_joint_name(j),
+                  double(r.tracker_swaps_by_joint[size_t(j)]) / n, double(c[0]) / n, double(c[1]) / n, double(c[2]) / n,
+                  double(c[3]) / n, double(r.tracker_swap_facing_flipped[size_t(j)]) / n,
+                  double(r.tracker_swap_parent_swapped[size_t(j)]) / n, double(r.tracker_swap_pair_crossed[size_t(j)]) / n,
+                  double(r.tracker_swap_first_right[size_t(j)]) / n);
+    }
+    std::printf("\n");
+  }
   std::printf("off by > 0.1 m and nearer the mirror joint's truth, per 1000: first proposal %.1f, tracker %.1f\n\n",
               1000.0 * double(r.proposal_nearer_mirror) / lr, 1000.0 * double(r.tracker_nearer_mirror) / lr);
   const long states = r.state_count[0] + r.state_count[1] + r.state_count[2];
