@@ -205,8 +205,8 @@ constexpr int32_t kFilterLimitMinEvidence = 5;
 // Calibration of the confidence (probability of being within 0.1 m of the truth) per evidence
 // class (TrackedJoint::evidence), with the default filter, one table per forest method: the two
 // shipped forests (models/ojr.blob, one BPC tree's structure pruned to 200 000 leaves with OJR
-// votes, and models/bpc.blob, 2 of the forest's 3 trees pruned to 16 MB by information gain; depth
-// 20) are calibrated differently: in most classes bpc's joints lie within 0.1 m more often. Each
+// votes, and models/bpc.blob, two one-tree runs merged and pruned to 16 MB by information gain;
+// depth 20) are calibrated differently: in most classes bpc's joints lie within 0.1 m more often. Each
 // table is its blob's fit by
 // `depthpose skeleton-eval --blob BLOB --fit-calibration` on the 14 validation sequences (seeds
 // 11–14 and 41–44; 191–196 with tall clutter; 3330 body-frames) with this tracker: each class's
@@ -216,11 +216,12 @@ constexpr int32_t kFilterLimitMinEvidence = 5;
 // Refitted when the bone slack went 0.02 → 0.05 / 0.10 m: the looser bone term raises the fit
 // scores, so each class's joints are within 0.1 m less often (ojr class 9 0.81 → 0.77, class 5
 // 0.37 → 0.30). Both refitted with the mirror cost 4, orphan cost 3 and side cap 4 (one round
-// returned the same tables). Held-out figures: docs/skeleton.md, "States and confidences".
+// returned the same tables). The BPC table refitted for the two-tree models/bpc.blob (one round
+// returned it). Held-out figures: docs/skeleton.md, "States and confidences".
 constexpr float kCalibrationOjr[kEvidenceClasses] = {0.07f, 0.18f, 0.18f, 0.21f, 0.24f, 0.30f, 0.38f, 0.46f,
                                                      0.57f, 0.79f, 0.25f, 0.17f, 0.14f, 0.07f, 0.01f, 0.56f};
-constexpr float kCalibrationBpc[kEvidenceClasses] = {0.00f, 0.15f, 0.22f, 0.26f, 0.31f, 0.36f, 0.45f, 0.54f,
-                                                     0.62f, 0.78f, 0.20f, 0.15f, 0.11f, 0.12f, 0.09f, 0.02f};
+constexpr float kCalibrationBpc[kEvidenceClasses] = {0.03f, 0.12f, 0.19f, 0.26f, 0.31f, 0.40f, 0.47f, 0.53f,
+                                                     0.61f, 0.78f, 0.18f, 0.13f, 0.11f, 0.06f, 0.03f, 0.07f};
 
 // The tracked evidence class of the best fit (exp(−local cost / 2) ≥ 0.9); its calibrated
 // confidence is the highest of the tracked classes (the tables are monotone over 0..9).
