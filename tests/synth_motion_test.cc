@@ -224,6 +224,16 @@ TEST(SynthMotion, MalformedFilesNameFileAndLine) {
   e = error_of([&] { load_bvh(dir.write("braces.bvh", braces)); });
   EXPECT_NE(e.find("braces.bvh:"), std::string::npos) << e;
 
+  // A channel count out of 0..6 or not whole is refused by name (a huge one used to be converted
+  // to int unchecked: undefined behaviour, found by `make fuzz-smoke`).
+  for (const std::string count : {"1e110", "7", "-1", "2.5"}) {
+    std::string channels = kBvh;
+    const size_t at = channels.find("CHANNELS ") + 9;
+    channels.replace(at, channels.find(' ', at) - at, count);
+    e = error_of([&] { load_bvh(dir.write("channels.bvh", channels)); });
+    EXPECT_NE(e.find("bad channel count"), std::string::npos) << count << ": " << e;
+  }
+
   std::string frames = kBvh;
   frames.replace(frames.find("Frames: 3"), 9, "Frames: 4");
   e = error_of([&] { load_bvh(dir.write("count.bvh", frames)); });

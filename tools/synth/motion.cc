@@ -502,8 +502,10 @@ MotionClip load_bvh(const std::string& path, int frame_stride, long expected_fra
       p += 4;
     } else if (k == "CHANNELS") {
       if (stack.empty() || pending_end_site) err(p, "CHANNELS outside a joint");
-      int n = int(num(p + 1));
-      if (n < 0 || n > 6) err(p + 1, "bad channel count");
+      // Checked as a double first: converting an out-of-range value to int is undefined.
+      const double count = num(p + 1);
+      if (!(count >= 0 && count <= 6) || count != std::floor(count)) err(p + 1, "bad channel count");
+      const int n = int(count);
       Joint& j = joints[stack.back()];
       j.first_channel = channel_total;
       for (int i = 0; i < n; ++i) {
