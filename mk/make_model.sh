@@ -134,8 +134,8 @@ fi
 
 # BPC: one run of MODEL_TREES trees per seed of BPC_SEEDS (each checkpointed after every level: an
 # interrupted run continues from it, train prints level ETAs); several runs are merged into one
-# forest (`train --merge`: a tree is decided by its seed and index, so runs can be trained one per
-# session or on other machines).
+# forest (`train --merge`: a tree is decided by its seed and index, so runs can be trained one at a time
+# or on other machines).
 read -r -a bpc_seeds <<< "${BPC_SEEDS:-1}"
 [ "${#bpc_seeds[@]}" -ge 1 ] || { echo "make_model: BPC_SEEDS names no seed" >&2; exit 2; }
 bpc_runs=()

@@ -1,7 +1,7 @@
 // Merging trained forests: the trees of independent training runs (other seeds, other machines,
-// other sessions) concatenated into one forest. A random forest's trees are trained independently
+// at other times) concatenated into one forest. A random forest's trees are trained independently
 // of each other, so a forest of T trees can be grown as T one-tree runs of `depthpose train` (each
-// resumable on its own, each within a session or a batch slot) and merged afterwards:
+// resumable on its own, each within a batch system's time limit) and merged afterwards:
 // `depthpose train --merge A.forest,B.forest --out AB.forest`.
 #pragma once
 #include <string>
