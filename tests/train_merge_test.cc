@@ -6,9 +6,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tests/app_test_support.h"
 #include "tests/cli_test_support.h"
 #include "tests/train_toy_data.h"
-#include "tools/common/error.h"
 #include "tools/train/forest_file.h"
 #include "tools/train/forest_merge.h"
 
@@ -23,14 +23,7 @@ std::vector<uint8_t> tree_bytes(const TrainedForest& f, size_t t) {
   return serialize_forest(one);
 }
 
-std::string error_of(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const tools::ToolError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using apptest::error_of;
 
 class TrainMerge : public ::testing::Test {
  protected:
