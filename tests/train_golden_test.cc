@@ -104,6 +104,48 @@ TEST(TrainGolden, StoredFeaturesOfSmallNodesGrowTheSameForest) {
   }
 }
 
+// The AVX-512 kernels (gathered probes, 32-lane binning, vector cell indices; the default where the
+// CPU has AVX-512 F/BW/VL/DQ) grow the same forests as the AVX2 ones (DEPTHPOSE_TRAIN_NO_AVX512),
+// deep, with the shipped recipe's 400 candidates, both objectives. Skipped, saying so, on a CPU
+// without AVX-512 (the default there is the AVX2 kernel, which the tests above pin).
+TEST(TrainGolden, Avx512KernelGrowsTheSameForestAsAvx2) {
+  if (!(__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+        __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512dq")))
+    GTEST_SKIP() << "this CPU has no AVX-512 F/BW/VL/DQ: the AVX-512 training kernel cannot run here";
+  const TrainingSet set = testing_bodies::stick_body_set(6, 120, 1, 7);
+  for (Objective objective : {Objective::kClassification, Objective::kRegression}) {
+    ForestOptions fo = golden_options("ojr", objective, 2);
+    fo.tree.max_depth = 12;
+    fo.tree.offset_candidates = 400;
+    fo.tree.min_samples = 4;
+    fo.leaf.reservoir = 8;
+    const TrainedForest avx512 = train_forest(set, fo, {});
+    ASSERT_EQ(setenv("DEPTHPOSE_TRAIN_NO_AVX512", "1", 1), 0);
+    const TrainedForest avx2 = train_forest(set, fo, {});
+    unsetenv("DEPTHPOSE_TRAIN_NO_AVX512");
+    EXPECT_GT(avx512.trees[0].nodes.size(), 100u);
+    EXPECT_EQ(hex(forest_digest(avx512)), hex(forest_digest(avx2)))
+        << (objective == Objective::kClassification ? "classification" : "regression");
+  }
+  // And the golden BPC forest, with 1 and 2 threads.
+  for (int threads : {1, 2})
+    EXPECT_EQ(hex(forest_digest(train_forest(testing_bodies::stick_body_set(24, 400, 2, 3),
+                                             golden_options("bpc", Objective::kClassification, threads), {}))),
+              kGoldenCases[0].digest);
+}
+
+// Training images are padded with kProbePadding background elements (the AVX-512 kernel reads
+// 32-bit words at 16-bit elements); a set built without the padding (by hand) is read from padded
+// copies and grows the same forest.
+TEST(TrainGolden, ImagesWithoutPaddingGrowTheSameForest) {
+  TrainingSet set = testing_bodies::stick_body_set(24, 400, 2, 3);
+  for (const TrainingImage& im : set.images)
+    ASSERT_EQ(im.probe.size(), size_t(im.width) * im.height + kProbePadding) << im.name;
+  for (TrainingImage& im : set.images) im.probe.resize(size_t(im.width) * im.height);
+  const GoldenCase& c = kGoldenCases[0];
+  EXPECT_EQ(hex(forest_digest(train_forest(set, golden_options(c.method, c.objective, 2), {}))), c.digest);
+}
+
 // Deep levels walk their nodes' pixels in image order, in batches of nodes whose features fit a
 // byte budget (1 GiB by default, so the forests above take one batch per level). With a budget of
 // a few dozen pixels, every deep level takes many batches and the nodes larger than the budget

@@ -78,8 +78,10 @@ std::string training_data_digest(const TrainingSet& set, Communicator* comm) {
     for (int v : {im.width, im.height, im.origin_u, im.origin_v, im.frame_width, im.frame_height, im.focal_factor})
       d.value(v);
     for (double v : {im.camera.fx, im.camera.fy, im.camera.cx, im.camera.cy}) d.value(v);
-    d.value(im.probe.size());
-    d.bytes(im.probe.data(), im.probe.size() * sizeof(uint16_t));
+    // The crop's elements only (not make_training_image's padding): the digest of the data.
+    const size_t cells = std::min(im.probe.size(), size_t(im.width) * im.height);
+    d.value(cells);
+    d.bytes(im.probe.data(), cells * sizeof(uint16_t));
     d.value(im.joints.size());
     d.bytes(im.joints.data(), im.joints.size() * sizeof(float));
   }

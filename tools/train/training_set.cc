@@ -79,13 +79,13 @@ TrainingImage make_training_image(const uint16_t* depth, const uint8_t* parts, i
       }
   if (u1 < 0) {  // no foreground: a single background pixel
     im.width = im.height = 1;
-    im.probe.assign(1, kBackgroundDepthMm);
+    im.probe.assign(1 + kProbePadding, kBackgroundDepthMm);
   } else {
     im.origin_u = u0;
     im.origin_v = v0;
     im.width = u1 - u0 + 1;
     im.height = v1 - v0 + 1;
-    im.probe.resize(size_t(im.width) * im.height);
+    im.probe.assign(size_t(im.width) * im.height + kProbePadding, kBackgroundDepthMm);
     for (int v = 0; v < im.height; ++v)
       for (int u = 0; u < im.width; ++u) {
         const size_t i = size_t(v + v0) * width + (u + u0);
@@ -100,7 +100,8 @@ TrainingImage make_training_image(const uint16_t* depth, const uint8_t* parts, i
 void sample_pixels(const TrainingImage& image, const uint8_t* parts, uint32_t image_index, int tree,
                    int pixels_per_image, uint64_t seed, std::vector<TrainingPixel>& out) {
   std::vector<uint32_t> fg;
-  for (uint32_t i = 0; i < image.probe.size(); ++i)
+  const uint32_t cells = static_cast<uint32_t>(std::min(image.probe.size(), size_t(image.width) * image.height));
+  for (uint32_t i = 0; i < cells; ++i)
     if (image.probe[i] != kBackgroundDepthMm) fg.push_back(i);
   if (pixels_per_image > 0 && fg.size() > size_t(pixels_per_image)) {
     Rng rng = Rng::keyed(seed, 1, uint64_t(tree), image_index);

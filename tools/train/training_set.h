@@ -40,14 +40,17 @@ struct CameraIntrinsics {
 // origin_v, width × height): outside it every probe reads kBackgroundDepthMm anyway, so features
 // computed on the crop with crop-relative coordinates equal those on the full frame, while the
 // probe images take a fraction of the memory (and cache). Inside, probe = depth of foreground
-// pixels, kBackgroundDepthMm elsewhere.
+// pixels, kBackgroundDepthMm elsewhere. make_training_image appends kProbePadding background
+// elements after the width × height ones: the trainer's AVX-512 kernel reads each probe as a 32-bit
+// word at the element's address, two bytes past it (an image without them gets a padded copy).
+constexpr size_t kProbePadding = 1;  // elements
 struct TrainingImage {
   int width = 0, height = 0;            // of the crop (≥ 1)
   int origin_u = 0, origin_v = 0;       // crop position in the frame
   int frame_width = 0, frame_height = 0;
   CameraIntrinsics camera;
   int32_t focal_factor = 1000;          // dp::focal_factor_mm(camera.fx, reference focal)
-  std::vector<uint16_t> probe;
+  std::vector<uint16_t> probe;          // width × height (+ kProbePadding), row-major; empty if not loaded here
   std::vector<float> joints;            // joint_count × {x, y, z} metres, camera frame (may be empty)
   std::string name;                     // "DIR frame ID", for messages
 };

@@ -399,12 +399,124 @@ __attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l
   bin_features(l, feature, bin);
 }
 
+// The AVX-512 kernels (x86-64 CPUs with AVX-512 F and BW): the same values as features_avx2 and
+// bin_features, 16 probes per instruction. Probes are vpgatherdd of 32-bit words at the 16-bit
+// elements' addresses, masked to the low half (little endian: the element itself); a word at the
+// last element reads two bytes past it, which is why ImageRef guarantees one element of padding.
+// Off-image lanes are masked out of the gather (no load) and keep the background value.
+#define DP_AVX512 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq")))
+// (The maskz forms with all lanes set: the plain intrinsics leave GCC 12 warning about their
+// undefined source operand.)
+constexpr __mmask16 kAll16 = 0xFFFF;
+struct ProbeAvx512 {
+  __m512i vs, vu, vv, w, h, half, background, low;
+  const void* base;
+};
+// One probe for 16 lanes (offset rows du, dv) at the pixel of q.
+DP_AVX512 __attribute__((always_inline)) inline __m512i probe_avx512(const ProbeAvx512& q, const int32_t* du,
+                                                                    const int32_t* dv) {
+  const __m512i pu = _mm512_add_epi32(
+      q.vu, _mm512_maskz_srai_epi32(kAll16, _mm512_add_epi32(_mm512_mullo_epi32(_mm512_loadu_si512(du), q.vs), q.half),
+                                    kScaleShift));
+  const __m512i pv = _mm512_add_epi32(
+      q.vv, _mm512_maskz_srai_epi32(kAll16, _mm512_add_epi32(_mm512_mullo_epi32(_mm512_loadu_si512(dv), q.vs), q.half),
+                                    kScaleShift));
+  const __mmask16 inside = _mm512_cmplt_epu32_mask(pu, q.w) & _mm512_cmplt_epu32_mask(pv, q.h);
+  const __m512i index = _mm512_add_epi32(_mm512_mullo_epi32(pv, q.w), pu);
+  return _mm512_and_si512(_mm512_mask_i32gather_epi32(q.background, inside, index, q.base, 2), q.low);
+}
+DP_AVX512 void features_avx512(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v, int32_t s,
+                               int16_t* feature) {
+  ProbeAvx512 q;
+  q.vs = _mm512_set1_epi32(s);
+  q.vu = _mm512_set1_epi32(u);
+  q.vv = _mm512_set1_epi32(v);
+  q.w = _mm512_set1_epi32(im.width);
+  q.h = _mm512_set1_epi32(im.height);
+  q.half = _mm512_set1_epi32(kScaleOneQ13 >> 1);
+  q.background = _mm512_set1_epi32(kBackgroundDepthMm);
+  q.low = _mm512_set1_epi32(0xFFFF);
+  q.base = im.probe;
+  const __m512i own = _mm512_set1_epi32(im.probe[v * im.width + u]);
+  for (int c = 0; c < l.padded; c += 16) {
+    const __m512i f = _mm512_sub_epi32(probe_avx512(q, &l.du1[c], &l.dv1[c]),
+                                       c + 16 <= l.unary ? own : probe_avx512(q, &l.du2[c], &l.dv2[c]));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(feature + c), _mm512_maskz_cvtsepi32_epi16(kAll16, f));
+  }
+}
+// bin[c] = the number of lane c's thresholds below feature[c], 32 lanes per instruction (the
+// last 16 of a count that is not a multiple of 32 with 256-bit registers).
+DP_AVX512 void bins_avx512(const CandidateLanes& l,
+                                                                             const int16_t* feature, int16_t* bin) {
+  const size_t stride = size_t(l.padded);
+  int c = 0;
+  const __m512i one = _mm512_set1_epi16(1);
+  for (; c + 32 <= l.padded; c += 32) {
+    const __m512i f = _mm512_loadu_si512(feature + c);
+    __m512i n0 = _mm512_setzero_si512(), n1 = n0, n2 = n0, n3 = n0;
+    const int16_t* t = l.table.data() + c;
+#define DP_COUNT(n, k) n = _mm512_mask_add_epi16(n, _mm512_cmpgt_epi16_mask(f, _mm512_loadu_si512(t + (k) * stride)), n, one)
+    int k = 0;
+    for (; k + 4 <= l.thresholds; k += 4) {
+      DP_COUNT(n0, k);
+      DP_COUNT(n1, k + 1);
+      DP_COUNT(n2, k + 2);
+      DP_COUNT(n3, k + 3);
+    }
+    for (; k < l.thresholds; ++k) DP_COUNT(n0, k);
+#undef DP_COUNT
+    _mm512_storeu_si512(bin + c, _mm512_add_epi16(_mm512_add_epi16(n0, n1), _mm512_add_epi16(n2, n3)));
+  }
+  if (c < l.padded) {
+    const __m256i f = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(feature + c));
+    __m256i n = _mm256_setzero_si256();
+    const __m256i one8 = _mm256_set1_epi16(1);
+    const int16_t* t = l.table.data() + c;
+    for (int k = 0; k < l.thresholds; ++k)
+      n = _mm256_mask_add_epi16(n, _mm256_cmpgt_epi16_mask(f, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t + k * stride))), n, one8);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(bin + c), n);
+  }
+}
+// cell[c] = bin[c] × nc + c for c < nc (rounded up to 16): a classification pixel's histogram
+// cells within its class's block (count_pixel), 16 per instruction.
+DP_AVX512 void cells_avx512(const int16_t* bin, int nc, int32_t* cell) {
+  const __m512i vnc = _mm512_set1_epi32(nc), step = _mm512_set1_epi32(16);
+  __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  for (int c = 0; c < nc; c += 16, lane = _mm512_add_epi32(lane, step)) {
+    const __m512i b = _mm512_maskz_cvtepi16_epi32(kAll16, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(bin + c)));
+    _mm512_storeu_si512(cell + c, _mm512_add_epi32(_mm512_mullo_epi32(b, vnc), lane));
+  }
+}
+DP_AVX512 void pixel_features_avx512(const CandidateLanes& l,
+                                                                                       const ImageRef& im, int32_t u,
+                                                                                       int32_t v, int32_t s,
+                                                                                       int16_t* feature, int16_t* bin) {
+  features_avx512(l, im, u, v, s, feature);
+  bins_avx512(l, feature, bin);
+}
+
 // AVX2 when the CPU has it (same results: integer arithmetic throughout, tested against the
 // forests of the scalar version).
 using PixelFeaturesFn = void (*)(const CandidateLanes&, const ImageRef&, int32_t, int32_t, int32_t, int16_t*, int16_t*);
-PixelFeaturesFn pick_pixel_features() {
-  if (std::getenv("DEPTHPOSE_TRAIN_NO_AVX2") == nullptr && __builtin_cpu_supports("avx2")) return pixel_features_avx2;
-  return pixel_features;
+using RowFeaturesFn = void (*)(const CandidateLanes&, const ImageRef&, int32_t, int32_t, int32_t, int16_t*);
+using RowBinsFn = void (*)(const CandidateLanes&, const int16_t*, int16_t*);
+// The kernels a Grower uses, chosen once per process from the CPU: AVX-512 (F, BW, VL, DQ), else
+// AVX2, else the portable ones (row = nullptr: candidate groups then go through block_features).
+// DEPTHPOSE_TRAIN_NO_AVX512=1 skips the first, DEPTHPOSE_TRAIN_NO_AVX2=1 both (tests compare the
+// forests of all three).
+struct TrainKernels {
+  PixelFeaturesFn pixel = pixel_features;  // features and bins of one pixel
+  RowFeaturesFn row = nullptr;             // features only (vector kernels)
+  RowBinsFn bins = nullptr;                // bins of stored features (vector kernels)
+  void (*cells)(const int16_t*, int, int32_t*) = nullptr;  // count_pixel's cell indices (AVX-512)
+};
+TrainKernels pick_kernels() {
+  TrainKernels k;
+  if (std::getenv("DEPTHPOSE_TRAIN_NO_AVX2") != nullptr || !__builtin_cpu_supports("avx2")) return k;
+  if (std::getenv("DEPTHPOSE_TRAIN_NO_AVX512") == nullptr && __builtin_cpu_supports("avx512f") &&
+      __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512dq"))
+    return {pixel_features_avx512, features_avx512, bins_avx512, cells_avx512};
+  return {pixel_features_avx2, features_avx2, bins_avx2};
 }
 
 // Classification scores (Eq. 7 with Eq. 8, the objective score_group minimizes) of four adjacent
@@ -544,6 +656,7 @@ struct Scratch {
   std::vector<Candidate> candidates;
   CandidateLanes lanes;
   std::vector<int16_t> feature, bin;  // one pixel's features and bins per lane (pixel_features)
+  std::vector<int32_t> cell;          // one pixel's histogram cells per lane (count_pixel)
   std::vector<int16_t> sample_features;  // threshold sample × lanes (prepare_group)
   std::vector<int16_t> node_features;    // a small node's pixels × lanes (prepare_stored_group)
   std::vector<uint16_t> network;         // sort_int16_columns' comparators
@@ -563,9 +676,21 @@ class Grower {
       : set_(set), px_(pixels), tree_(tree), p_(params) {
     joints_ = static_cast<int>(set.joint_names.size());
     chunk_ = p_.objective == Objective::kClassification ? 16 : 4;
-    features_ = pick_pixel_features();
+    kernels_ = pick_kernels();
+    features_ = kernels_.pixel;
     images_.reserve(set.images.size());
-    for (const TrainingImage& im : set.images) images_.push_back({im.probe.data(), im.width, im.height});
+    for (const TrainingImage& im : set.images) {
+      // The AVX-512 kernel reads kProbePadding elements past the crop (TrainingImage): images
+      // built without them (by hand, in tests) are read from a padded copy.
+      const size_t cells = size_t(im.width) * im.height;
+      const uint16_t* probe = im.probe.data();
+      if (!im.probe.empty() && im.probe.size() < cells + kProbePadding) {
+        padded_probes_.emplace_back(im.probe);
+        padded_probes_.back().resize(cells + kProbePadding, kBackgroundDepthMm);
+        probe = padded_probes_.back().data();
+      }
+      images_.push_back({probe, im.width, im.height});
+    }
     scratch_.resize(std::max(1, p_.threads));
     groups_.resize(std::max(1, p_.threads));
   }
@@ -670,10 +795,10 @@ class Grower {
     for (int i = 0; i < count; ++i) {
       if (positions[i] < node.first || positions[i] - node.first >= node.end - node.begin) continue;
       const TrainingPixel& p = px_[node.begin + (positions[i] - node.first)];
-      const TrainingImage& im = set_.images[p.image];
+      const ImageRef& im = images_[p.image];
       const int k = b.count++;
       slots[k] = i;
-      b.image[k] = im.probe.data();
+      b.image[k] = im.probe;
       b.width[k] = im.width;
       b.height[k] = im.height;
       b.u[k] = p.u;
@@ -778,7 +903,7 @@ class Grower {
     g.c1 = c1;
     g.candidates.resize(c1 - c0);
     decode_sample(node, s.sample);
-    if (features_ != pixel_features_avx2) {
+    if (!kernels_.row) {
       for (int c = 0; c < c1 - c0; ++c) make_candidate(node, c0 + c, s.sample, g.candidates[c]);
       finish_group(g);
       return;
@@ -792,7 +917,7 @@ class Grower {
     const int n = s.sample.count;
     s.sample_features.resize(n * padded);
     for (int i = 0; i < n; ++i)
-      features_avx2(g.lanes, {s.sample.image[i], s.sample.width[i], s.sample.height[i]}, s.sample.u[i], s.sample.v[i],
+      kernels_.row(g.lanes, {s.sample.image[i], s.sample.width[i], s.sample.height[i]}, s.sample.u[i], s.sample.v[i],
                     s.sample.scale[i], s.sample_features.data() + i * padded);
     set_lane_thresholds(g, s.sample_features.data(), n, thread);
   }
@@ -800,7 +925,7 @@ class Grower {
   // the node's pixels in this process, and their features within kStoredFeatureBytes.
   bool stores_features(const NodeInfo& node, int c0, int c1) const {
     const size_t padded = size_t(c1 - c0 + kLanes - 1) / kLanes * kLanes;
-    return features_ == pixel_features_avx2 && node.first == 0 && node.count == node.end - node.begin &&
+    return kernels_.row && node.first == 0 && node.count == node.end - node.begin &&
            size_t(node.count) * padded * sizeof(int16_t) <= kStoredFeatureBytes;
   }
   // The same group as prepare_group, for a node where stores_features(): the features of all the
@@ -827,12 +952,12 @@ class Grower {
   // row[0, l.padded).
   void pixel_feature_row(const CandidateLanes& l, uint32_t i, int16_t* row) const {
     const TrainingPixel& p = px_[i];
-    if (features_ == pixel_features_avx2)
-      features_avx2(l, images_[p.image], p.u, p.v, p.scale_q13, row);
+    if (kernels_.row)
+      kernels_.row(l, images_[p.image], p.u, p.v, p.scale_q13, row);
     else
       features_scalar(l, images_[p.image], p.u, p.v, p.scale_q13, row);
   }
-  bool has_avx2_kernel() const { return features_ == pixel_features_avx2; }
+  bool has_avx2_kernel() const { return kernels_.row != nullptr; }
   // The offset lanes of all candidates of `node` (what pixel_feature_row reads), drawn by draw_group
   // in the thread's group and copied out.
   void offset_lanes(const NodeInfo& node, CandidateLanes& l, int thread) {
@@ -863,7 +988,7 @@ class Grower {
     const size_t padded = size_t(g.lanes.padded);
     uint32_t positions[kBlock];
     const int n = sample_positions(node, positions);
-    if (features_ == pixel_features_avx2) {
+    if (kernels_.row) {
       s.sample_features.resize(size_t(n) * padded);
       for (int i = 0; i < n; ++i)
         std::memcpy(s.sample_features.data() + i * padded, rows + positions[i] * padded, padded * sizeof(int16_t));
@@ -928,6 +1053,7 @@ class Grower {
     Scratch& s = scratch_[thread];
     s.feature.resize(l.padded);
     s.bin.resize(l.padded);
+    s.cell.resize(l.padded);
     int16_t* bin = s.bin.data();
     for (uint32_t i = begin; i < end; ++i) {
       const TrainingPixel& p = px_[i];
@@ -935,14 +1061,21 @@ class Grower {
         bin_row(l, stored + size_t(i - node.begin) * l.padded, bin);
       else
         features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), bin);
-      count_pixel(g, bin, node.class_of[p.label], counts);
+      count_pixel(g, bin, node.class_of[p.label], counts, s.cell.data());
     }
   }
   // Adds one pixel of compact class `cls` with bins `bin` (by lane) to a classification histogram
   // (cells [class][bin][lane]).
-  static void count_pixel(const CandidateGroup& g, const int16_t* bin, int cls, uint32_t* counts) {
+  // `cell`: scratch of g.lanes.padded entries.
+  void count_pixel(const CandidateGroup& g, const int16_t* bin, int cls, uint32_t* counts, int32_t* cell) const {
     const int nc = g.c1 - g.c0;
     uint32_t* h = counts + size_t(cls) * g.bins * nc;
+    if (kernels_.cells) {
+      // The cells' indices with vector arithmetic first: the increments are then a load and an add.
+      kernels_.cells(bin, nc, cell);
+      for (int c = 0; c < nc; ++c) ++h[cell[c]];
+      return;
+    }
     for (int c = 0; c < nc; ++c) ++h[bin[c] * nc + c];
   }
   // Adds one pixel's offsets (pixel_offsets) with bins `bin` (by lane) to a regression histogram
@@ -959,8 +1092,8 @@ class Grower {
   // Bins of one pixel's stored features (g.lanes.padded of them): the same bins as the pixel
   // kernels give.
   void bin_row(const CandidateLanes& l, const int16_t* feature, int16_t* bin) const {
-    if (features_ == pixel_features_avx2)
-      bins_avx2(l, feature, bin);
+    if (kernels_.bins)
+      kernels_.bins(l, feature, bin);
     else
       bins_sse2(l, feature, bin);
   }
@@ -970,7 +1103,7 @@ class Grower {
     const int k = node.classes, nc = g.c1 - g.c0, bins = g.bins;
     const uint32_t n = node.count;
     Best best;
-    if (features_ == pixel_features_avx2 && n < uint32_t(kNLogNTable) && nc >= 4) {
+    if (kernels_.row && n < uint32_t(kNLogNTable) && nc >= 4) {
       // Scores of all lanes first (four at a time, the last few lanes by the scalar rule), then
       // the same scan as below in candidate order: the same strict comparisons on the same values.
       scratch.scores.resize(size_t(nc) * bins);
@@ -1153,11 +1286,12 @@ class Grower {
     for (size_t i = 0; i < n; ++i) std::memcpy(rows + i * padded, features + i * nc, nc * sizeof(int16_t));
     thresholds_from_rows(node, rows, g, thread);
     s.bin.resize(padded);
+    s.cell.resize(padded);
     if (classification()) {
       s.counts.assign(g.histogram_cells(node), 0);
       for (size_t i = 0; i < n; ++i) {
         bin_row(g.lanes, rows + i * padded, s.bin.data());
-        count_pixel(g, s.bin.data(), node.class_of[targets[i * target_bytes()]], s.counts.data());
+        count_pixel(g, s.bin.data(), node.class_of[targets[i * target_bytes()]], s.counts.data(), s.cell.data());
       }
       return score_group(node, g, s.counts.data(), s.score);
     }
@@ -1202,6 +1336,8 @@ class Grower {
   int joints_ = 0;
   int chunk_ = 16;
   std::vector<ImageRef> images_;
+  std::vector<std::vector<uint16_t>> padded_probes_;  // copies of unpadded images (see the constructor)
+  TrainKernels kernels_;
   PixelFeaturesFn features_ = pixel_features;
   std::vector<Scratch> scratch_;
   std::vector<CandidateGroup> groups_;  // per thread, for evaluate()
