@@ -134,6 +134,21 @@ TEST(TrainGolden, Avx512KernelGrowsTheSameForestAsAvx2) {
               kGoldenCases[0].digest);
 }
 
+// training_kernel_name() names the kernel the environment and the CPU select.
+TEST(TrainGolden, KernelNameFollowsTheCpuAndTheEnvironment) {
+  const bool avx2 = __builtin_cpu_supports("avx2");
+  const bool avx512 = avx2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                      __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512dq");
+  EXPECT_STREQ(training_kernel_name(), avx512 ? "avx512" : avx2 ? "avx2" : "portable");
+  ASSERT_EQ(setenv("DEPTHPOSE_TRAIN_NO_AVX512", "1", 1), 0);
+  EXPECT_STREQ(training_kernel_name(), avx2 ? "avx2" : "portable");
+  ASSERT_EQ(setenv("DEPTHPOSE_TRAIN_NO_AVX2", "1", 1), 0);
+  EXPECT_STREQ(training_kernel_name(), "portable");
+  unsetenv("DEPTHPOSE_TRAIN_NO_AVX512");
+  EXPECT_STREQ(training_kernel_name(), "portable");
+  unsetenv("DEPTHPOSE_TRAIN_NO_AVX2");
+}
+
 // Training images are padded with kProbePadding background elements (the AVX-512 kernel reads
 // 32-bit words at 16-bit elements); a set built without the padding (by hand) is read from padded
 // copies and grows the same forest.

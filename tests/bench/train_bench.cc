@@ -66,9 +66,9 @@ int main() {
   }
   const double make_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("train_bench: %zu images %s x %d px = %zu training pixels (made in %.1f s), 1 tree, depth %d, "
-              "%d offsets x %d thresholds, %d threads\n",
+              "%d offsets x %d thresholds, %d threads, %s kernels\n",
               set.images.size(), data ? data : "320x240 stick bodies", pixels, set.tree_pixels[0].size(), make_s, depth,
-              offsets, thresholds, threads);
+              offsets, thresholds, threads, dp::train::training_kernel_name());
   std::fflush(stdout);
 
   ForestOptions fo;

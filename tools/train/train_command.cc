@@ -245,7 +245,7 @@ int train_main(int argc, char** argv, Communicator* comm) {
   if (so.trees < 1 || so.trees > 64) tools::fail("--trees must be 1..64");
   if (so.pixels_per_image < 1) tools::fail("--pixels-per-image must be >= 1");
 
-  if (!quiet) std::fprintf(stderr, "train: loading %zu dataset(s)...\n", dirs.size());
+  if (!quiet) std::fprintf(stderr, "train: loading %zu dataset(s)... (%s split-search kernels)\n", dirs.size(), training_kernel_name());
   const TrainingSet set = load_training_set(dirs, so);
   const size_t images_used = [&] {
     size_t n = 0;

@@ -510,6 +510,15 @@ struct TrainKernels {
   RowBinsFn bins = nullptr;                // bins of stored features (vector kernels)
   void (*cells)(const int16_t*, int, int32_t*) = nullptr;  // count_pixel's cell indices (AVX-512)
 };
+TrainKernels pick_kernels();
+}  // namespace
+
+const char* training_kernel_name() {
+  const TrainKernels k = pick_kernels();
+  return k.pixel == pixel_features_avx512 ? "avx512" : k.pixel == pixel_features_avx2 ? "avx2" : "portable";
+}
+
+namespace {
 TrainKernels pick_kernels() {
   TrainKernels k;
   if (std::getenv("DEPTHPOSE_TRAIN_NO_AVX2") != nullptr || !__builtin_cpu_supports("avx2")) return k;

@@ -143,6 +143,11 @@ double sum_squared_deviation(const JointOffsetStats* stats, int joints);
 double regression_objective(const JointOffsetStats* left, const JointOffsetStats* right, int joints,
                             double left_pixels, double right_pixels);
 
+// The split-search kernels this process uses, chosen from the CPU and the environment
+// (DEPTHPOSE_TRAIN_NO_AVX512, DEPTHPOSE_TRAIN_NO_AVX2): "avx512", "avx2" or "portable". All grow
+// the same forests; they differ in speed (docs/training.md "Throughput").
+const char* training_kernel_name();
+
 // Sorts the `lanes` columns of an int16 table with `n` rows (row r at rows + r × stride) each
 // ascending, independently: the threshold samples of a candidate group, 16 columns per AVX2
 // instruction with AVX2 (Batcher's odd–even merge network, the same comparators for every
