@@ -423,3 +423,46 @@ TEST(SkeletonEvalSwapCause, ClassifiesChoiceFacingParentPairAndFirstProposal) {
   sk.facing_known = 0;
   EXPECT_FALSE(swap_cause(kWristL, sk, out, located, truth, false, truth[kWristL]).facing_crossed);
 }
+
+// skeleton-eval's per-frame figures: a crossed pair counts as crossed for both of its joints,
+// the left one too (whose mirror joint comes after it in the joint order).
+TEST(SkeletonEvalFrameFigures, ACrossedPairCountsForTheLeftAndTheRightJoint) {
+  std::array<Position, kSkeletonJoints> truth{};
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    const double side = j >= kShoulderL ? ((j - kShoulderL) % 2 == 0 ? 1.0 : -1.0) : 0.0;
+    truth[size_t(j)] = {side * 0.2, 0.8 - 0.1 * j, 2.5};
+  }
+  Skeleton sk{};
+  sk.facing_known = 1;
+  sk.facing[2] = -1.0f;
+  auto proposals = std::make_unique<FrameResult>();
+  proposals->joint_count = kSkeletonJoints;
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    // Every joint tracked at its truth, its first proposal there too; the wrists exchanged.
+    const int at = j == kWristL ? kWristR : j == kWristR ? kWristL : j;
+    TrackedJoint& t = sk.joints[j];
+    t.x_m = float(truth[size_t(at)][0]);
+    t.y_m = float(truth[size_t(at)][1]);
+    t.z_m = float(truth[size_t(at)][2]);
+    t.state = JointState::kTracked;
+    t.confidence = 0.5f;
+    t.evidence = 5;
+    t.proposal = 0;
+    t.proposal_joint = j;
+    proposals->proposal_count[j] = 1;
+    proposals->proposals[j][0] = {t.x_m, t.y_m, t.z_m, 1.0f};
+  }
+  SkeletonEvalReport rep;
+  add_frame_figures(sk, *proposals, truth, &rep);
+  EXPECT_EQ(rep.lr_joint_frames, 14);
+  EXPECT_EQ(rep.tracker_swaps, 2);
+  EXPECT_EQ(rep.proposal_swaps, 2);
+  EXPECT_EQ(rep.tracker_swaps_by_joint[kWristL], 1);
+  EXPECT_EQ(rep.tracker_swaps_by_joint[kWristR], 1);
+  EXPECT_EQ(rep.tracker_swap_pair_crossed[kWristL], 1);
+  EXPECT_EQ(rep.tracker_swap_pair_crossed[kWristR], 1);
+  EXPECT_EQ(rep.tracker_swap_choice[kWristL][size_t(SwapChoice::kOwnFirst)], 1);
+  EXPECT_EQ(rep.tracker_swap_first_right[kWristL], 0);
+  EXPECT_EQ(rep.tracker_hits[kWristL], 0);
+  EXPECT_EQ(rep.tracker_hits[kElbowL], 1);
+}

@@ -143,6 +143,58 @@ SwapCause swap_cause(int j, const Skeleton& sk, const std::array<Position, kSkel
   return c;
 }
 
+void add_frame_figures(const Skeleton& sk, const FrameResult& proposals, const std::array<Position, kSkeletonJoints>& truth,
+                       SkeletonEvalReport* rep_out) {
+  SkeletonEvalReport& rep = *rep_out;
+  // Every joint's output first: a swap's cause reads the mirror joint's, which for a left joint
+  // comes later in the joint order.
+  std::array<Vec, kSkeletonJoints> out{};
+  std::array<bool, kSkeletonJoints> located{};
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    const TrackedJoint& tj = sk.joints[j];
+    located[size_t(j)] = tj.state != JointState::kMissing;
+    out[size_t(j)] = {tj.x_m, tj.y_m, tj.z_m};
+  }
+  for (int j = 0; j < kSkeletonJoints; ++j) {
+    const TrackedJoint& tj = sk.joints[j];
+    ++rep.state_count[size_t(tj.state)];
+    const bool hit = located[size_t(j)] && dist(out[size_t(j)], truth[size_t(j)]) <= kHitM;
+    if (located[size_t(j)]) {
+      const int bin = std::min(9, int(tj.confidence * 10.0f));
+      ++rep.bin_count[size_t(bin)];
+      rep.bin_confidence_sum[size_t(bin)] += tj.confidence;
+      rep.bin_hits[size_t(bin)] += hit;
+      const int cls = tj.evidence;
+      ++rep.class_count[size_t(cls)];
+      rep.class_hits[size_t(cls)] += hit;
+    }
+    ++rep.joint_frames[size_t(j)];
+    rep.tracker_hits[size_t(j)] += hit;
+    const bool has_proposal = proposals.proposal_count[j] > 0;
+    const JointProposal& p0 = proposals.proposals[j][0];
+    const Vec first{p0.x_m, p0.y_m, p0.z_m};
+    rep.proposal_hits[size_t(j)] += has_proposal && dist(first, truth[size_t(j)]) <= kHitM;
+    if (!is_left_right(j)) continue;
+    ++rep.lr_joint_frames;
+    const bool proposal_swap = has_proposal && swapped(j, first, truth);
+    const bool tracker_swap = located[size_t(j)] && swapped(j, out[size_t(j)], truth);
+    rep.proposal_swaps += proposal_swap;
+    rep.tracker_swaps += tracker_swap;
+    rep.proposal_swaps_by_joint[size_t(j)] += proposal_swap;
+    rep.proposal_nearer_mirror += has_proposal && nearer_mirror(j, first, truth);
+    rep.tracker_nearer_mirror += located[size_t(j)] && nearer_mirror(j, out[size_t(j)], truth);
+    rep.tracker_swaps_by_joint[size_t(j)] += tracker_swap;
+    if (tracker_swap) {
+      const SwapCause cause = swap_cause(j, sk, out, located, truth, has_proposal, first);
+      ++rep.tracker_swap_choice[size_t(j)][size_t(cause.choice)];
+      rep.tracker_swap_facing_flipped[size_t(j)] += cause.facing_crossed;
+      rep.tracker_swap_parent_swapped[size_t(j)] += cause.parent_swapped;
+      rep.tracker_swap_pair_crossed[size_t(j)] += cause.pair_crossed;
+      rep.tracker_swap_first_right[size_t(j)] += cause.first_right;
+    }
+  }
+}
+
 SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& o) {
   std::vector<uint8_t> blob_bytes = blob::read_blob_file(o.blob_path);
   const blob::LoadedBlob b = load_blob_or_fail(blob_bytes, o.blob_path);
@@ -239,44 +291,8 @@ SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& o) {
               const TrackedJoint& tj = sk.joints[j];
               located[size_t(j)] = tj.state != JointState::kMissing;
               out[size_t(j)] = {tj.x_m, tj.y_m, tj.z_m};
-              if (f != kDefaultFilter) continue;
-              ++rep.state_count[size_t(tj.state)];
-              const bool hit = located[size_t(j)] && dist(out[size_t(j)], truth[size_t(j)]) <= kHitM;
-              if (located[size_t(j)]) {
-                const int bin = std::min(9, int(tj.confidence * 10.0f));
-                ++rep.bin_count[size_t(bin)];
-                rep.bin_confidence_sum[size_t(bin)] += tj.confidence;
-                rep.bin_hits[size_t(bin)] += hit;
-                const int cls = tj.evidence;
-                ++rep.class_count[size_t(cls)];
-                rep.class_hits[size_t(cls)] += hit;
-              }
-              ++rep.joint_frames[size_t(j)];
-              rep.tracker_hits[size_t(j)] += hit;
-              const bool has_proposal = result->proposal_count[j] > 0;
-              const JointProposal& p0 = result->proposals[j][0];
-              const Vec first{p0.x_m, p0.y_m, p0.z_m};
-              rep.proposal_hits[size_t(j)] += has_proposal && dist(first, truth[size_t(j)]) <= kHitM;
-              if (is_left_right(j)) {
-                ++rep.lr_joint_frames;
-                const bool proposal_swap = has_proposal && swapped(j, first, truth);
-                const bool tracker_swap = located[size_t(j)] && swapped(j, out[size_t(j)], truth);
-                rep.proposal_swaps += proposal_swap;
-                rep.tracker_swaps += tracker_swap;
-                rep.proposal_swaps_by_joint[size_t(j)] += proposal_swap;
-                rep.proposal_nearer_mirror += has_proposal && nearer_mirror(j, first, truth);
-                rep.tracker_nearer_mirror += located[size_t(j)] && nearer_mirror(j, out[size_t(j)], truth);
-                rep.tracker_swaps_by_joint[size_t(j)] += tracker_swap;
-                if (tracker_swap) {
-                  const SwapCause cause = swap_cause(j, sk, out, located, truth, has_proposal, first);
-                  ++rep.tracker_swap_choice[size_t(j)][size_t(cause.choice)];
-                  rep.tracker_swap_facing_flipped[size_t(j)] += cause.facing_crossed;
-                  rep.tracker_swap_parent_swapped[size_t(j)] += cause.parent_swapped;
-                  rep.tracker_swap_pair_crossed[size_t(j)] += cause.pair_crossed;
-                  rep.tracker_swap_first_right[size_t(j)] += cause.first_right;
-                }
-              }
             }
+            if (f == kDefaultFilter) add_frame_figures(sk, *result, truth, &rep);
           }
           track.out[f].push_back(out);
           track.located[f].push_back(located);

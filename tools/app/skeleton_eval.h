@@ -76,6 +76,13 @@ SwapCause swap_cause(int joint, const Skeleton& sk, const std::array<Position, k
                      const std::array<bool, kSkeletonJoints>& located, const std::array<Position, kSkeletonJoints>& truth,
                      bool has_first, const Position& first);
 
+// Adds one scored body-frame of the default-filter tracker to `rep`: per joint the state, the
+// confidence bin and evidence class, hits of the reported joint and of the first proposal
+// (`proposals`), and for the left/right joints the swaps and the causes of the tracker's
+// (swap_cause, read with every joint of `sk` placed). `truth` in metres, camera frame.
+void add_frame_figures(const Skeleton& sk, const FrameResult& proposals, const std::array<Position, kSkeletonJoints>& truth,
+                       SkeletonEvalReport* rep);
+
 // Throws ToolError for a missing/bad blob or dataset (naming it) or a blob whose joints are not the
 // tracker's 16.
 SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& options);
