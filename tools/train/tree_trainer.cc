@@ -416,10 +416,10 @@ struct ProbeAvx512 {
 DP_AVX512 __attribute__((always_inline)) inline __m512i probe_avx512(const ProbeAvx512& q, const int32_t* du,
                                                                     const int32_t* dv) {
   const __m512i pu = _mm512_add_epi32(
-      q.vu, _mm512_maskz_srai_epi32(kAll16, _mm512_add_epi32(_mm512_mullo_epi32(_mm512_loadu_si512(du), q.vs), q.half),
+      q.vu, _mm512_maskz_srai_epi32(kAll16, _mm512_add_epi32(_mm512_madd_epi16(_mm512_loadu_si512(du), q.vs), q.half),
                                     kScaleShift));
   const __m512i pv = _mm512_add_epi32(
-      q.vv, _mm512_maskz_srai_epi32(kAll16, _mm512_add_epi32(_mm512_mullo_epi32(_mm512_loadu_si512(dv), q.vs), q.half),
+      q.vv, _mm512_maskz_srai_epi32(kAll16, _mm512_add_epi32(_mm512_madd_epi16(_mm512_loadu_si512(dv), q.vs), q.half),
                                     kScaleShift));
   const __mmask16 inside = _mm512_cmplt_epu32_mask(pu, q.w) & _mm512_cmplt_epu32_mask(pv, q.h);
   const __m512i index = _mm512_add_epi32(_mm512_mullo_epi32(pv, q.w), pu);
@@ -1082,6 +1082,7 @@ class Grower {
     if (kernels_.cells) {
       // The cells' indices with vector arithmetic first: the increments are then a load and an add.
       kernels_.cells(bin, nc, cell);
+#pragma GCC unroll 4
       for (int c = 0; c < nc; ++c) ++h[cell[c]];
       return;
     }
