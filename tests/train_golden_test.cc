@@ -43,6 +43,18 @@ ForestOptions golden_options(const std::string& method, Objective objective, int
   return fo;
 }
 
+// A small set grown deep with the shipped recipe's 400 candidates (an OJR forest, so that both
+// objectives apply): nearly every node below the first levels is small enough to store its
+// features (the comparisons of kernels below).
+ForestOptions deep_options(Objective objective) {
+  ForestOptions fo = golden_options("ojr", objective, 2);
+  fo.tree.max_depth = 12;
+  fo.tree.offset_candidates = 400;
+  fo.tree.min_samples = 4;
+  fo.leaf.reservoir = 8;
+  return fo;
+}
+
 struct GoldenCase {
   const char* name;
   std::string method;
@@ -89,11 +101,7 @@ TEST(TrainGolden, PortableKernelGrowsTheSameForest) {
 TEST(TrainGolden, StoredFeaturesOfSmallNodesGrowTheSameForest) {
   const TrainingSet set = testing_bodies::stick_body_set(6, 120, 1, 7);
   for (Objective objective : {Objective::kClassification, Objective::kRegression}) {
-    ForestOptions fo = golden_options("ojr", objective, 2);
-    fo.tree.max_depth = 12;
-    fo.tree.offset_candidates = 400;
-    fo.tree.min_samples = 4;
-    fo.leaf.reservoir = 8;
+    const ForestOptions fo = deep_options(objective);
     const TrainedForest avx2 = train_forest(set, fo, {});
     ASSERT_EQ(setenv("DEPTHPOSE_TRAIN_NO_AVX2", "1", 1), 0);
     const TrainedForest portable = train_forest(set, fo, {});
@@ -114,11 +122,7 @@ TEST(TrainGolden, Avx512KernelGrowsTheSameForestAsAvx2) {
     GTEST_SKIP() << "this CPU has no AVX-512 F/BW/VL/DQ: the AVX-512 training kernel cannot run here";
   const TrainingSet set = testing_bodies::stick_body_set(6, 120, 1, 7);
   for (Objective objective : {Objective::kClassification, Objective::kRegression}) {
-    ForestOptions fo = golden_options("ojr", objective, 2);
-    fo.tree.max_depth = 12;
-    fo.tree.offset_candidates = 400;
-    fo.tree.min_samples = 4;
-    fo.leaf.reservoir = 8;
+    const ForestOptions fo = deep_options(objective);
     const TrainedForest avx512 = train_forest(set, fo, {});
     ASSERT_EQ(setenv("DEPTHPOSE_TRAIN_NO_AVX512", "1", 1), 0);
     const TrainedForest avx2 = train_forest(set, fo, {});
