@@ -376,15 +376,23 @@ TEST(AppCli, SubcommandsAreRegisteredWithHelp) {
   }
 }
 
-// skeleton-eval --swap-causes: a tracker swap is classified by what the tracker took and by the
-// state of the torso, the parent and the mirror joint around it.
-TEST(SkeletonEvalSwapCause, ClassifiesChoiceFacingParentPairAndFirstProposal) {
-  // A body facing the camera (−z) 2.5 m away, its left at +x.
+namespace {
+// The joints of a body facing the camera (−z) 2.5 m away, its left at +x, 0.2 m either side of
+// the mid-plane, one joint 0.1 m below the other.
+std::array<Position, kSkeletonJoints> body_facing_the_camera() {
   std::array<Position, kSkeletonJoints> truth{};
   for (int j = 0; j < kSkeletonJoints; ++j) {
     const double side = j >= kShoulderL ? ((j - kShoulderL) % 2 == 0 ? 1.0 : -1.0) : 0.0;
     truth[size_t(j)] = {side * 0.2, 0.8 - 0.1 * j, 2.5};
   }
+  return truth;
+}
+}  // namespace
+
+// skeleton-eval --swap-causes: a tracker swap is classified by what the tracker took and by the
+// state of the torso, the parent and the mirror joint around it.
+TEST(SkeletonEvalSwapCause, ClassifiesChoiceFacingParentPairAndFirstProposal) {
+  const std::array<Position, kSkeletonJoints> truth = body_facing_the_camera();
   Skeleton sk{};
   sk.facing_known = 1;
   sk.facing[2] = -1.0f;  // as the truth's
@@ -427,11 +435,7 @@ TEST(SkeletonEvalSwapCause, ClassifiesChoiceFacingParentPairAndFirstProposal) {
 // skeleton-eval's per-frame figures: a crossed pair counts as crossed for both of its joints,
 // the left one too (whose mirror joint comes after it in the joint order).
 TEST(SkeletonEvalFrameFigures, ACrossedPairCountsForTheLeftAndTheRightJoint) {
-  std::array<Position, kSkeletonJoints> truth{};
-  for (int j = 0; j < kSkeletonJoints; ++j) {
-    const double side = j >= kShoulderL ? ((j - kShoulderL) % 2 == 0 ? 1.0 : -1.0) : 0.0;
-    truth[size_t(j)] = {side * 0.2, 0.8 - 0.1 * j, 2.5};
-  }
+  const std::array<Position, kSkeletonJoints> truth = body_facing_the_camera();
   Skeleton sk{};
   sk.facing_known = 1;
   sk.facing[2] = -1.0f;

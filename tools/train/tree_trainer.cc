@@ -686,7 +686,6 @@ class Grower {
     joints_ = static_cast<int>(set.joint_names.size());
     chunk_ = p_.objective == Objective::kClassification ? 16 : 4;
     kernels_ = pick_kernels();
-    features_ = kernels_.pixel;
     images_.reserve(set.images.size());
     for (const TrainingImage& im : set.images) {
       // The AVX-512 kernel reads kProbePadding elements past the crop (TrainingImage): images
@@ -1069,7 +1068,7 @@ class Grower {
       if (stored)
         bin_row(l, stored + size_t(i - node.begin) * l.padded, bin);
       else
-        features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), bin);
+        kernels_.pixel(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), bin);
       count_pixel(g, bin, node.class_of[p.label], counts, s.cell.data());
     }
   }
@@ -1182,7 +1181,7 @@ class Grower {
       if (stored)
         bin_row(l, stored + size_t(i - begin) * l.padded, s.bin.data());
       else
-        features_(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
+        kernels_.pixel(l, images_[p.image], p.u, p.v, p.scale_q13, s.feature.data(), s.bin.data());
       pixel_offsets(p, s.offsets.data());
       add_regression_pixel(g, s.bin.data(), s.offsets.data(), counts, sums);
     }
@@ -1348,7 +1347,6 @@ class Grower {
   std::vector<ImageRef> images_;
   std::vector<std::vector<uint16_t>> padded_probes_;  // copies of unpadded images (see the constructor)
   TrainKernels kernels_;
-  PixelFeaturesFn features_ = pixel_features;
   std::vector<Scratch> scratch_;
   std::vector<CandidateGroup> groups_;  // per thread, for evaluate()
 };
