@@ -98,18 +98,24 @@ TEST(TrainGolden, PortableKernelGrowsTheSameForest) {
 // kernel evaluates the samples separately. On a small set grown deep with the shipped recipe's
 // 400 candidates nearly every node below the first levels takes the stored path, so equal forests
 // for both kernels (both objectives, whose histograms differ) show that path changes no split.
-TEST(TrainGolden, StoredFeaturesOfSmallNodesGrowTheSameForest) {
+// The deep forests of deep_options, both objectives, grown with the default kernel and again with
+// `disable` set: equal digests, and deep enough to have many small nodes.
+void expect_same_deep_forests_without(const char* disable) {
   const TrainingSet set = testing_bodies::stick_body_set(6, 120, 1, 7);
   for (Objective objective : {Objective::kClassification, Objective::kRegression}) {
     const ForestOptions fo = deep_options(objective);
-    const TrainedForest avx2 = train_forest(set, fo, {});
-    ASSERT_EQ(setenv("DEPTHPOSE_TRAIN_NO_AVX2", "1", 1), 0);
-    const TrainedForest portable = train_forest(set, fo, {});
-    unsetenv("DEPTHPOSE_TRAIN_NO_AVX2");
-    EXPECT_GT(avx2.trees[0].nodes.size(), 100u) << "the tree should be deep enough to have many small nodes";
-    EXPECT_EQ(hex(forest_digest(avx2)), hex(forest_digest(portable)))
-        << (objective == Objective::kClassification ? "classification" : "regression");
+    const TrainedForest by_default = train_forest(set, fo, {});
+    ASSERT_EQ(setenv(disable, "1", 1), 0);
+    const TrainedForest other = train_forest(set, fo, {});
+    unsetenv(disable);
+    EXPECT_GT(by_default.trees[0].nodes.size(), 100u) << "the tree should be deep enough to have many small nodes";
+    EXPECT_EQ(hex(forest_digest(by_default)), hex(forest_digest(other)))
+        << (objective == Objective::kClassification ? "classification" : "regression") << ", " << disable;
   }
+}
+
+TEST(TrainGolden, StoredFeaturesOfSmallNodesGrowTheSameForest) {
+  expect_same_deep_forests_without("DEPTHPOSE_TRAIN_NO_AVX2");
 }
 
 // The AVX-512 kernels (gathered probes, 32-lane binning, vector cell indices; the default where the
@@ -120,17 +126,7 @@ TEST(TrainGolden, Avx512KernelGrowsTheSameForestAsAvx2) {
   if (!(__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
         __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512dq")))
     GTEST_SKIP() << "this CPU has no AVX-512 F/BW/VL/DQ: the AVX-512 training kernel cannot run here";
-  const TrainingSet set = testing_bodies::stick_body_set(6, 120, 1, 7);
-  for (Objective objective : {Objective::kClassification, Objective::kRegression}) {
-    const ForestOptions fo = deep_options(objective);
-    const TrainedForest avx512 = train_forest(set, fo, {});
-    ASSERT_EQ(setenv("DEPTHPOSE_TRAIN_NO_AVX512", "1", 1), 0);
-    const TrainedForest avx2 = train_forest(set, fo, {});
-    unsetenv("DEPTHPOSE_TRAIN_NO_AVX512");
-    EXPECT_GT(avx512.trees[0].nodes.size(), 100u);
-    EXPECT_EQ(hex(forest_digest(avx512)), hex(forest_digest(avx2)))
-        << (objective == Objective::kClassification ? "classification" : "regression");
-  }
+  expect_same_deep_forests_without("DEPTHPOSE_TRAIN_NO_AVX512");
   // And the golden BPC forest, with 1 and 2 threads.
   for (int threads : {1, 2})
     EXPECT_EQ(hex(forest_digest(train_forest(testing_bodies::stick_body_set(24, 400, 2, 3),

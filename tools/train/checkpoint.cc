@@ -78,8 +78,7 @@ std::string training_data_digest(const TrainingSet& set, Communicator* comm) {
     for (int v : {im.width, im.height, im.origin_u, im.origin_v, im.frame_width, im.frame_height, im.focal_factor})
       d.value(v);
     for (double v : {im.camera.fx, im.camera.fy, im.camera.cx, im.camera.cy}) d.value(v);
-    // The crop's elements only (not make_training_image's padding): the digest of the data.
-    const size_t cells = std::min(im.probe.size(), size_t(im.width) * im.height);
+    const size_t cells = im.crop_elements();  // the data, not make_training_image's padding
     d.value(cells);
     d.bytes(im.probe.data(), cells * sizeof(uint16_t));
     d.value(im.joints.size());

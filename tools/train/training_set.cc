@@ -100,7 +100,7 @@ TrainingImage make_training_image(const uint16_t* depth, const uint8_t* parts, i
 void sample_pixels(const TrainingImage& image, const uint8_t* parts, uint32_t image_index, int tree,
                    int pixels_per_image, uint64_t seed, std::vector<TrainingPixel>& out) {
   std::vector<uint32_t> fg;
-  const uint32_t cells = static_cast<uint32_t>(std::min(image.probe.size(), size_t(image.width) * image.height));
+  const uint32_t cells = static_cast<uint32_t>(image.crop_elements());
   for (uint32_t i = 0; i < cells; ++i)
     if (image.probe[i] != kBackgroundDepthMm) fg.push_back(i);
   if (pixels_per_image > 0 && fg.size() > size_t(pixels_per_image)) {

@@ -3,6 +3,7 @@
 // for each sampled training pixel. Images come from layout-v1 datasets (tools/common/dataset.h) or
 // are added directly (tests, benchmarks).
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -53,6 +54,8 @@ struct TrainingImage {
   std::vector<uint16_t> probe;          // width × height (+ kProbePadding), row-major; empty if not loaded here
   std::vector<float> joints;            // joint_count × {x, y, z} metres, camera frame (may be empty)
   std::string name;                     // "DIR frame ID", for messages
+  // The crop's elements held here (not the padding): width × height, 0 if not loaded here.
+  size_t crop_elements() const { return std::min(probe.size(), size_t(width) * height); }
 };
 
 // A sampled training pixel, 16 bytes; u, v relative to the image's crop. scale_q13 = dp::scale_q13(image focal_factor, depth_mm).

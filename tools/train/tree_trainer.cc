@@ -399,10 +399,11 @@ __attribute__((target("avx2"))) void pixel_features_avx2(const CandidateLanes& l
   bin_features(l, feature, bin);
 }
 
-// The AVX-512 kernels (x86-64 CPUs with AVX-512 F and BW): the same values as features_avx2 and
-// bin_features, 16 probes per instruction. Probes are vpgatherdd of 32-bit words at the 16-bit
-// elements' addresses, masked to the low half (little endian: the element itself); a word at the
-// last element reads two bytes past it, which is why ImageRef guarantees one element of padding.
+// The AVX-512 kernels (x86-64 CPUs with AVX-512 F, BW, VL and DQ): the same values as
+// features_avx2 and bin_features, 16 probes per instruction. Probes are vpgatherdd of 32-bit words
+// at the 16-bit elements' addresses, masked to the low half (little endian: the element itself); a
+// word at the last element reads two bytes past it, which is why the Grower's ImageRefs have
+// kProbePadding elements after the crop.
 // Off-image lanes are masked out of the gather (no load) and keep the background value.
 #define DP_AVX512 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq")))
 // (The maskz forms with all lanes set: the plain intrinsics leave GCC 12 warning about their
@@ -446,8 +447,7 @@ DP_AVX512 void features_avx512(const CandidateLanes& l, const ImageRef& im, int3
 }
 // bin[c] = the number of lane c's thresholds below feature[c], 32 lanes per instruction (the
 // last 16 of a count that is not a multiple of 32 with 256-bit registers).
-DP_AVX512 void bins_avx512(const CandidateLanes& l,
-                                                                             const int16_t* feature, int16_t* bin) {
+DP_AVX512 void bins_avx512(const CandidateLanes& l, const int16_t* feature, int16_t* bin) {
   const size_t stride = size_t(l.padded);
   int c = 0;
   const __m512i one = _mm512_set1_epi16(1);
@@ -487,21 +487,18 @@ DP_AVX512 void cells_avx512(const int16_t* bin, int nc, int32_t* cell) {
     _mm512_storeu_si512(cell + c, _mm512_add_epi32(_mm512_mullo_epi32(b, vnc), lane));
   }
 }
-DP_AVX512 void pixel_features_avx512(const CandidateLanes& l,
-                                                                                       const ImageRef& im, int32_t u,
-                                                                                       int32_t v, int32_t s,
-                                                                                       int16_t* feature, int16_t* bin) {
+DP_AVX512 void pixel_features_avx512(const CandidateLanes& l, const ImageRef& im, int32_t u, int32_t v, int32_t s,
+                                     int16_t* feature, int16_t* bin) {
   features_avx512(l, im, u, v, s, feature);
   bins_avx512(l, feature, bin);
 }
 
-// AVX2 when the CPU has it (same results: integer arithmetic throughout, tested against the
-// forests of the scalar version).
 using PixelFeaturesFn = void (*)(const CandidateLanes&, const ImageRef&, int32_t, int32_t, int32_t, int16_t*, int16_t*);
 using RowFeaturesFn = void (*)(const CandidateLanes&, const ImageRef&, int32_t, int32_t, int32_t, int16_t*);
 using RowBinsFn = void (*)(const CandidateLanes&, const int16_t*, int16_t*);
 // The kernels a Grower uses, chosen once per process from the CPU: AVX-512 (F, BW, VL, DQ), else
-// AVX2, else the portable ones (row = nullptr: candidate groups then go through block_features).
+// AVX2, else the portable ones (row = nullptr: candidate groups then go through block_features);
+// the same results (integer arithmetic throughout).
 // DEPTHPOSE_TRAIN_NO_AVX512=1 skips the first, DEPTHPOSE_TRAIN_NO_AVX2=1 both (tests compare the
 // forests of all three).
 struct TrainKernels {
@@ -965,7 +962,7 @@ class Grower {
     else
       features_scalar(l, images_[p.image], p.u, p.v, p.scale_q13, row);
   }
-  bool has_avx2_kernel() const { return kernels_.row != nullptr; }
+  bool has_vector_kernel() const { return kernels_.row != nullptr; }
   // The offset lanes of all candidates of `node` (what pixel_feature_row reads), drawn by draw_group
   // in the thread's group and copied out.
   void offset_lanes(const NodeInfo& node, CandidateLanes& l, int thread) {
@@ -1881,7 +1878,7 @@ GrownTree grow_tree(const TrainingSet& set, std::vector<TrainingPixel> pixels, i
       for (size_t i = 0; i < gathered.size(); ++i) results[gathered_at[i]] = gathered_results[i];
     }
     const bool image_major =
-        !comm && !by_ranges && !items.empty() && level >= replay_levels && grower.has_avx2_kernel() &&
+        !comm && !by_ranges && !items.empty() && level >= replay_levels && grower.has_vector_kernel() &&
         std::all_of(items.begin(), items.end(),
                     [&](const Item& it) { return it.c0 == 0 && it.c1 == params.offset_candidates; });
     // A progress line every ~10 s within a long level (called on the calling thread only).
