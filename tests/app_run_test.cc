@@ -457,10 +457,16 @@ TEST(SkeletonEvalFrameFigures, ACrossedPairCountsForTheLeftAndTheRightJoint) {
     proposals->proposals[j][0] = {t.x_m, t.y_m, t.z_m, 1.0f};
   }
   SkeletonEvalReport rep;
-  add_frame_figures(sk, *proposals, truth, &rep);
+  std::array<bool, kSkeletonJoints> visible{};
+  visible.fill(true);
+  visible[kWristR] = false;  // hidden: its swap is counted among the hidden joints'
+  add_frame_figures(sk, *proposals, truth, visible, &rep);
   EXPECT_EQ(rep.lr_joint_frames, 14);
   EXPECT_EQ(rep.tracker_swaps, 2);
   EXPECT_EQ(rep.proposal_swaps, 2);
+  EXPECT_EQ(rep.lr_visible_joint_frames, 13);
+  EXPECT_EQ(rep.tracker_swaps_visible, 1);
+  EXPECT_EQ(rep.proposal_swaps_visible, 1);
   EXPECT_EQ(rep.tracker_swaps_by_joint[kWristL], 1);
   EXPECT_EQ(rep.tracker_swaps_by_joint[kWristR], 1);
   EXPECT_EQ(rep.tracker_swap_pair_crossed[kWristL], 1);
@@ -469,4 +475,36 @@ TEST(SkeletonEvalFrameFigures, ACrossedPairCountsForTheLeftAndTheRightJoint) {
   EXPECT_EQ(rep.tracker_swap_first_right[kWristL], 0);
   EXPECT_EQ(rep.tracker_hits[kWristL], 0);
   EXPECT_EQ(rep.tracker_hits[kElbowL], 1);
+}
+
+// skeleton-eval's intervals resample whole sequences: identical sequences give a point, and the
+// point values are those of the summed counts.
+TEST(SkeletonEvalIntervals, ResampleWholeSequences) {
+  // joint frames, first-proposal hits, tracker hits, left/right joint frames, first swaps, tracker swaps
+  const SequenceFigures same{1000, 500, 520, 750, 60, 30};
+  const SequenceIntervals one = sequence_intervals({same, same, same, same}, 500, 7);
+  EXPECT_NEAR(one.gain, 0.02, 1e-12);
+  EXPECT_NEAR(one.swap_change, -0.5, 1e-12);
+  EXPECT_NEAR(one.gain_low, 0.02, 1e-12);
+  EXPECT_NEAR(one.gain_high, 0.02, 1e-12);
+  EXPECT_NEAR(one.swap_change_low, -0.5, 1e-12);
+  EXPECT_NEAR(one.swap_change_high, -0.5, 1e-12);
+
+  // One sequence whose swaps all go, one that keeps them all: the point is their sum's change, the
+  // interval spans it and stays within the two sequences' own changes (−1 and 0).
+  std::vector<SequenceFigures> two = {{1000, 500, 540, 750, 40, 0}, {1000, 500, 490, 750, 60, 60}};
+  const SequenceIntervals a = sequence_intervals(two, 2000, 1);
+  EXPECT_NEAR(a.gain, 0.015, 1e-12);
+  EXPECT_NEAR(a.swap_change, -0.4, 1e-12);
+  EXPECT_LT(a.swap_change_low, a.swap_change);
+  EXPECT_GT(a.swap_change_high, a.swap_change);
+  EXPECT_GE(a.swap_change_low, -1.0);
+  EXPECT_LE(a.swap_change_high, 0.0);
+  EXPECT_LT(a.gain_low, a.gain);
+  EXPECT_GT(a.gain_high, a.gain);
+  // A fixed generator: the same counts and seed give the same intervals.
+  const SequenceIntervals b = sequence_intervals(two, 2000, 1);
+  EXPECT_EQ(a.swap_change_low, b.swap_change_low);
+  EXPECT_EQ(a.gain_high, b.gain_high);
+  EXPECT_EQ(sequence_intervals({}, 2000, 1).swap_change, 0.0);
 }

@@ -144,7 +144,7 @@ SwapCause swap_cause(int j, const Skeleton& sk, const std::array<Position, kSkel
 }
 
 void add_frame_figures(const Skeleton& sk, const FrameResult& proposals, const std::array<Position, kSkeletonJoints>& truth,
-                       SkeletonEvalReport* rep_out) {
+                       const std::array<bool, kSkeletonJoints>& visible, SkeletonEvalReport* rep_out) {
   SkeletonEvalReport& rep = *rep_out;
   // Every joint's output first: a swap's cause reads the mirror joint's, which for a left joint
   // comes later in the joint order.
@@ -180,6 +180,11 @@ void add_frame_figures(const Skeleton& sk, const FrameResult& proposals, const s
     const bool tracker_swap = located[size_t(j)] && swapped(j, out[size_t(j)], truth);
     rep.proposal_swaps += proposal_swap;
     rep.tracker_swaps += tracker_swap;
+    if (visible[size_t(j)]) {
+      ++rep.lr_visible_joint_frames;
+      rep.proposal_swaps_visible += proposal_swap;
+      rep.tracker_swaps_visible += tracker_swap;
+    }
     rep.proposal_swaps_by_joint[size_t(j)] += proposal_swap;
     rep.proposal_nearer_mirror += has_proposal && nearer_mirror(j, first, truth);
     rep.tracker_nearer_mirror += located[size_t(j)] && nearer_mirror(j, out[size_t(j)], truth);
@@ -193,6 +198,49 @@ void add_frame_figures(const Skeleton& sk, const FrameResult& proposals, const s
       rep.tracker_swap_first_right[size_t(j)] += cause.first_right;
     }
   }
+}
+
+SequenceIntervals sequence_intervals(const std::vector<SequenceFigures>& sequences, int resamples, uint64_t seed) {
+  SequenceIntervals out;
+  if (sequences.empty() || resamples < 1) return out;
+  auto figures = [](const SequenceFigures& sum, double* gain, double* change) {
+    const double n = double(std::max(1L, sum.joint_frames));
+    *gain = double(sum.tracker_hits - sum.proposal_hits) / n;
+    *change = sum.proposal_swaps > 0 ? double(sum.tracker_swaps) / double(sum.proposal_swaps) - 1.0 : 0.0;
+  };
+  auto add = [](SequenceFigures* sum, const SequenceFigures& s) {
+    sum->joint_frames += s.joint_frames;
+    sum->proposal_hits += s.proposal_hits;
+    sum->tracker_hits += s.tracker_hits;
+    sum->lr_joint_frames += s.lr_joint_frames;
+    sum->proposal_swaps += s.proposal_swaps;
+    sum->tracker_swaps += s.tracker_swaps;
+  };
+  SequenceFigures all;
+  for (const SequenceFigures& s : sequences) add(&all, s);
+  figures(all, &out.gain, &out.swap_change);
+  // splitmix64: a fixed, portable stream (std:: distributions differ between standard libraries).
+  uint64_t state = seed;
+  auto next = [&state]() {
+    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  };
+  std::vector<double> gains(static_cast<size_t>(resamples)), changes(static_cast<size_t>(resamples));
+  for (int r = 0; r < resamples; ++r) {
+    SequenceFigures sum;
+    for (size_t i = 0; i < sequences.size(); ++i) add(&sum, sequences[size_t(next() % sequences.size())]);
+    figures(sum, &gains[size_t(r)], &changes[size_t(r)]);
+  }
+  std::sort(gains.begin(), gains.end());
+  std::sort(changes.begin(), changes.end());
+  const size_t lo = size_t(0.025 * double(resamples - 1) + 0.5), hi = size_t(0.975 * double(resamples - 1) + 0.5);
+  out.gain_low = gains[lo];
+  out.gain_high = gains[hi];
+  out.swap_change_low = changes[lo];
+  out.swap_change_high = changes[hi];
+  return out;
 }
 
 SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& o) {
@@ -210,7 +258,21 @@ SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& o) {
   std::vector<Track> tracks;
   double tracker_cycles = 0, pipeline_cycles = 0;
   long tracker_updates = 0;
+  // The report's running counts as one sequence's figures; a dataset's share is the difference.
+  auto running = [&rep]() {
+    SequenceFigures f;
+    for (int j = 0; j < kSkeletonJoints; ++j) {
+      f.joint_frames += rep.joint_frames[size_t(j)];
+      f.proposal_hits += rep.proposal_hits[size_t(j)];
+      f.tracker_hits += rep.tracker_hits[size_t(j)];
+    }
+    f.lr_joint_frames = rep.lr_joint_frames;
+    f.proposal_swaps = rep.proposal_swaps;
+    f.tracker_swaps = rep.tracker_swaps;
+    return f;
+  };
   for (const std::string& dir : o.datasets) {
+    const SequenceFigures before = running();
     const Dataset ds = open_dataset(dir);
     const int w = ds.meta.width, h = ds.meta.height;
     if (ds.meta.joints.size() != size_t(kSkeletonJoints))
@@ -266,7 +328,11 @@ SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& o) {
         }
         Track& track = tracks[first_track + k];
         std::array<Vec, kSkeletonJoints> truth;
-        for (int j = 0; j < kSkeletonJoints; ++j) truth[size_t(j)] = {bodies[k][size_t(j)].x, bodies[k][size_t(j)].y, bodies[k][size_t(j)].z};
+        std::array<bool, kSkeletonJoints> visible{};
+        for (int j = 0; j < kSkeletonJoints; ++j) {
+          truth[size_t(j)] = {bodies[k][size_t(j)].x, bodies[k][size_t(j)].y, bodies[k][size_t(j)].z};
+          visible[size_t(j)] = bodies[k][size_t(j)].visible;
+        }
         track.truth.push_back(truth);
         const bool scored = pixels >= kMinBodyPixels;
         if (scored) {
@@ -292,13 +358,17 @@ SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& o) {
               located[size_t(j)] = tj.state != JointState::kMissing;
               out[size_t(j)] = {tj.x_m, tj.y_m, tj.z_m};
             }
-            if (f == kDefaultFilter) add_frame_figures(sk, *result, truth, &rep);
+            if (f == kDefaultFilter) add_frame_figures(sk, *result, truth, visible, &rep);
           }
           track.out[f].push_back(out);
           track.located[f].push_back(located);
         }
       }
     }
+    const SequenceFigures after = running();
+    rep.sequences.push_back({after.joint_frames - before.joint_frames, after.proposal_hits - before.proposal_hits,
+                             after.tracker_hits - before.tracker_hits, after.lr_joint_frames - before.lr_joint_frames,
+                             after.proposal_swaps - before.proposal_swaps, after.tracker_swaps - before.tracker_swaps});
   }
   for (size_t f = 0; f < filters.size(); ++f) {
     FilterFigures fig;

@@ -35,6 +35,13 @@ struct FilterFigures {
   double within_rate = 0;   // all joints, reported position within 0.1 m
 };
 
+// One sequence's share of the counts (default filter): the unit the intervals resample, since the
+// frames of a sequence, and often a whole sequence's swaps, come from the same few bodies.
+struct SequenceFigures {
+  long joint_frames = 0, proposal_hits = 0, tracker_hits = 0;
+  long lr_joint_frames = 0, proposal_swaps = 0, tracker_swaps = 0;
+};
+
 struct SkeletonEvalReport {
   long frames = 0, body_frames = 0;
   std::array<long, kSkeletonJoints> joint_frames{};
@@ -44,6 +51,10 @@ struct SkeletonEvalReport {
   long lr_joint_frames = 0, proposal_swaps = 0, tracker_swaps = 0;
   long proposal_nearer_mirror = 0, tracker_nearer_mirror = 0;
   std::array<long, kSkeletonJoints> proposal_swaps_by_joint{}, tracker_swaps_by_joint{};
+  // The same swaps among the left/right joint-frames whose truth is visible in the frame (the
+  // dataset's flag: inside the image and not hidden behind a surface); the rest are hidden joints,
+  // whose votes, when the forest casts any, can only come from other surfaces.
+  long lr_visible_joint_frames = 0, proposal_swaps_visible = 0, tracker_swaps_visible = 0;
   // The tracker's swaps (default filter), per joint, by their SwapCause (below): by choice, and
   // how many had the facing crossed, the parent swapped, the pair crossed, the first proposal right.
   std::array<std::array<long, 4>, kSkeletonJoints> tracker_swap_choice{};
@@ -56,6 +67,7 @@ struct SkeletonEvalReport {
   std::array<double, 10> bin_confidence_sum{};
   std::array<long, 3> state_count{};  // missing, inferred, tracked
   std::vector<FilterFigures> filters;  // off, default, strong, then the sweep
+  std::vector<SequenceFigures> sequences;         // one per dataset, in --data order
   double tracker_cycles_per_user_frame = 0;
   double pipeline_cycles_per_user_frame = 0;
 };
@@ -79,9 +91,22 @@ SwapCause swap_cause(int joint, const Skeleton& sk, const std::array<Position, k
 // Adds one scored body-frame of the default-filter tracker to `rep`: per joint the state, the
 // confidence bin and evidence class, hits of the reported joint and of the first proposal
 // (`proposals`), and for the left/right joints the swaps and the causes of the tracker's
-// (swap_cause, read with every joint of `sk` placed). `truth` in metres, camera frame.
+// (swap_cause, read with every joint of `sk` placed). `truth` in metres, camera frame;
+// `visible`: the truth's visibility flags (swaps of visible joints are also counted apart).
 void add_frame_figures(const Skeleton& sk, const FrameResult& proposals, const std::array<Position, kSkeletonJoints>& truth,
-                       SkeletonEvalReport* rep);
+                       const std::array<bool, kSkeletonJoints>& visible, SkeletonEvalReport* rep);
+
+// 95 % percentile intervals over `resamples` bootstrap resamples of whole sequences (drawn with
+// replacement, a fixed-seed generator, so the same counts give the same intervals) of: the gain of
+// the tracker over the first proposal in the within-0.1 m rate (rate difference, all joints), and
+// the relative change of the left/right swaps (tracker swaps / first-proposal swaps − 1). Also the
+// point values over all sequences. A resample without first-proposal swaps counts as change 0.
+struct SequenceIntervals {
+  double gain = 0, gain_low = 0, gain_high = 0;
+  double swap_change = 0, swap_change_low = 0, swap_change_high = 0;
+};
+SequenceIntervals sequence_intervals(const std::vector<SequenceFigures>& sequences, int resamples = 2000,
+                                     uint64_t seed = 1);
 
 // Throws ToolError for a missing/bad blob or dataset (naming it) or a blob whose joints are not the
 // tracker's 16.

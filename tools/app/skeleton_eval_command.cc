@@ -76,6 +76,18 @@ int skeleton_eval_main(int argc, char** argv) {
   const double lr = double(std::max(1L, r.lr_joint_frames));
   std::printf("left/right swaps per 1000 left/right joint-frames: first proposal %.1f, tracker %.1f (%ld joint-frames)\n\n",
               1000.0 * double(r.proposal_swaps) / lr, 1000.0 * double(r.tracker_swaps) / lr, r.lr_joint_frames);
+  const long hidden = r.lr_joint_frames - r.lr_visible_joint_frames;
+  std::printf("of them, joints visible in the frame: first proposal %.1f, tracker %.1f (%ld joint-frames); hidden or out of\n"
+              "view: first proposal %.1f, tracker %.1f (%ld joint-frames)\n\n",
+              1000.0 * double(r.proposal_swaps_visible) / double(std::max(1L, r.lr_visible_joint_frames)),
+              1000.0 * double(r.tracker_swaps_visible) / double(std::max(1L, r.lr_visible_joint_frames)), r.lr_visible_joint_frames,
+              1000.0 * double(r.proposal_swaps - r.proposal_swaps_visible) / double(std::max(1L, hidden)),
+              1000.0 * double(r.tracker_swaps - r.tracker_swaps_visible) / double(std::max(1L, hidden)), hidden);
+  const SequenceIntervals iv = sequence_intervals(r.sequences);
+  std::printf("over the %zu sequences, with 95 %% intervals from 2000 resamples of whole sequences: tracker − first\n"
+              "proposal within 0.1 m %+.3f (%+.3f … %+.3f); swap change %+.1f %% (%+.1f … %+.1f %%)\n\n",
+              r.sequences.size(), iv.gain, iv.gain_low, iv.gain_high, 100.0 * iv.swap_change, 100.0 * iv.swap_change_low,
+              100.0 * iv.swap_change_high);
   if (args.flag("--swap-causes")) {
     std::printf("Tracker swaps per 1000 joint-frames by the choice (default filter); then, of those swaps, per 1000\n"
                 "joint-frames: torso facing crossed (tracker shoulders' facing against the truth's), parent swapped,\n"
