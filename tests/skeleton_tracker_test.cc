@@ -320,9 +320,10 @@ TEST(SkeletonTracker, ConfidenceUsesTheCalibrationOfTheBlobsForestMethod) {
   }
   EXPECT_EQ(s[0].joints[kWristR].state, JointState::kInferred);
   EXPECT_EQ(s[0].joints[kWristR].evidence, 11);
+  // The tables differ in class 11 (their best tracked class, 9, happens to be the same fraction).
+  EXPECT_NE(s[1].joints[kWristR].confidence, s[0].joints[kWristR].confidence);
   for (int j = 0; j < kSkeletonJoints; ++j) {
     EXPECT_EQ(s[1].joints[j].evidence, s[0].joints[j].evidence) << skeleton_joint_name(j);
-    EXPECT_NE(s[1].joints[j].confidence, s[0].joints[j].confidence) << skeleton_joint_name(j);
     EXPECT_EQ(s[2].joints[j].confidence, s[0].joints[j].confidence) << skeleton_joint_name(j);
     for (int m = 0; m < 3; ++m) {
       EXPECT_GT(s[m].joints[j].confidence, 0.0f) << skeleton_joint_name(j);
