@@ -217,10 +217,10 @@ constexpr int32_t kFilterLimitMinEvidence = 5;
 // with tall clutter; 34 000 body-frames) with this tracker: each class's fraction within 0.1 m,
 // made monotone over the tracked classes 0–9 by pool adjacent violators. The continuity weight
 // reads the table (the last confidence over class kBestTrackedEvidence's), so the fit was repeated
-// with the fitted table in place until it returned itself (OJR one round, BPC two). Fitted before
+// with the fitted table in place until it returned itself. Fitted before
 // on 14 of those sequences' easier kin (seeds 11–14, 41–44, 191–196; OJR class 9 0.79), the tables
 // promised ~0.08 too much on every larger set, held-out ones included; refitted, their expected
-// calibration error on the 60-sequence held-out sets is 0.014–0.020 (docs/skeleton.md, "States and
+// calibration error on the 60-sequence held-out sets is 0.015–0.019 (docs/skeleton.md, "States and
 // confidences").
 constexpr float kCalibrationOjr[kEvidenceClasses] = {0.03f, 0.11f, 0.12f, 0.15f, 0.18f, 0.24f, 0.31f, 0.38f,
                                                      0.50f, 0.69f, 0.18f, 0.13f, 0.11f, 0.10f, 0.10f, 0.22f};

@@ -480,8 +480,8 @@ TEST(SkeletonEvalFrameFigures, ACrossedPairCountsForTheLeftAndTheRightJoint) {
 // skeleton-eval's intervals resample whole sequences: identical sequences give a point, and the
 // point values are those of the summed counts.
 TEST(SkeletonEvalIntervals, ResampleWholeSequences) {
-  // joint frames, first-proposal hits, tracker hits, left/right joint frames, first swaps, tracker swaps
-  const SequenceFigures same{1000, 500, 520, 750, 60, 30};
+  // joint frames, first-proposal hits, tracker hits, first-proposal swaps, tracker swaps
+  const SequenceFigures same{1000, 500, 520, 60, 30};
   const SequenceIntervals one = sequence_intervals({same, same, same, same}, 500, 7);
   EXPECT_NEAR(one.gain, 0.02, 1e-12);
   EXPECT_NEAR(one.swap_change, -0.5, 1e-12);
@@ -492,7 +492,7 @@ TEST(SkeletonEvalIntervals, ResampleWholeSequences) {
 
   // One sequence whose swaps all go, one that keeps them all: the point is their sum's change, the
   // interval spans it and stays within the two sequences' own changes (−1 and 0).
-  std::vector<SequenceFigures> two = {{1000, 500, 540, 750, 40, 0}, {1000, 500, 490, 750, 60, 60}};
+  std::vector<SequenceFigures> two = {{1000, 500, 540, 40, 0}, {1000, 500, 490, 60, 60}};
   const SequenceIntervals a = sequence_intervals(two, 2000, 1);
   EXPECT_NEAR(a.gain, 0.015, 1e-12);
   EXPECT_NEAR(a.swap_change, -0.4, 1e-12);

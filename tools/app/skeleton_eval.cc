@@ -212,7 +212,6 @@ SequenceIntervals sequence_intervals(const std::vector<SequenceFigures>& sequenc
     sum->joint_frames += s.joint_frames;
     sum->proposal_hits += s.proposal_hits;
     sum->tracker_hits += s.tracker_hits;
-    sum->lr_joint_frames += s.lr_joint_frames;
     sum->proposal_swaps += s.proposal_swaps;
     sum->tracker_swaps += s.tracker_swaps;
   };
@@ -266,7 +265,6 @@ SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& o) {
       f.proposal_hits += rep.proposal_hits[size_t(j)];
       f.tracker_hits += rep.tracker_hits[size_t(j)];
     }
-    f.lr_joint_frames = rep.lr_joint_frames;
     f.proposal_swaps = rep.proposal_swaps;
     f.tracker_swaps = rep.tracker_swaps;
     return f;
@@ -367,8 +365,8 @@ SkeletonEvalReport evaluate_skeletons(const SkeletonEvalOptions& o) {
     }
     const SequenceFigures after = running();
     rep.sequences.push_back({after.joint_frames - before.joint_frames, after.proposal_hits - before.proposal_hits,
-                             after.tracker_hits - before.tracker_hits, after.lr_joint_frames - before.lr_joint_frames,
-                             after.proposal_swaps - before.proposal_swaps, after.tracker_swaps - before.tracker_swaps});
+                             after.tracker_hits - before.tracker_hits, after.proposal_swaps - before.proposal_swaps,
+                             after.tracker_swaps - before.tracker_swaps});
   }
   for (size_t f = 0; f < filters.size(); ++f) {
     FilterFigures fig;

@@ -38,8 +38,8 @@ struct FilterFigures {
 // One sequence's share of the counts (default filter): the unit the intervals resample, since the
 // frames of a sequence, and often a whole sequence's swaps, come from the same few bodies.
 struct SequenceFigures {
-  long joint_frames = 0, proposal_hits = 0, tracker_hits = 0;
-  long lr_joint_frames = 0, proposal_swaps = 0, tracker_swaps = 0;
+  long joint_frames = 0, proposal_hits = 0, tracker_hits = 0;  // all joints; hits within 0.1 m
+  long proposal_swaps = 0, tracker_swaps = 0;                    // left/right joints
 };
 
 struct SkeletonEvalReport {
