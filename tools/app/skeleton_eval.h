@@ -105,7 +105,8 @@ struct SequenceIntervals {
   double gain = 0, gain_low = 0, gain_high = 0;
   double swap_change = 0, swap_change_low = 0, swap_change_high = 0;
 };
-SequenceIntervals sequence_intervals(const std::vector<SequenceFigures>& sequences, int resamples = 2000,
+constexpr int kIntervalResamples = 2000;  // enough for stable 2.5 / 97.5 percentiles
+SequenceIntervals sequence_intervals(const std::vector<SequenceFigures>& sequences, int resamples = kIntervalResamples,
                                      uint64_t seed = 1);
 
 // Throws ToolError for a missing/bad blob or dataset (naming it) or a blob whose joints are not the

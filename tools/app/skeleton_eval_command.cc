@@ -86,9 +86,9 @@ int skeleton_eval_main(int argc, char** argv) {
               1000.0 * double(r.proposal_swaps - r.proposal_swaps_visible) / double(std::max(1L, hidden)),
               1000.0 * double(r.tracker_swaps - r.tracker_swaps_visible) / double(std::max(1L, hidden)), hidden);
   const SequenceIntervals iv = sequence_intervals(r.sequences);
-  std::printf("over the %zu sequences, with 95 %% intervals from 2000 resamples of whole sequences: tracker − first\n"
+  std::printf("over the %zu sequences, with 95 %% intervals from %d resamples of whole sequences: tracker − first\n"
               "proposal within 0.1 m %+.3f (%+.3f … %+.3f); swap change %+.1f %% (%+.1f … %+.1f %%)\n\n",
-              r.sequences.size(), iv.gain, iv.gain_low, iv.gain_high, 100.0 * iv.swap_change, 100.0 * iv.swap_change_low,
+              r.sequences.size(), kIntervalResamples, iv.gain, iv.gain_low, iv.gain_high, 100.0 * iv.swap_change, 100.0 * iv.swap_change_low,
               100.0 * iv.swap_change_high);
   if (args.flag("--swap-causes")) {
     std::printf("Tracker swaps per 1000 joint-frames by the choice (default filter); then, of those swaps, per 1000\n"
